@@ -1,0 +1,34 @@
+// Small helpers shared by the `fesim` subcommands: argument parsing and progress display.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace fesim::cli {
+
+/// Parsed command line: positional arguments and `--key value` / `--flag` options.
+struct Args {
+  std::vector<std::string> positional;
+  std::map<std::string, std::string> options;  ///< flags map to "".
+  bool Has(const std::string& key) const { return options.count(key) > 0; }
+  std::string Get(const std::string& key, const std::string& fallback = "") const;
+  /// Integer option; throws std::runtime_error naming the option when not an integer.
+  long GetInt(const std::string& key, long fallback) const;
+};
+
+/// Parses argv[first..]. `flags` lists the options that take no value; `valued` those that take
+/// one. Anything else starting with `--` is an error naming it.
+Args Parse(int argc, char** argv, int first, const std::vector<std::string>& flags,
+           const std::vector<std::string>& valued);
+
+/// Splits "a,b,c" into its parts (empty parts dropped).
+std::vector<std::string> SplitList(const std::string& s);
+
+/// Creates a directory and its parents; throws naming the path on failure.
+void MakeDirs(const std::string& path);
+
+/// Prints a one-line progress bar on stderr (overwritten in place; newline at fraction 1).
+void ShowProgress(double fraction, const std::string& stage);
+
+}  // namespace fesim::cli

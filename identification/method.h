@@ -1,0 +1,44 @@
+// The interface `fesim identify` uses to run any identification method on plain trial records.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "scenarios/json.h"
+#include "scenarios/trial.h"
+
+namespace fesim::identification {
+
+/// What a method returns: the identified model, its predictions and its fit measures.
+struct MethodResult {
+  /// The identified model as YAML text: every parameter with its unit and, where the optimiser
+  /// provides one, a 95 % confidence interval.
+  std::string model_yaml;
+  /// Simulated (not one-step-ahead) predictions, one trial per evaluated trial, in the trial
+  /// format with the same column names as the data they predict.
+  std::vector<Trial> predictions;
+  /// Fit measures (Best Fit %, normalised error per output, wall times, iterations, ...).
+  Json metrics = Json::Object();
+};
+
+/// Reports progress in [0, 1] with a short stage label (printed on stderr by the CLI).
+using ProgressFn = std::function<void(double fraction, const std::string& stage)>;
+
+/// A method fits on `train` and evaluates on `test` (or on `train` when `test` is empty).
+/// It throws std::runtime_error with a one-line reason for unusable data (missing columns,
+/// too few samples, NaN where it cannot cope).
+using MethodFn = std::function<MethodResult(const std::vector<Trial>& train,
+                                            const std::vector<Trial>& test, const ProgressFn&)>;
+
+struct MethodEntry {
+  std::string name;     ///< CLI name, e.g. "spline-oe".
+  std::string summary;  ///< one line for `fesim identify --help`.
+  MethodFn run;
+};
+
+/// Every Eigen-only method compiled into identification/ (the full-model fit registers itself
+/// from its own target).
+std::vector<MethodEntry> BuiltinMethods();
+
+}  // namespace fesim::identification

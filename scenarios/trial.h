@@ -1,0 +1,67 @@
+// Trial records: the plain data every part of fesim exchanges (PRODUCT.md "Interfaces").
+//
+// A trial is a table sampled at the times in `time` (s, strictly increasing). Column names carry
+// the quantity and its unit by prefix:
+//   u.<channel>  stimulation pulse width, µs (0–300)
+//   q.<joint>    joint angle, rad                 qd.<joint>  joint velocity, rad/s
+//   tau.<joint>  joint torque, N·m               f.<muscle>  muscle force, N
+//   a.<muscle>   muscle activation, 0–1
+// Other prefixes are allowed and kept. Metadata are `key: value` pairs written as `#` comment
+// lines before the CSV header.
+//
+// This header depends on the C++ standard library only, so that identification/ (Eigen only) can
+// read trials without seeing Simbody.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace fesim {
+
+/// One trial: time plus named columns of equal length.
+struct Trial {
+  std::map<std::string, std::string> metadata;  ///< `key: value` pairs, written sorted by key.
+  std::vector<double> time;                     ///< sample times, s, strictly increasing.
+  std::vector<std::string> names;               ///< column names, without `time`.
+  std::vector<std::vector<double>> columns;     ///< columns[k][i] is names[k] at time[i].
+
+  /// Number of samples.
+  std::size_t size() const { return time.size(); }
+  /// True when a column with this exact name exists.
+  bool Has(const std::string& name) const;
+  /// The column with this name; throws std::out_of_range naming it when absent.
+  const std::vector<double>& Column(const std::string& name) const;
+  std::vector<double>& MutableColumn(const std::string& name);
+  /// Appends a column; throws std::invalid_argument on a duplicate name or wrong length.
+  void AddColumn(const std::string& name, std::vector<double> values);
+  /// Names of the columns starting with `prefix` (e.g. "q."), in file order, prefix kept.
+  std::vector<std::string> NamesWithPrefix(const std::string& prefix) const;
+};
+
+/// Reads a trial CSV (C locale, `#` metadata lines, header row whose first column is `time`).
+/// Columns whose name ends in `_deg` are angles in degrees: they are converted to rad and renamed
+/// without the suffix. Empty cells and `nan` become NaN (tracker dropouts); anything else that is
+/// not a number, a wrong cell count, a duplicate column or non-increasing time is an error.
+/// Throws std::runtime_error with a one-line message "FILE:LINE: column NAME: what is wrong".
+Trial ReadTrialCsv(const std::string& path);
+
+/// Parses trial CSV text; `source` names the origin in error messages.
+Trial ParseTrialCsv(const std::string& text, const std::string& source);
+
+/// Formats a trial as CSV text (17 significant digits, C locale, deterministic).
+std::string FormatTrialCsv(const Trial& trial);
+
+/// Formats a trial as an OpenSim storage (.sto) file: header with nRows/nColumns/inDegrees=no,
+/// `endheader`, then a tab-separated table with `time` first.
+std::string FormatTrialSto(const Trial& trial, const std::string& name);
+
+/// Writes `contents` to `path` atomically: a temporary file in the same directory, flushed and
+/// renamed over `path`. Throws std::runtime_error naming the path on failure; never leaves a
+/// partial file at `path`.
+void WriteFileAtomic(const std::string& path, const std::string& contents);
+
+/// Reads a whole file; throws std::runtime_error naming the path when it cannot be read.
+std::string ReadFile(const std::string& path);
+
+}  // namespace fesim
