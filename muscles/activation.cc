@@ -1,0 +1,18 @@
+#include "muscles/activation.h"
+
+#include <cmath>
+
+namespace fesim::muscles {
+
+ActivationState ActivationDerivative(double omega_rad_s, double w, const ActivationState& s) {
+  const double om = omega_rad_s;
+  return {s.a_dot, om * om * (w - s.a) - 2.0 * om * s.a_dot};
+}
+
+ActivationState ActivationStepResponse(double omega_rad_s, double w, double t_s) {
+  if (t_s <= 0.0) return {};
+  const double e = std::exp(-omega_rad_s * t_s);
+  return {w * (1.0 - (1.0 + omega_rad_s * t_s) * e), w * omega_rad_s * omega_rad_s * t_s * e};
+}
+
+}  // namespace fesim::muscles

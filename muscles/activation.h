@@ -1,0 +1,26 @@
+// Linear activation dynamics H_LAD (papers/000_0a6c0de9fc69df7c.txt eq. 5–6): a critically damped
+// second-order system per muscle,
+//
+//   H_LAD,i(s) = Ω_i² / (s² + 2Ω_i s + Ω_i²)   ⇔   ä = Ω²(w − a) − 2Ω ȧ.
+//
+// Each muscle has its own natural frequency Ω_i (paper 000 Assumption 6, equal Ω, is a
+// reduced-model assumption that the ground truth deliberately does not make).
+#pragma once
+
+namespace fesim::muscles {
+
+/// State of one muscle's activation dynamics.
+struct ActivationState {
+  double a = 0.0;      ///< activation a, dimensionless (0–1 in normal use).
+  double a_dot = 0.0;  ///< da/dt, 1/s.
+};
+
+/// Time derivative of the state for recruited input w (dimensionless) and natural frequency
+/// omega_rad_s (rad/s, > 0), eq. (6) in state-space form. Returns {ȧ, ä}.
+ActivationState ActivationDerivative(double omega_rad_s, double w, const ActivationState& s);
+
+/// Analytic response from rest to a step of height w applied at t = 0:
+///   a(t) = w (1 − (1 + Ωt) e^{−Ωt}),  ȧ(t) = w Ω² t e^{−Ωt}.   t in s (≥ 0).
+ActivationState ActivationStepResponse(double omega_rad_s, double w, double t_s);
+
+}  // namespace fesim::muscles

@@ -1,0 +1,47 @@
+// Tendon network R(y) (papers/000_0a6c0de9fc69df7c.txt eq. 8): rows = joints, columns = muscles,
+// R_ij = r_ij(q_j) = −∂l_MT,j/∂q_i, and the musculotendon lengths consistent with it:
+//
+//   l_MT,m(q) = l_ref,m + Σ_i Δl(q_i − q_ref,i)   (Δl from landsmeer.h)
+//
+// q_ref is the posture at which eq. (9)/(10) has its zero (the joint's anatomical zero unless the
+// muscle says otherwise) and l_ref the length there. Each muscle crosses a few joints; each
+// crossing has its own moment-arm model.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "tendons/landsmeer.h"
+
+namespace fesim::tendons {
+
+/// One muscle crossing one joint.
+struct Crossing {
+  int joint = 0;           ///< index of the joint coordinate q_i.
+  MomentArmParams arm;     ///< r(q) model, sign r = −∂l/∂q.
+  double q_ref_rad = 0.0;  ///< angle at which eq. (10)'s argument is zero, rad.
+};
+
+/// Path of one musculotendon unit.
+struct MusclePath {
+  std::string name;
+  double length_at_ref_m = 0.3;  ///< l_ref: l_MT with every crossed joint at q_ref, m, > 0.
+  std::vector<Crossing> crossings;
+};
+
+/// l_MT(q), m. `q` holds every joint coordinate (rad).
+double MusculotendonLength(const MusclePath& path, const std::vector<double>& q);
+
+/// dl_MT/dt = −Σ_i r_i(q) q̇_i, m/s.
+double MusculotendonVelocity(const MusclePath& path, const std::vector<double>& q,
+                             const std::vector<double>& qdot);
+
+/// R(q) as a row-major joints × muscles matrix (m): R[i * n_muscles + m].
+std::vector<double> MomentArmMatrix(const std::vector<MusclePath>& paths,
+                                    const std::vector<double>& q);
+
+/// Joint torques τ = R(q) f (N·m), one per joint, for tendon forces f (N).
+std::vector<double> JointTorques(const std::vector<MusclePath>& paths, const std::vector<double>& q,
+                                 const std::vector<double>& f);
+
+}  // namespace fesim::tendons

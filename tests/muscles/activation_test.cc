@@ -1,0 +1,48 @@
+#include "muscles/activation.h"
+
+#include <gtest/gtest.h>
+
+namespace fesim::muscles {
+namespace {
+
+constexpr double kRk4Step = 1e-4;  // s
+constexpr double kTol = 1e-10;
+
+TEST(Activation, Rk4IntegrationMatchesAnalyticStepResponse) {
+  for (double omega : {3.0, 8.0, 15.0}) {
+    const double w = 0.7;
+    ActivationState s;
+    for (int i = 1; i <= 20000; ++i) {  // 2 s
+      const auto f = [&](const ActivationState& x) { return ActivationDerivative(omega, w, x); };
+      const auto add = [](ActivationState x, ActivationState d, double h) {
+        return ActivationState{x.a + h * d.a, x.a_dot + h * d.a_dot};
+      };
+      const auto k1 = f(s);
+      const auto k2 = f(add(s, k1, kRk4Step / 2));
+      const auto k3 = f(add(s, k2, kRk4Step / 2));
+      const auto k4 = f(add(s, k3, kRk4Step));
+      s.a += kRk4Step / 6 * (k1.a + 2 * k2.a + 2 * k3.a + k4.a);
+      s.a_dot += kRk4Step / 6 * (k1.a_dot + 2 * k2.a_dot + 2 * k3.a_dot + k4.a_dot);
+      if (i % 1000 == 0) {
+        const auto exact = ActivationStepResponse(omega, w, i * kRk4Step);
+        EXPECT_NEAR(s.a, exact.a, kTol);
+        EXPECT_NEAR(s.a_dot, exact.a_dot, kTol * omega * omega);
+      }
+    }
+  }
+}
+
+TEST(Activation, CriticallyDampedNoOvershootUnitGain) {
+  const double omega = 5.0, w = 0.5;
+  double prev = 0.0;
+  for (double t = 0.01; t < 5.0; t += 0.01) {
+    const double a = ActivationStepResponse(omega, w, t).a;
+    EXPECT_GE(a, prev);
+    EXPECT_LT(a, w);
+    prev = a;
+  }
+  EXPECT_NEAR(ActivationStepResponse(omega, w, 20.0).a, w, 1e-12);
+}
+
+}  // namespace
+}  // namespace fesim::muscles

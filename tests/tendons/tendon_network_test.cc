@@ -1,0 +1,50 @@
+#include "tendons/tendon_network.h"
+
+#include <gtest/gtest.h>
+
+namespace fesim::tendons {
+namespace {
+
+constexpr double kFdStep = 1e-6;
+constexpr double kFdTol = 1e-9;
+
+std::vector<MusclePath> TwoMuscles() {
+  MusclePath flexor{"fds", 0.3, {}};
+  flexor.crossings = {{0, {MomentArmParams::Model::kConstant, 0.014, 0}, 0.0},
+                      {1, {MomentArmParams::Model::kLandsmeer, 0.01, -0.02}, 0.1}};
+  MusclePath extensor{"edc", 0.32, {}};
+  extensor.crossings = {{0, {MomentArmParams::Model::kConstant, -0.01, 0}, 0.0},
+                        {1, {MomentArmParams::Model::kLandsmeer, -0.009, 0.01}, 0.0}};
+  return {flexor, extensor};
+}
+
+TEST(TendonNetwork, MatrixIsMinusGradientOfLengths) {
+  const auto paths = TwoMuscles();
+  const std::vector<double> q = {0.3, 0.7};
+  const auto r = MomentArmMatrix(paths, q);
+  for (std::size_t m = 0; m < paths.size(); ++m) {
+    for (std::size_t i = 0; i < q.size(); ++i) {
+      auto qp = q, qm = q;
+      qp[i] += kFdStep;
+      qm[i] -= kFdStep;
+      const double d =
+          (MusculotendonLength(paths[m], qp) - MusculotendonLength(paths[m], qm)) / (2 * kFdStep);
+      EXPECT_NEAR(r[i * paths.size() + m], -d, kFdTol);
+    }
+  }
+}
+
+TEST(TendonNetwork, PowerBalance) {
+  // −Σ f dl/dt = Σ τ q̇ for any posture, velocity and forces.
+  const auto paths = TwoMuscles();
+  const std::vector<double> q = {-0.4, 1.1}, qd = {0.8, -2.0}, f = {120.0, 35.0};
+  const auto tau = JointTorques(paths, q, f);
+  double muscle_power = 0, joint_power = 0;
+  for (std::size_t m = 0; m < 2; ++m) muscle_power -= f[m] * MusculotendonVelocity(paths[m], q, qd);
+  for (std::size_t i = 0; i < 2; ++i) joint_power += tau[i] * qd[i];
+  EXPECT_NEAR(muscle_power, joint_power, 1e-12);
+  EXPECT_GT(tau[0], 0.0);  // flexor dominates the first joint: flexion torque
+}
+
+}  // namespace
+}  // namespace fesim::tendons
