@@ -1,0 +1,102 @@
+#include "identification/levenberg_marquardt.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace fesim::identification {
+namespace {
+
+void Clamp(const Eigen::VectorXd& lower, const Eigen::VectorXd& upper, const ProjectionFn& project,
+           Eigen::VectorXd* x) {
+  *x = x->cwiseMax(lower).cwiseMin(upper);
+  if (project) project(x);
+}
+
+Eigen::MatrixXd Jacobian(const ResidualFn& residual, const Eigen::VectorXd& x,
+                         const Eigen::VectorXd& r0, const Eigen::VectorXd& upper, double rel,
+                         int* evaluations) {
+  Eigen::MatrixXd J(r0.size(), x.size());
+  for (int k = 0; k < x.size(); ++k) {
+    double h = rel * std::max(std::abs(x(k)), 1e-3);
+    Eigen::VectorXd xp = x;
+    if (xp(k) + h > upper(k)) h = -h;  // step inward at an upper bound
+    xp(k) += h;
+    J.col(k) = (residual(xp) - r0) / h;
+    ++*evaluations;
+  }
+  return J;
+}
+
+}  // namespace
+
+LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
+                            const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                            const LmOptions& options, const ProjectionFn& project) {
+  if (lower.size() != x0.size() || upper.size() != x0.size()) {
+    throw std::invalid_argument("LevenbergMarquardt: bounds and x0 sizes differ");
+  }
+  LmResult res;
+  Clamp(lower, upper, project, &x0);
+  res.x = x0;
+  res.residual = residual(res.x);
+  res.evaluations = 1;
+  res.cost = res.residual.squaredNorm();
+  const int p = static_cast<int>(x0.size());
+  Eigen::MatrixXd J =
+      Jacobian(residual, res.x, res.residual, upper, options.fd_relative_step, &res.evaluations);
+  Eigen::MatrixXd jtj = J.transpose() * J;
+  Eigen::VectorXd g = J.transpose() * res.residual;
+  double lambda = options.initial_damping * std::max(jtj.diagonal().maxCoeff(), 1e-300);
+  double nu = 2.0;
+  while (res.iterations < options.max_iterations) {
+    Eigen::MatrixXd A = jtj;
+    for (int k = 0; k < p; ++k) A(k, k) += lambda * std::max(jtj(k, k), 1e-12);
+    Eigen::VectorXd step = A.ldlt().solve(-g);
+    Eigen::VectorXd x_new = res.x + step;
+    Clamp(lower, upper, project, &x_new);
+    const Eigen::VectorXd dx = x_new - res.x;
+    if (dx.norm() <= options.step_tolerance * (res.x.norm() + options.step_tolerance)) break;
+    const Eigen::VectorXd r_new = residual(x_new);
+    ++res.evaluations;
+    const double cost_new = r_new.squaredNorm();
+    if (std::isfinite(cost_new) && cost_new < res.cost) {
+      const double decrease = res.cost - cost_new;
+      res.x = x_new;
+      res.residual = r_new;
+      const double old_cost = res.cost;
+      res.cost = cost_new;
+      ++res.iterations;
+      lambda = std::max(lambda / 3.0, 1e-300);
+      nu = 2.0;
+      J = Jacobian(residual, res.x, res.residual, upper, options.fd_relative_step,
+                   &res.evaluations);
+      jtj = J.transpose() * J;
+      g = J.transpose() * res.residual;
+      if (decrease <= options.relative_tolerance * old_cost || res.cost == 0.0) break;
+    } else {
+      lambda *= nu;
+      nu *= 2.0;
+      if (!std::isfinite(lambda) || lambda > 1e300) break;
+    }
+  }
+  res.jtj = jtj;
+  return res;
+}
+
+Eigen::VectorXd ConfidenceHalfWidths95(const Eigen::MatrixXd& jtj, double cost, long n_residuals) {
+  const long p = jtj.rows();
+  Eigen::VectorXd half = Eigen::VectorXd::Constant(p, std::numeric_limits<double>::quiet_NaN());
+  if (n_residuals <= p) return half;
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(jtj, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::VectorXd s = svd.singularValues();
+  if (s.size() == 0 || s(s.size() - 1) <= 1e-14 * s(0)) return half;
+  const Eigen::MatrixXd cov = svd.matrixV() * s.cwiseInverse().asDiagonal() *
+                              svd.matrixU().transpose() *
+                              (cost / static_cast<double>(n_residuals - p));
+  for (long k = 0; k < p; ++k) half(k) = 1.96 * std::sqrt(std::max(cov(k, k), 0.0));
+  return half;
+}
+
+}  // namespace fesim::identification

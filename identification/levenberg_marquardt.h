@@ -1,0 +1,43 @@
+// Bounded Levenberg–Marquardt for small nonlinear least-squares problems on Eigen, used for the
+// local steps of paper 000 §4 (static Ψ and dynamic Θ fits, eq. 42 and 44) and for θ_a in
+// Algorithm 2 of paper 002 (§4.2, OE model). Marquardt (1963) damping on JᵀJ with a
+// forward-difference Jacobian; bounds by projection (clamping) of every trial step, and an
+// optional user projection for simple non-box constraints (e.g. u_sat > u_db in eq. 40).
+#pragma once
+
+#include <Eigen/Dense>
+#include <functional>
+
+namespace fesim::identification {
+
+struct LmOptions {
+  int max_iterations = 200;           ///< accepted steps at most.
+  double relative_tolerance = 1e-12;  ///< stop when the cost decreases by less than this fraction.
+  double step_tolerance = 1e-12;   ///< stop when ‖Δx‖ ≤ this · (‖x‖ + step_tolerance).
+  double initial_damping = 1e-3;   ///< λ₀ relative to max diag(JᵀJ).
+  double fd_relative_step = 1e-7;  ///< forward-difference step, relative to max(|x_k|, 1e-3).
+};
+
+struct LmResult {
+  Eigen::VectorXd x;         ///< the minimiser (within bounds).
+  Eigen::VectorXd residual;  ///< r(x).
+  double cost = 0.0;         ///< ‖r(x)‖².
+  int iterations = 0;        ///< accepted steps.
+  int evaluations = 0;       ///< residual evaluations (including the Jacobian's).
+  Eigen::MatrixXd jtj;       ///< Jᵀ J at x (for confidence intervals).
+};
+
+/// r(x) → residual vector (fixed length).
+using ResidualFn = std::function<Eigen::VectorXd(const Eigen::VectorXd&)>;
+/// Maps a point onto the feasible set after clamping to the bounds (identity if empty).
+using ProjectionFn = std::function<void(Eigen::VectorXd*)>;
+
+/// Minimises ‖r(x)‖² subject to lower ≤ x ≤ upper (entries may be ±inf).
+LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
+                            const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                            const LmOptions& options = {}, const ProjectionFn& project = {});
+
+/// 95 % half-widths 1.96 √diag(σ² (JᵀJ)⁻¹), σ² = cost / (N − p); NaN where not estimable.
+Eigen::VectorXd ConfidenceHalfWidths95(const Eigen::MatrixXd& jtj, double cost, long n_residuals);
+
+}  // namespace fesim::identification

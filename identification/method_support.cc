@@ -1,0 +1,143 @@
+#include "identification/method_support.h"
+
+#include <cmath>
+#include <cstdio>
+#include <locale>
+#include <sstream>
+#include <stdexcept>
+
+#include "identification/levenberg_marquardt.h"
+
+namespace fesim::identification {
+
+Eigen::MatrixXd RequireColumns(const Trial& trial, const std::vector<std::string>& names,
+                               const std::string& label) {
+  Eigen::MatrixXd out(static_cast<Eigen::Index>(trial.size()),
+                      static_cast<Eigen::Index>(names.size()));
+  for (std::size_t c = 0; c < names.size(); ++c) {
+    if (!trial.Has(names[c])) {
+      throw std::runtime_error(label + ": column " + names[c] + " is missing");
+    }
+    const auto& col = trial.Column(names[c]);
+    for (std::size_t i = 0; i < col.size(); ++i) {
+      if (!std::isfinite(col[i])) {
+        throw std::runtime_error(label + ": column " + names[c] + " is not finite at t = " +
+                                 Num(trial.time[i]) + " s (NaN/dropouts must be removed first)");
+      }
+      out(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(c)) = col[i];
+    }
+  }
+  return out;
+}
+
+double UniformSamplePeriod(const Trial& trial, const std::string& label) {
+  if (trial.size() < 2) throw std::runtime_error(label + ": fewer than 2 samples");
+  const double T = (trial.time.back() - trial.time.front()) / static_cast<double>(trial.size() - 1);
+  for (std::size_t i = 1; i < trial.size(); ++i) {
+    if (std::abs(trial.time[i] - trial.time[i - 1] - T) > 1e-6 * T + 1e-9) {
+      throw std::runtime_error(label + ": column time is not uniformly sampled (near t = " +
+                               Num(trial.time[i]) + " s); resample first");
+    }
+  }
+  return T;
+}
+
+void RequireSamples(const Trial& trial, std::size_t min_samples, const std::string& label,
+                    const std::string& why) {
+  if (trial.size() < min_samples) {
+    throw std::runtime_error(label + ": " + std::to_string(trial.size()) +
+                             " samples, need at least " + std::to_string(min_samples) + " (" + why +
+                             ")");
+  }
+}
+
+MetadataOptions::MetadataOptions(const std::map<std::string, std::string>& metadata,
+                                 std::string prefix)
+    : metadata_(metadata), prefix_(std::move(prefix)) {}
+
+int MetadataOptions::Int(const std::string& key, int fallback, int min, int max) {
+  const std::string full = prefix_ + "." + key;
+  used_.insert(full);
+  const auto it = metadata_.find(full);
+  if (it == metadata_.end()) return fallback;
+  std::istringstream in(it->second);
+  in.imbue(std::locale::classic());
+  long v = 0;
+  if (!(in >> v) || !(in >> std::ws).eof() || v < min || v > max) {
+    throw std::runtime_error("metadata " + full + ": '" + it->second + "' must be an integer in [" +
+                             std::to_string(min) + ", " + std::to_string(max) + "]");
+  }
+  return static_cast<int>(v);
+}
+
+double MetadataOptions::Real(const std::string& key, double fallback, double min, double max) {
+  const std::string full = prefix_ + "." + key;
+  used_.insert(full);
+  const auto it = metadata_.find(full);
+  if (it == metadata_.end()) return fallback;
+  std::istringstream in(it->second);
+  in.imbue(std::locale::classic());
+  double v = 0;
+  if (!(in >> v) || !(in >> std::ws).eof() || !(v >= min && v <= max)) {
+    throw std::runtime_error("metadata " + full + ": '" + it->second + "' must be a number in [" +
+                             Num(min) + ", " + Num(max) + "]");
+  }
+  return v;
+}
+
+void MetadataOptions::RejectUnknown() const {
+  for (const auto& [key, value] : metadata_) {
+    if (key.rfind(prefix_ + ".", 0) == 0 && used_.count(key) == 0) {
+      std::string allowed;
+      for (const auto& u : used_) allowed += (allowed.empty() ? "" : ", ") + u;
+      throw std::runtime_error("metadata " + key + ": unknown option (allowed: " + allowed + ")");
+    }
+  }
+}
+
+std::string Num(double v) {
+  if (std::isnan(v)) return ".nan";
+  if (std::isinf(v)) return v > 0 ? ".inf" : "-.inf";
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+std::string YamlParam(const std::string& name, double value, const std::string& unit,
+                      double ci_half_width, int indent) {
+  std::string s = std::string(static_cast<std::size_t>(indent), ' ') + name +
+                  ": {value: " + Num(value) + ", unit: \"" + unit + "\"";
+  if (std::isfinite(ci_half_width)) {
+    s += ", ci95: [" + Num(value - ci_half_width) + ", " + Num(value + ci_half_width) + "]";
+  }
+  return s + "}\n";
+}
+
+Eigen::VectorXd FilterBA(const Eigen::VectorXd& b, const Eigen::VectorXd& a, int delay,
+                         const Eigen::VectorXd& x) {
+  const Eigen::Index N = x.size();
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(N);
+  for (Eigen::Index k = 0; k < N; ++k) {
+    double acc = 0.0;
+    for (Eigen::Index j = 0; j < b.size(); ++j) {
+      const Eigen::Index i = k - delay - j;
+      if (i >= 0) acc += b(j) * x(i);
+    }
+    for (Eigen::Index i = 1; i <= a.size(); ++i) {
+      if (k - i >= 0) acc -= a(i - 1) * y(k - i);
+    }
+    y(k) = acc;
+  }
+  return y;
+}
+
+LinearLsResult SolveLinearLs(const Eigen::MatrixXd& Phi, const Eigen::VectorXd& Y) {
+  if (Phi.rows() != Y.size()) throw std::invalid_argument("SolveLinearLs: size mismatch");
+  LinearLsResult r;
+  r.theta = Phi.colPivHouseholderQr().solve(Y);
+  r.cost = (Phi * r.theta - Y).squaredNorm();
+  r.ci95_half_width = ConfidenceHalfWidths95(Phi.transpose() * Phi, r.cost, Phi.rows());
+  return r;
+}
+
+}  // namespace fesim::identification

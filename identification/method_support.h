@@ -1,0 +1,70 @@
+// Helpers shared by the Eigen-only identification methods (papers 000, 001, 002): checked access
+// to trial columns, sampling period, option overrides from trial metadata, YAML parameter lines,
+// and the discrete transfer-function filter B(q)/A(q) of paper 002 eq. (1) / paper 001 eq. (8).
+#pragma once
+
+#include <Eigen/Dense>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "scenarios/trial.h"
+
+namespace fesim::identification {
+
+/// The columns `names` of `trial` as an N×k matrix. Throws std::runtime_error naming the trial
+/// (`label`) and column when a column is missing or holds NaN / inf.
+Eigen::MatrixXd RequireColumns(const Trial& trial, const std::vector<std::string>& names,
+                               const std::string& label);
+
+/// Sampling period, s, of a uniformly sampled trial (relative jitter ≤ 1e-6, else
+/// std::runtime_error naming `label`). Needs ≥ 2 samples.
+double UniformSamplePeriod(const Trial& trial, const std::string& label);
+
+/// Throws std::runtime_error unless `trial` has at least `min_samples` samples.
+void RequireSamples(const Trial& trial, std::size_t min_samples, const std::string& label,
+                    const std::string& why);
+
+/// Method options overridable from the first training trial's metadata as
+/// `<prefix>.<key>: value` (e.g. `spline.poles: 2`). Unknown `<prefix>.` keys are rejected.
+class MetadataOptions {
+ public:
+  MetadataOptions(const std::map<std::string, std::string>& metadata, std::string prefix);
+  /// Integer option in [min, max]; throws std::runtime_error naming the key and range.
+  int Int(const std::string& key, int fallback, int min, int max);
+  /// Real option in [min, max]; throws std::runtime_error naming the key and range.
+  double Real(const std::string& key, double fallback, double min, double max);
+  /// Throws std::runtime_error naming the first `<prefix>.` key that was never asked for.
+  void RejectUnknown() const;
+
+ private:
+  const std::map<std::string, std::string>& metadata_;
+  std::string prefix_;
+  std::set<std::string> used_;
+};
+
+/// One YAML mapping line `name: {value: v, unit: "u"[, ci95: [lo, hi]]}` indented by `indent`
+/// spaces; the interval is omitted when `ci_half_width` is NaN.
+std::string YamlParam(const std::string& name, double value, const std::string& unit,
+                      double ci_half_width, int indent);
+
+/// Formats a double with 10 significant digits (C locale).
+std::string Num(double v);
+
+/// Discrete filter with zero initial conditions (paper 002 eq. 1):
+///   y(k) = −Σ_{i=1}^{l} a_i y(k−i) + Σ_{j=0}^{n} b_j x(k−d−j),  x(k<0) = y(k<0) = 0,
+/// a = [a_1 … a_l], b = [b_0 … b_n].
+Eigen::VectorXd FilterBA(const Eigen::VectorXd& b, const Eigen::VectorXd& a, int delay,
+                         const Eigen::VectorXd& x);
+
+/// Ordinary least squares min ‖Φθ − Y‖ with 95 % half-widths 1.96 √diag(σ²(ΦᵀΦ)⁻¹),
+/// σ² = ‖r‖²/(N − p) (conditional on any other parameter block held fixed).
+struct LinearLsResult {
+  Eigen::VectorXd theta;
+  Eigen::VectorXd ci95_half_width;
+  double cost = 0.0;  ///< ‖Φθ − Y‖².
+};
+LinearLsResult SolveLinearLs(const Eigen::MatrixXd& Phi, const Eigen::VectorXd& Y);
+
+}  // namespace fesim::identification

@@ -1,0 +1,84 @@
+#include "identification/recruitment_bijection.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace fesim::identification {
+
+double SaturationRatioBound() { return std::log(20.0) / std::log(20.0 / 19.0); }
+
+double SigmoidRecruitment(const SigmoidParams& phi, const Eigen::VectorXd& u_us) {
+  if (phi.delta.size() != u_us.size()) {
+    throw std::invalid_argument("SigmoidRecruitment: " + std::to_string(u_us.size()) +
+                                " inputs for " + std::to_string(phi.delta.size()) + " gains");
+  }
+  const double x = phi.delta.dot(u_us);
+  if (x > 700.0) return 1.0;  // e^x overflows; the limit of eq. (22)
+  const double e = std::exp(x);
+  return (e - 1.0) / (e + phi.gamma);
+}
+
+double SaturationRatio(double gamma) {
+  return std::log(19.0 * gamma + 20.0) / std::log1p((gamma + 1.0) / 19.0);
+}
+
+CutoffParams CutoffsFromSigmoid(const SigmoidParams& phi) {
+  if (!(phi.gamma > 0.0) || phi.delta.size() == 0 || !(phi.delta.array() > 0.0).all()) {
+    throw std::invalid_argument("recruitment: need gamma > 0 and every delta > 0 (set Q, eq. 36)");
+  }
+  CutoffParams psi;
+  const double a = std::log1p((phi.gamma + 1.0) / 19.0);  // ln((γ+20)/19)
+  psi.u_db_us = a * phi.delta.cwiseInverse();
+  psi.u_sat_us = std::log(19.0 * phi.gamma + 20.0) / phi.delta(0);
+  return psi;
+}
+
+bool InRecruitmentSet(const CutoffParams& psi) {
+  if (psi.u_db_us.size() == 0 || !(psi.u_db_us.array() > 0.0).all()) return false;
+  if (!(psi.u_sat_us > 0.0) || !std::isfinite(psi.u_sat_us)) return false;
+  const double ratio = psi.u_sat_us / psi.u_db_us(0);
+  return ratio > 1.0 && ratio < SaturationRatioBound();
+}
+
+SigmoidParams SigmoidFromCutoffs(const CutoffParams& psi) {
+  if (!InRecruitmentSet(psi)) {
+    throw std::invalid_argument(
+        "recruitment: cut-offs outside P (eq. 40): need u_db > 0 and u_db_1 < u_sat < " +
+        std::to_string(SaturationRatioBound()) + " u_db_1");
+  }
+  const double target = psi.u_sat_us / psi.u_db_us(0);
+  // f is strictly decreasing in γ; bracket in s = ln γ.
+  double lo = -60.0, hi = 60.0;  // f(e^-60) ≈ α, f(e^60) ≈ 1 + ...
+  while (SaturationRatio(std::exp(hi)) > target && hi < 700.0) hi += 60.0;
+  while (SaturationRatio(std::exp(lo)) < target && lo > -700.0) lo -= 60.0;
+  for (int it = 0; it < 200 && hi - lo > 1e-15 * std::max(1.0, std::abs(lo)); ++it) {
+    const double mid = 0.5 * (lo + hi);
+    if (SaturationRatio(std::exp(mid)) > target) {
+      lo = mid;
+    } else {
+      hi = mid;
+    }
+  }
+  SigmoidParams phi;
+  phi.gamma = std::exp(0.5 * (lo + hi));
+  const double a = std::log1p((phi.gamma + 1.0) / 19.0);
+  phi.delta = a * psi.u_db_us.cwiseInverse();
+  return phi;
+}
+
+std::vector<CutoffParams> CutoffsFromSigmoids(const std::vector<SigmoidParams>& Phi) {
+  std::vector<CutoffParams> out;
+  out.reserve(Phi.size());
+  for (const auto& p : Phi) out.push_back(CutoffsFromSigmoid(p));
+  return out;
+}
+
+std::vector<SigmoidParams> SigmoidsFromCutoffs(const std::vector<CutoffParams>& Psi) {
+  std::vector<SigmoidParams> out;
+  out.reserve(Psi.size());
+  for (const auto& p : Psi) out.push_back(SigmoidFromCutoffs(p));
+  return out;
+}
+
+}  // namespace fesim::identification

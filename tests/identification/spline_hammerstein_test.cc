@@ -1,0 +1,150 @@
+#include "identification/spline_hammerstein.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "identification/metrics.h"
+
+namespace fesim::identification {
+namespace {
+
+constexpr double kRecoveryTol = 1e-3;    // relative parameter error, noiseless data
+constexpr double kNoiseStd = 0.02;       // N·m output noise (≈ 1 % of the 2 N·m range)
+constexpr double kNoisyFitTol = 0.02;    // relative error of the identified f on [0, 300] µs
+constexpr double kNoisyPoleTol = 0.02;   // absolute error of a_1, a_2 under noise
+constexpr double kSamplePeriod = 0.025;  // s (40 Hz)
+constexpr unsigned kSeed = 20240611;
+
+// A staircase of mixed step widths over 0–300 µs (paper 002 §5), fixed seed.
+Eigen::VectorXd Staircase(int n, std::mt19937* rng) {
+  std::uniform_real_distribution<double> level(0.0, 300.0);
+  std::uniform_int_distribution<int> width(8, 24);
+  Eigen::VectorXd u(n);
+  int k = 0;
+  while (k < n) {
+    const double v = level(*rng);
+    for (int w = width(*rng); w > 0 && k < n; --w) u(k++) = v;
+  }
+  return u;
+}
+
+SplineHammersteinModel Planted() {
+  SplineHammersteinModel m;
+  m.orders = {1, 2, 1, 5};
+  m.knots_us = UniformKnots(0.0, 300.0, 5);
+  // A sigmoid-like recruitment curve: dead zone then rise then saturation (N·m).
+  const Eigen::VectorXd u = Eigen::VectorXd::LinSpaced(61, 0.0, 300.0);
+  Eigen::MatrixXd B(u.size(), 7);
+  Eigen::VectorXd f(u.size());
+  for (int k = 0; k < u.size(); ++k) {
+    B.row(k) = SplineBasis(m.knots_us, u(k));
+    f(k) = 2.0 / (1.0 + std::exp(-(u(k) - 150.0) / 30.0));
+  }
+  m.beta = B.colPivHouseholderQr().solve(f);
+  // Critically damped pair at p = 0.85, unit static gain.
+  const double p = 0.85;
+  m.linear.a = Eigen::Vector2d(-2.0 * p, p * p);
+  m.linear.b = Eigen::Vector2d(0.6, 0.4) * (1.0 - p) * (1.0 - p);
+  return m;
+}
+
+SisoData Generate(const SplineHammersteinModel& m, int trials, int n, double noise, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> e(0.0, 1.0);
+  SisoData d;
+  d.sample_period_s = kSamplePeriod;
+  for (int t = 0; t < trials; ++t) {
+    Eigen::VectorXd u = Staircase(n, &rng);
+    Eigen::VectorXd y = SimulateSplineHammerstein(m, u);
+    for (int k = 0; k < n; ++k) y(k) += noise * e(rng);
+    d.u_us.push_back(u);
+    d.y.push_back(y);
+  }
+  return d;
+}
+
+double RelErr(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  return (a - b).norm() / b.norm();
+}
+
+SplineOptions Options(const SplineHammersteinModel& m) {
+  SplineOptions o;
+  o.orders = m.orders;
+  o.tolerance_eps = 1e-14;
+  return o;
+}
+
+TEST(SplineHammerstein, BasisSpansCubicsAndIsExactAtKnots) {
+  const Eigen::VectorXd knots = UniformKnots(0.0, 300.0, 5);
+  const Eigen::RowVectorXd row = SplineBasis(knots, 75.0);  // s = 0.25 = second knot
+  EXPECT_NEAR(row(0), 0.0, 1e-15);
+  EXPECT_NEAR(row(1), std::pow(0.25, 3), 1e-15);
+  EXPECT_NEAR(row(4), 0.25, 1e-15);
+  EXPECT_THROW(UniformKnots(10.0, 10.0, 4), std::invalid_argument);
+}
+
+TEST(SplineHammerstein, Algorithm1RecoversPlantedParametersNoiseless) {
+  const SplineHammersteinModel truth = Planted();
+  const SisoData d = Generate(truth, 1, 1200, 0.0, kSeed);
+  const SplineOptions o = Options(truth);
+  const auto rep =
+      FitSplineArx(d, truth.knots_us, o, GenericLinearStart(o.orders, kSamplePeriod, 0.1));
+  EXPECT_LT(RelErr(rep.model.beta, truth.beta), kRecoveryTol);
+  EXPECT_LT(RelErr(rep.model.linear.a, truth.linear.a), kRecoveryTol);
+  EXPECT_LT(RelErr(rep.model.linear.b, truth.linear.b), kRecoveryTol);
+}
+
+TEST(SplineHammerstein, Algorithm2RecoversPlantedParametersNoiseless) {
+  const SplineHammersteinModel truth = Planted();
+  const SisoData d = Generate(truth, 1, 1200, 0.0, kSeed);
+  const SplineOptions o = Options(truth);
+  const auto rep =
+      FitSplineOe(d, truth.knots_us, o, GenericLinearStart(o.orders, kSamplePeriod, 0.1));
+  EXPECT_LT(RelErr(rep.model.beta, truth.beta), kRecoveryTol);
+  EXPECT_LT(RelErr(rep.model.linear.a, truth.linear.a), kRecoveryTol);
+  EXPECT_LT(RelErr(rep.model.linear.b, truth.linear.b), kRecoveryTol);
+}
+
+TEST(SplineHammerstein, StaysCloseUnderOutputNoise) {
+  const SplineHammersteinModel truth = Planted();
+  const SisoData d = Generate(truth, 2, 1200, kNoiseStd, kSeed + 1);
+  const SplineOptions o = Options(truth);
+  const auto a1 =
+      FitSplineArx(d, truth.knots_us, o, GenericLinearStart(o.orders, kSamplePeriod, 0.1));
+  const auto a2 = FitSplineOe(d, truth.knots_us, o, a1.model.linear);
+  Eigen::VectorXd f_true(31), f_hat(31);
+  for (int k = 0; k <= 30; ++k) {
+    f_true(k) = SplineValue(truth.knots_us, truth.beta, 10.0 * k);
+    f_hat(k) = SplineValue(truth.knots_us, a2.model.beta, 10.0 * k);
+  }
+  EXPECT_LT(RelErr(f_hat, f_true), kNoisyFitTol);
+  EXPECT_LT((a2.model.linear.a - truth.linear.a).cwiseAbs().maxCoeff(), kNoisyPoleTol);
+}
+
+TEST(SplineHammerstein, Algorithm2FromAlgorithm1IsFasterAndFitsAtLeastAsWell) {
+  const SplineHammersteinModel truth = Planted();
+  const SisoData d = Generate(truth, 1, 1200, kNoiseStd, kSeed + 2);
+  SplineOptions o = Options(truth);
+  o.tolerance_eps = 1e-10;
+  const LinearBlock generic = GenericLinearStart(o.orders, kSamplePeriod, 0.5);
+  const auto alg1 = FitSplineArx(d, truth.knots_us, o, generic);
+  const auto from_alg1 = FitSplineOe(d, truth.knots_us, o, alg1.model.linear);
+  const auto from_generic = FitSplineOe(d, truth.knots_us, o, generic);
+  EXPECT_LT(from_alg1.iterations, from_generic.iterations);
+  const std::vector<double> y(d.y[0].data(), d.y[0].data() + d.y[0].size());
+  const Eigen::VectorXd y1 = SimulateSplineHammerstein(alg1.model, d.u_us[0]);
+  const Eigen::VectorXd y2 = SimulateSplineHammerstein(from_alg1.model, d.u_us[0]);
+  const double bf1 = BestFitPercent(y, std::vector<double>(y1.data(), y1.data() + y1.size()));
+  const double bf2 = BestFitPercent(y, std::vector<double>(y2.data(), y2.data() + y2.size()));
+  EXPECT_GE(bf2, bf1);
+  // Second-order stability bounds of §4.2.
+  EXPECT_LE(from_alg1.model.linear.a(0), 0.0);
+  EXPECT_GE(from_alg1.model.linear.a(0), -2.0);
+  EXPECT_GT(from_alg1.model.linear.a(1), 0.0);
+  EXPECT_LE(from_alg1.model.linear.a(1), 1.0);
+}
+
+}  // namespace
+}  // namespace fesim::identification
