@@ -377,16 +377,23 @@ struct OffscreenRenderer::Impl {
   }
 
   void ReadPixels(Image* out) {
-    const std::size_t row = 3 * static_cast<std::size_t>(width);
+    // RGBA matches the framebuffer format (a plain copy inside Mesa); dropping alpha and flipping
+    // rows here is cheaper than asking glReadPixels for GL_RGB.
+    const std::size_t row = 4 * static_cast<std::size_t>(width);
     readback.resize(row * height);
-    glFinish();
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    glReadPixels(0, 0, width, height, GL_RGB, GL_UNSIGNED_BYTE, readback.data());
+    glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, readback.data());
     out->width = width;
     out->height = height;
-    out->rgb.resize(row * height);
+    out->rgb.resize(3 * static_cast<std::size_t>(width) * height);
+    std::uint8_t* dst = out->rgb.data();
     for (int y = 0; y < height; ++y) {  // OpenGL rows are bottom-up; Image rows top-down.
-      std::memcpy(&out->rgb[row * y], &readback[row * (height - 1 - y)], row);
+      const std::uint8_t* src = &readback[row * (height - 1 - y)];
+      for (int x = 0; x < width; ++x, src += 4, dst += 3) {
+        dst[0] = src[0];
+        dst[1] = src[1];
+        dst[2] = src[2];
+      }
     }
   }
 

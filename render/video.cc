@@ -26,6 +26,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
+/// zlib level for PNG frames: 3 is ~3× faster than the default 6 on 1280×720 frames, with files
+/// ~1.5× larger (measured on the demo arm: 10 ms / 50 kB vs 33 ms / 32 kB).
+constexpr int kPngCompressionLevel = 3;
+
 void PutU32(std::vector<std::uint8_t>* out, std::uint32_t v) {
   out->push_back(static_cast<std::uint8_t>(v >> 24));
   out->push_back(static_cast<std::uint8_t>(v >> 16));
@@ -84,20 +88,18 @@ void CheckImage(const Image& image) {
 std::vector<std::uint8_t> EncodePng(const Image& image) {
   CheckImage(image);
   const std::size_t row = 3 * static_cast<std::size_t>(image.width);
-  // Filter type 1 (Sub) on every row: each byte minus the same channel of the pixel to its left.
+  // Filter type 0 (None) on every row: rendered frames are mostly flat colour, where deflate
+  // alone does as well as the Sub/Up filters, and faster.
   std::vector<std::uint8_t> filtered((row + 1) * image.height);
   for (int y = 0; y < image.height; ++y) {
     std::uint8_t* dst = &filtered[(row + 1) * y];
-    const std::uint8_t* src = &image.rgb[row * y];
-    dst[0] = 1;
-    for (std::size_t i = 0; i < row; ++i) {
-      dst[1 + i] = static_cast<std::uint8_t>(src[i] - (i >= 3 ? src[i - 3] : 0));
-    }
+    dst[0] = 0;
+    std::memcpy(dst + 1, &image.rgb[row * y], row);
   }
   uLongf compressed_size = compressBound(static_cast<uLong>(filtered.size()));
   std::vector<std::uint8_t> compressed(compressed_size);
   if (compress2(compressed.data(), &compressed_size, filtered.data(),
-                static_cast<uLong>(filtered.size()), 6) != Z_OK) {
+                static_cast<uLong>(filtered.size()), kPngCompressionLevel) != Z_OK) {
     throw std::runtime_error("png: zlib compression failed");
   }
 

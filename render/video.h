@@ -16,7 +16,7 @@
 
 namespace fesim::render {
 
-/// Encodes an image as an 8-bit RGB PNG (zlib, filter "Sub" on every row). Deterministic.
+/// Encodes an image as an 8-bit RGB PNG (zlib level 3, filter None). Deterministic.
 /// Throws std::invalid_argument on an empty image or a buffer of the wrong size.
 std::vector<std::uint8_t> EncodePng(const Image& image);
 
