@@ -115,8 +115,7 @@ Scene DemoArmScene(const DemoArmOptions& options) {
   }
 
   if (options.ghost_elbow_flexion_deg) {
-    AddArmCapsules(MakeForearm(*options.ghost_elbow_flexion_deg), Rgba{0.25f, 0.45f, 0.95f, 0.35f},
-                   &scene.capsules);
+    AddArmCapsules(MakeForearm(*options.ghost_elbow_flexion_deg), kGhostColour, &scene.capsules);
   }
 
   scene.overlay.title = "demo arm";

@@ -42,8 +42,9 @@ void DrawText(Image* image, int x, int y, const std::string& text, int scale, Rg
 /// Width in pixels DrawText uses for text at this scale.
 int TextWidthPx(const std::string& text, int scale);
 
-/// Draws the overlay (time, stimulation bars, joint angles) onto the image. The font scale grows
-/// with the image: 1 below 640×360, 2 up to 1920×1080, and so on.
+/// Draws the overlay (time, stimulation bars, joint angles) onto the image. Font pixels are
+/// max(1, min(width / 640, height / 360)) image pixels: 1 at 640×360, 2 at 1280×720, 3 at
+/// 1920×1080. Parts that do not fit are clipped.
 void DrawOverlay(Image* image, const Overlay& overlay, double time_s);
 
 }  // namespace fesim::render

@@ -143,7 +143,10 @@ Rgba ActivationColour(double activation);
 /// drawn as 0.
 Rgba PulseWidthColour(double pulse_width_us);
 
-/// Same colour with another alpha (e.g. 0.35 for the --compare ghost).
+/// Suggested colour of the --compare ghost arm: translucent blue (alpha 0.35).
+inline constexpr Rgba kGhostColour{0.25f, 0.45f, 0.95f, 0.35f};
+
+/// Same colour with another alpha (e.g. kGhostColour.a for a ghost in the bone's own colour).
 Rgba WithAlpha(Rgba colour, float alpha);
 
 /// Maximum pulse width shown by the overlay bars and colour scale, µs.
