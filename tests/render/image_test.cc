@@ -19,7 +19,7 @@ int CountNonWhite(const Image& image, int x0, int y0, int x1, int y1) {
   return n;
 }
 
-TEST(ImageTest, MakeImageFillsEveryPixel) {
+TEST(RenderImageTest, MakeImageFillsEveryPixel) {
   const Image image = MakeImage(4, 3, Rgba{1.0f, 0.5f, 0.0f, 1.0f});
   ASSERT_EQ(image.rgb.size(), 4u * 3u * 3u);
   for (int y = 0; y < 3; ++y) {
@@ -31,7 +31,7 @@ TEST(ImageTest, MakeImageFillsEveryPixel) {
   }
 }
 
-TEST(ImageTest, FillRectBlendsAndClips) {
+TEST(RenderImageTest, FillRectBlendsAndClips) {
   Image image = MakeImage(10, 10, kWhite);
   FillRect(&image, 8, 8, 5, 5, Rgba{0, 0, 0, 0.5f});  // partly outside
   EXPECT_EQ(image.At(9, 9)[0], 127);                  // (0·128 + 255·127 + 127) / 255
@@ -40,7 +40,7 @@ TEST(ImageTest, FillRectBlendsAndClips) {
   EXPECT_EQ(CountNonWhite(image, 0, 0, 10, 10), 4);
 }
 
-TEST(ImageTest, TextStaysInsideItsBox) {
+TEST(RenderImageTest, TextStaysInsideItsBox) {
   Image image = MakeImage(140, 40, kWhite);
   const std::string text = "t = 1.5 s";
   DrawText(&image, 10, 10, text, 2, kBlack);
@@ -50,7 +50,7 @@ TEST(ImageTest, TextStaysInsideItsBox) {
   EXPECT_EQ(CountNonWhite(image, 0, 0, 140, 40), CountNonWhite(image, 10, 10, 10 + w, 24));
 }
 
-TEST(ImageTest, DegreeAndMicroHaveGlyphsUnknownCharactersDrawAsQuestionMark) {
+TEST(RenderImageTest, DegreeAndMicroHaveGlyphsUnknownCharactersDrawAsQuestionMark) {
   const auto draw = [](const std::string& s) {
     Image image = MakeImage(12, 12, kWhite);
     DrawText(&image, 0, 0, s, 1, kBlack);
@@ -63,7 +63,7 @@ TEST(ImageTest, DegreeAndMicroHaveGlyphsUnknownCharactersDrawAsQuestionMark) {
   EXPECT_EQ(TextWidthPx("°", 1), TextWidthPx("a", 1));  // one glyph, not two bytes
 }
 
-TEST(ImageTest, OverlayDrawsTimeBarsAndAnglesOnlyWhenVisible) {
+TEST(RenderImageTest, OverlayDrawsTimeBarsAndAnglesOnlyWhenVisible) {
   Overlay overlay;
   overlay.channels = {{"ch1", 300}, {"ch2", 0}};
   overlay.joint_angles = {{"elbow_flexion", 45}};

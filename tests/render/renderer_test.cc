@@ -139,6 +139,19 @@ TEST(OffscreenRendererTest, SilhouetteSitsWhereTheCameraProjectsIt) {
   EXPECT_NEAR(c.y, expected.y_px, kCentroidVsProjection_px);
 }
 
+TEST(OffscreenRendererTest, FrontViewShowsTheSubjectsRightOnTheImageLeft) {
+  OffscreenRenderer renderer(kWidth, kHeight);
+  const Camera camera = CameraAtElbow(CameraPreset::kFront);
+  Scene scene = ForearmScene(0);
+  const Vec3 right_of_elbow{kElbow.x, kElbow.y, kElbow.z + 0.15};  // +Z: subject's right
+  scene.capsules = {Capsule{right_of_elbow, right_of_elbow, 0.03, Rgba{0.2f, 0.6f, 0.2f, 1.0f}}};
+  const Centroid c = Foreground(renderer.Render(scene, camera), scene.background);
+  const ImagePoint expected = ProjectToImage(PoseAt(camera, 0), kWidth, kHeight, right_of_elbow);
+  EXPECT_LT(expected.x_px, kWidth / 2.0 - kMinCentroidShift_px);
+  EXPECT_NEAR(c.x, expected.x_px, kCentroidVsProjection_px);
+  EXPECT_NEAR(c.y, expected.y_px, kCentroidVsProjection_px);
+}
+
 TEST(OffscreenRendererTest, ElbowFlexionMovesTheForearmUpInTheFrontView) {
   OffscreenRenderer renderer(kWidth, kHeight);
   // Eye level with the elbow: the forearm swings in the sagittal plane towards the camera.
