@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <numeric>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -17,12 +16,12 @@ namespace fesim::render {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr int kCapsuleSlices = 32;     ///< vertices around the axis.
-constexpr int kHemisphereRings = 8;    ///< latitude steps from pole to equator.
-constexpr double kPadLift_m = 0.0005;  ///< pads drawn this far out along their normal, m.
-constexpr int kMaxGridLinesPerSide = 200;
-constexpr double kFloorHalfSize_m = 25;  ///< floor plane reaches the horizon haze; grid is nearer.
-constexpr float kOpaqueAlpha = 0.999f;   ///< alpha at or above this is drawn opaque.
+constexpr int kCapsuleSlices = 32;         ///< vertices around the axis.
+constexpr int kHemisphereRings = 8;        ///< latitude steps from pole to equator.
+constexpr double kPadLift_m = 0.0005;      ///< pads drawn this far out along their normal, m.
+constexpr int kMaxGridLinesPerSide = 200;  ///< cap on grid lines each side of the target.
+constexpr double kFloorHalfSize_m = 25;    ///< floor plane half size, m (grid lines stop nearer).
+constexpr float kOpaqueAlpha = 0.999f;     ///< alpha at or above this is drawn opaque.
 
 Vec3 Add(const Vec3& a, const Vec3& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
 Vec3 Sub(const Vec3& a, const Vec3& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
@@ -52,7 +51,7 @@ struct OffscreenRenderer::Impl {
   int height = 0;
   OSMesaContext context = nullptr;
   std::vector<std::uint8_t> framebuffer;  ///< OSMesa colour buffer, RGBA, bottom-up.
-  std::vector<std::uint8_t> readback;     ///< glReadPixels target, RGB, bottom-up.
+  std::vector<std::uint8_t> readback;     ///< glReadPixels target, RGBA, bottom-up.
   std::vector<GLuint> capsule_indices;    ///< triangle list over the capsule vertex grid.
   std::vector<GLfloat> capsule_vertices;  ///< scratch: interleaved normal (3) + position (3).
 
