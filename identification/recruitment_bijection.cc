@@ -8,6 +8,8 @@ namespace fesim::identification {
 
 double SaturationRatioBound() { return std::log(20.0) / std::log(20.0 / 19.0); }
 
+double MinimumSaturationRatio() { return SaturationRatio(1e300); }
+
 double SigmoidRecruitment(const SigmoidParams& phi, const Eigen::VectorXd& u_us) {
   if (phi.delta.size() != u_us.size()) {
     throw std::invalid_argument("SigmoidRecruitment: " + std::to_string(u_us.size()) +
@@ -38,19 +40,19 @@ bool InRecruitmentSet(const CutoffParams& psi) {
   if (psi.u_db_us.size() == 0 || !(psi.u_db_us.array() > 0.0).all()) return false;
   if (!(psi.u_sat_us > 0.0) || !std::isfinite(psi.u_sat_us)) return false;
   const double ratio = psi.u_sat_us / psi.u_db_us(0);
-  return ratio > 1.0 && ratio < SaturationRatioBound();
+  return ratio > MinimumSaturationRatio() && ratio < SaturationRatioBound();
 }
 
 SigmoidParams SigmoidFromCutoffs(const CutoffParams& psi) {
   if (!InRecruitmentSet(psi)) {
-    throw std::invalid_argument(
-        "recruitment: cut-offs outside P (eq. 40): need u_db > 0 and u_db_1 < u_sat < " +
-        std::to_string(SaturationRatioBound()) + " u_db_1");
+    throw std::invalid_argument("recruitment: cut-offs outside P (eq. 40): need u_db > 0 and " +
+                                std::to_string(MinimumSaturationRatio()) + " u_db_1 < u_sat < " +
+                                std::to_string(SaturationRatioBound()) + " u_db_1");
   }
   const double target = psi.u_sat_us / psi.u_db_us(0);
   // f is strictly decreasing in γ; bracket in s = ln γ.
   double lo = -60.0, hi = 60.0;  // f(e^-60) ≈ α, f(e^60) ≈ 1 + ...
-  while (SaturationRatio(std::exp(hi)) > target && hi < 700.0) hi += 60.0;
+  hi = std::log(1e300);
   while (SaturationRatio(std::exp(lo)) < target && lo > -700.0) lo -= 60.0;
   for (int it = 0; it < 200 && hi - lo > 1e-15 * std::max(1.0, std::abs(lo)); ++it) {
     const double mid = 0.5 * (lo + hi);

@@ -12,8 +12,9 @@
 // on input 1 alone at which h̃ = 0.95 (Fig. 3, Remark 11).
 //
 // Departure: Q = R₊^{l(n+1)} maps onto ratios u^sat/u^db_1 in the open interval (1, α), so the
-// boundary u^sat = α u^db (γ = 0, allowed by the "≤" of eq. 40) is rejected here: M⁻¹ requires
-// 1 < u^sat/u^db_1 < α.
+// boundary u^sat = α u^db (γ = 0, allowed by the "≤" of eq. 40) is rejected here. Ratios very close
+// to 1 need γ beyond the range of double (f(1e300) ≈ 1.0086), so M⁻¹ requires
+// MinimumSaturationRatio() < u^sat/u^db_1 < α.
 //
 // Units: u in µs, δ in 1/µs, γ dimensionless, u^db and u^sat in µs.
 #pragma once
@@ -25,6 +26,9 @@ namespace fesim::identification {
 
 /// α = ln 20 / ln(20/19) ≈ 58.404, the supremum of u^sat/u^db_1 (eq. 40–41).
 double SaturationRatioBound();
+
+/// f(10^300) ≈ 1.0086: the smallest ratio u^sat/u^db_1 whose γ is representable.
+double MinimumSaturationRatio();
 
 /// Raw sigmoid parameters of one muscle unit j (eq. 24).
 struct SigmoidParams {

@@ -1,5 +1,7 @@
 #include "identification/method.h"
+#include "identification/hammerstein_mimo.h"
 #include "identification/spline_hammerstein.h"
+#include "identification/tremor_arx.h"
 
 #include "identification/ekf.h"
 #include "identification/inverse_dynamics.h"
@@ -18,6 +20,8 @@ std::vector<MethodEntry> BuiltinMethods() {
   methods.push_back(InvDynSemiparametricMethod());
   methods.push_back(SplineArxMethod());
   methods.push_back(SplineOeMethod());
+  methods.push_back(HammersteinMimoMethod());
+  methods.push_back(TremorArxMethod());
   return methods;
 }
 

@@ -1,0 +1,518 @@
+#include "identification/hammerstein_mimo.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <unsupported/Eigen/MatrixFunctions>
+
+#include "identification/levenberg_marquardt.h"
+#include "identification/method_support.h"
+#include "identification/metrics.h"
+#include "identification/nnls.h"
+
+namespace fesim::identification {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Seconds(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+constexpr double kMuNegligible_s = 1e-6;  // below this the first-order lag is dropped
+constexpr double kSatMargin = 1e-2;       // u_sat ≥ (1 + margin) u_db_1 keeps Ψ inside P
+constexpr double kRidge = 1e-12;          // relative ridge of the bounded d sub-problem
+
+/// min ‖E x − f‖ subject to |x_k| ≤ bound (a tiny ridge keeps E full rank).
+Eigen::VectorXd BoundedLs(const Eigen::MatrixXd& E, const Eigen::VectorXd& f, double bound) {
+  const int p = static_cast<int>(E.cols());
+  Eigen::MatrixXd Er(E.rows() + p, p);
+  const double ridge = std::sqrt(kRidge * std::max(E.squaredNorm(), 1e-300));
+  Er.topRows(E.rows()) = E;
+  Er.bottomRows(p) = ridge * Eigen::MatrixXd::Identity(p, p);
+  Eigen::VectorXd fr = Eigen::VectorXd::Zero(E.rows() + p);
+  fr.head(E.rows()) = f;
+  Eigen::MatrixXd G(2 * p, p);
+  G.topRows(p) = Eigen::MatrixXd::Identity(p, p);
+  G.bottomRows(p) = -Eigen::MatrixXd::Identity(p, p);
+  const Eigen::VectorXd h = Eigen::VectorXd::Constant(2 * p, -bound);
+  return LeastSquaresInequality(Er, fr, G, h).x;
+}
+
+/// H (S×l) of activations for all points of 𝒳.
+Eigen::MatrixXd ActivationMatrix(const std::vector<SigmoidParams>& phi, const Eigen::MatrixXd& u) {
+  Eigen::MatrixXd H(u.rows(), static_cast<Eigen::Index>(phi.size()));
+  for (Eigen::Index s = 0; s < u.rows(); ++s) {
+    H.row(s) = MuscleActivations(phi, u.row(s).transpose()).transpose();
+  }
+  return H;
+}
+
+void ProjectCutoffs(int n, Eigen::VectorXd* x) {
+  const int l = static_cast<int>(x->size()) / (n + 1);
+  for (int j = 0; j < l; ++j) {
+    double& sat = (*x)(j * (n + 1) + n);
+    const double db1 = (*x)(j * (n + 1));
+    sat = std::max(sat, db1 * (1.0 + kSatMargin));
+    sat = std::min(sat, db1 * SaturationRatioBound() * (1.0 - kSatMargin));
+  }
+}
+
+struct StaticProblem {
+  const Eigen::MatrixXd* u;
+  Eigen::MatrixXd ytilde;  // S×q
+  int n;
+  double d_bound;
+
+  Eigen::MatrixXd SolveD(const Eigen::MatrixXd& H) const {
+    Eigen::MatrixXd D(ytilde.cols(), H.cols());
+    for (Eigen::Index i = 0; i < ytilde.cols(); ++i) {
+      D.row(i) = BoundedLs(H, ytilde.col(i), d_bound).transpose();
+    }
+    return D;
+  }
+  Eigen::VectorXd Residual(const Eigen::VectorXd& x) const {
+    const auto phi = SigmoidsFromCutoffs(UnpackCutoffs(x, n));
+    const Eigen::MatrixXd H = ActivationMatrix(phi, *u);
+    const Eigen::MatrixXd D = SolveD(H);
+    const Eigen::MatrixXd R = ytilde - H * D.transpose();
+    return Eigen::Map<const Eigen::VectorXd>(R.data(), R.size());
+  }
+};
+
+}  // namespace
+
+Eigen::VectorXd MuscleActivations(const std::vector<SigmoidParams>& phi,
+                                  const Eigen::VectorXd& u_us) {
+  Eigen::VectorXd h(static_cast<Eigen::Index>(phi.size()));
+  for (std::size_t j = 0; j < phi.size(); ++j) h(j) = SigmoidRecruitment(phi[j], u_us);
+  return h;
+}
+
+Eigen::VectorXd StaticDeflection(const HammersteinMimoParams& p, const Eigen::VectorXd& u_us) {
+  return p.d_rad * MuscleActivations(SigmoidsFromCutoffs(p.psi), u_us);
+}
+
+JointFilter DiscretiseJointDynamics(double omega_rad_s, double mu_s, double sample_period_s) {
+  if (!(omega_rad_s > 0.0) || !(mu_s >= 0.0) || !(sample_period_s > 0.0)) {
+    throw std::invalid_argument("joint dynamics: need Omega > 0, mu >= 0, T > 0");
+  }
+  // x1' = Ω(z − x1), x2' = Ω(x1 − x2), x3' = (x2 − x3)/μ: 1/((1 + s/Ω)²(1 + μ s)), eq. (18).
+  Eigen::Matrix4d M = Eigen::Matrix4d::Zero();
+  M(0, 0) = -omega_rad_s;
+  M(0, 3) = omega_rad_s;
+  M(1, 0) = omega_rad_s;
+  M(1, 1) = -omega_rad_s;
+  JointFilter f;
+  if (mu_s > kMuNegligible_s) {
+    M(2, 1) = 1.0 / mu_s;
+    M(2, 2) = -1.0 / mu_s;
+    f.C << 0.0, 0.0, 1.0;
+  } else {
+    f.C << 0.0, 1.0, 0.0;
+  }
+  const Eigen::Matrix4d E = (M * sample_period_s).exp();
+  f.Ad = E.topLeftCorner<3, 3>();
+  f.Bd = E.topRightCorner<3, 1>();
+  return f;
+}
+
+Eigen::MatrixXd SimulateHammersteinMimo(const HammersteinMimoParams& p, const Eigen::MatrixXd& u_us,
+                                        double sample_period_s) {
+  const auto phi = SigmoidsFromCutoffs(p.psi);
+  const Eigen::Index N = u_us.rows();
+  const Eigen::Index q = p.d_rad.rows();
+  Eigen::MatrixXd Z(N, q);
+  for (Eigen::Index k = 0; k < N; ++k) {
+    Z.row(k) = (p.d_rad * MuscleActivations(phi, u_us.row(k).transpose())).transpose();
+  }
+  Eigen::MatrixXd Y(N, q);
+  for (Eigen::Index i = 0; i < q; ++i) {
+    const JointFilter f = DiscretiseJointDynamics(p.omega_rad_s, p.mu_s(i), sample_period_s);
+    Eigen::Vector3d x = Eigen::Vector3d::Constant(N > 0 ? Z(0, i) : 0.0);
+    for (Eigen::Index k = 0; k < N; ++k) {
+      Y(k, i) = p.rest_rad(i) - f.C * x;
+      x = f.Ad * x + f.Bd * Z(k, i);
+    }
+  }
+  return Y;
+}
+
+SteadyStateSet ExtractSteadyState(const std::vector<MimoTrialData>& trials, double min_step_s,
+                                  double ss_window_s) {
+  std::vector<Eigen::VectorXd> us, ys;
+  for (const auto& t : trials) {
+    const Eigen::Index N = t.u_us.rows();
+    const long min_len = std::max<long>(1, std::lround(min_step_s / t.sample_period_s));
+    const long win = std::max<long>(1, std::lround(ss_window_s / t.sample_period_s));
+    Eigen::Index start = 0;
+    for (Eigen::Index k = 1; k <= N; ++k) {
+      if (k < N && t.u_us.row(k) == t.u_us.row(start)) continue;
+      const Eigen::Index len = k - start;
+      if (len >= min_len) {
+        const Eigen::Index w = std::min<Eigen::Index>(win, len);
+        us.push_back(t.u_us.row(start).transpose());
+        ys.push_back(t.y_rad.middleRows(k - w, w).colwise().mean().transpose());
+      }
+      start = k;
+    }
+  }
+  SteadyStateSet set;
+  if (us.empty()) return set;
+  set.u_us.resize(static_cast<Eigen::Index>(us.size()), us[0].size());
+  set.y_rad.resize(static_cast<Eigen::Index>(ys.size()), ys[0].size());
+  for (std::size_t s = 0; s < us.size(); ++s) {
+    set.u_us.row(s) = us[s].transpose();
+    set.y_rad.row(s) = ys[s].transpose();
+  }
+  return set;
+}
+
+Eigen::VectorXd PackCutoffs(const std::vector<CutoffParams>& psi) {
+  if (psi.empty()) return {};
+  const Eigen::Index n = psi[0].u_db_us.size();
+  Eigen::VectorXd x(static_cast<Eigen::Index>(psi.size()) * (n + 1));
+  for (std::size_t j = 0; j < psi.size(); ++j) {
+    x.segment(j * (n + 1), n) = psi[j].u_db_us;
+    x(j * (n + 1) + n) = psi[j].u_sat_us;
+  }
+  return x;
+}
+
+std::vector<CutoffParams> UnpackCutoffs(const Eigen::VectorXd& x, int inputs_n) {
+  if (inputs_n < 1 || x.size() % (inputs_n + 1) != 0) {
+    throw std::invalid_argument("UnpackCutoffs: length is not a multiple of n + 1");
+  }
+  std::vector<CutoffParams> psi(static_cast<std::size_t>(x.size() / (inputs_n + 1)));
+  for (std::size_t j = 0; j < psi.size(); ++j) {
+    psi[j].u_db_us = x.segment(j * (inputs_n + 1), inputs_n);
+    psi[j].u_sat_us = x(j * (inputs_n + 1) + inputs_n);
+  }
+  return psi;
+}
+
+HammersteinMimoFit FitHammersteinStatic(const SteadyStateSet& set, const Eigen::VectorXd& rest_rad,
+                                        const HammersteinMimoOptions& options) {
+  const auto t0 = Clock::now();
+  const int n = static_cast<int>(set.u_us.cols());
+  const int q = static_cast<int>(set.y_rad.cols());
+  const int l = options.muscles_l > 0 ? options.muscles_l : n;
+  const HammersteinMimoBounds& b = options.bounds;
+  if (rest_rad.size() != q) throw std::invalid_argument("FitHammersteinStatic: r has wrong size");
+  StaticProblem prob;
+  prob.u = &set.u_us;
+  prob.ytilde = (-set.y_rad).rowwise() + rest_rad.transpose();  // ỹ = r − y
+  prob.n = n;
+  prob.d_bound = b.d_abs_max_rad;
+  const int p = l * (n + 1);
+  Eigen::VectorXd lower(p), upper(p);
+  for (int j = 0; j < l; ++j) {
+    lower.segment(j * (n + 1), n).setConstant(b.u_db_min_us);
+    upper.segment(j * (n + 1), n).setConstant(b.u_db_max_us);
+    lower(j * (n + 1) + n) = b.u_sat_min_us;
+    upper(j * (n + 1) + n) = b.u_sat_max_us;
+  }
+  const auto residual = [&prob](const Eigen::VectorXd& x) { return prob.Residual(x); };
+  const auto project = [n](Eigen::VectorXd* x) { ProjectCutoffs(n, x); };
+  std::mt19937 rng(options.seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  HammersteinMimoFit fit;
+  LmResult best;
+  best.cost = std::numeric_limits<double>::infinity();
+  LmOptions lo;
+  lo.max_iterations = 200;
+  lo.relative_tolerance = 1e-14;
+  for (int s = 0; s < std::max(1, options.starts); ++s) {
+    Eigen::VectorXd x0(p);
+    for (int k = 0; k < p; ++k) x0(k) = lower(k) + unit(rng) * (upper(k) - lower(k));
+    const auto ts = Clock::now();
+    LmResult r = LevenbergMarquardt(residual, x0, lower, upper, lo, project);
+    fit.static_step_wall_s.push_back(Seconds(ts));
+    fit.static_step_iterations.push_back(r.iterations);
+    if (r.cost < best.cost) best = std::move(r);
+  }
+  // Sort muscle units by u^db_{j,1} (the model is invariant to their order).
+  std::vector<CutoffParams> psi = UnpackCutoffs(best.x, n);
+  std::vector<int> order(static_cast<std::size_t>(l));
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(),
+            [&psi](int a, int c) { return psi[a].u_db_us(0) < psi[c].u_db_us(0); });
+  std::vector<CutoffParams> sorted;
+  Eigen::VectorXd ci = ConfidenceHalfWidths95(best.jtj, best.cost, best.residual.size());
+  Eigen::VectorXd ci_sorted(p);
+  for (int j = 0; j < l; ++j) {
+    sorted.push_back(psi[order[j]]);
+    ci_sorted.segment(j * (n + 1), n + 1) = ci.segment(order[j] * (n + 1), n + 1);
+  }
+  const Eigen::MatrixXd H = ActivationMatrix(SigmoidsFromCutoffs(sorted), set.u_us);
+  fit.params.psi = sorted;
+  fit.params.d_rad = prob.SolveD(H);
+  fit.params.rest_rad = rest_rad;
+  fit.params.mu_s = Eigen::VectorXd::Zero(q);
+  fit.static_cost = best.cost;
+  fit.psi_ci95 = ci_sorted;
+  fit.d_ci95.resize(q, l);
+  for (int i = 0; i < q; ++i) {
+    const Eigen::VectorXd r = prob.ytilde.col(i) - H * fit.params.d_rad.row(i).transpose();
+    fit.d_ci95.row(i) =
+        ConfidenceHalfWidths95(H.transpose() * H, r.squaredNorm(), H.rows()).transpose();
+  }
+  fit.total_wall_s = Seconds(t0);
+  return fit;
+}
+
+void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
+                           const HammersteinMimoOptions& options, HammersteinMimoFit* fit) {
+  const auto t0 = Clock::now();
+  const Eigen::Index q = fit->params.d_rad.rows();
+  const auto phi = SigmoidsFromCutoffs(fit->params.psi);
+  // ẑ of eq. (43) and ỹ, fixed during the search.
+  std::vector<Eigen::MatrixXd> Z, Yt;
+  Eigen::Index n_res = 0;
+  for (const auto& t : trials) {
+    Eigen::MatrixXd z(t.u_us.rows(), q);
+    for (Eigen::Index k = 0; k < t.u_us.rows(); ++k) {
+      z.row(k) =
+          (fit->params.d_rad * MuscleActivations(phi, t.u_us.row(k).transpose())).transpose();
+    }
+    Z.push_back(z);
+    Yt.push_back((-t.y_rad).rowwise() + fit->params.rest_rad.transpose());
+    n_res += t.u_us.rows() * q;
+  }
+  const auto residual = [&](const Eigen::VectorXd& theta) -> Eigen::VectorXd {
+    Eigen::VectorXd r(n_res);
+    Eigen::Index o = 0;
+    for (Eigen::Index i = 0; i < q; ++i) {
+      for (std::size_t t = 0; t < trials.size(); ++t) {
+        const JointFilter f =
+            DiscretiseJointDynamics(theta(0), theta(1 + i), trials[t].sample_period_s);
+        const Eigen::Index N = Z[t].rows();
+        Eigen::Vector3d x = Eigen::Vector3d::Constant(N > 0 ? Z[t](0, i) : 0.0);
+        for (Eigen::Index k = 0; k < N; ++k) {
+          r(o++) = Yt[t](k, i) - f.C * x;
+          x = f.Ad * x + f.Bd * Z[t](k, i);
+        }
+      }
+    }
+    return r;
+  };
+  const HammersteinMimoBounds& b = options.bounds;
+  Eigen::VectorXd lower(q + 1), upper(q + 1);
+  lower(0) = b.omega_min_rad_s;
+  upper(0) = b.omega_max_rad_s;
+  lower.tail(q).setConstant(b.mu_min_s);
+  upper.tail(q).setConstant(b.mu_max_s);
+  LmResult best;
+  best.cost = std::numeric_limits<double>::infinity();
+  const int starts = std::max(1, options.dynamic_starts);
+  for (int s = 0; s < starts; ++s) {
+    Eigen::VectorXd x0(q + 1);
+    // Ω spread geometrically over [1, 8] rad/s; μ starts at 0.1 s.
+    x0(0) = starts == 1 ? 4.0 : std::exp(std::log(1.0) + s * std::log(8.0) / (starts - 1));
+    x0.tail(q).setConstant(0.1);
+    const auto ts = Clock::now();
+    LmOptions lo;
+    lo.relative_tolerance = 1e-14;
+    LmResult r = LevenbergMarquardt(residual, x0, lower, upper, lo);
+    fit->dynamic_step_wall_s.push_back(Seconds(ts));
+    if (r.cost < best.cost) best = std::move(r);
+  }
+  fit->params.omega_rad_s = best.x(0);
+  fit->params.mu_s = best.x.tail(q);
+  fit->dynamic_cost = best.cost;
+  fit->theta_ci95 = ConfidenceHalfWidths95(best.jtj, best.cost, n_res);
+  fit->total_wall_s += Seconds(t0);
+}
+
+HammersteinMimoFit FitHammersteinMimo(const std::vector<MimoTrialData>& trials,
+                                      const HammersteinMimoOptions& options) {
+  const SteadyStateSet set = ExtractSteadyState(trials, options.min_step_s, options.ss_window_s);
+  if (trials.empty() || set.u_us.rows() == 0) {
+    throw std::runtime_error("hammerstein-mimo: no constant-input segment of at least " +
+                             Num(options.min_step_s) + " s (step-grid protocol expected)");
+  }
+  const Eigen::Index q = set.y_rad.cols();
+  Eigen::VectorXd rest = Eigen::VectorXd::Zero(q);
+  int zeros = 0;
+  for (Eigen::Index s = 0; s < set.u_us.rows(); ++s) {
+    if (set.u_us.row(s).isZero(0.0)) {
+      rest += set.y_rad.row(s).transpose();
+      ++zeros;
+    }
+  }
+  rest = zeros > 0 ? Eigen::VectorXd(rest / zeros)
+                   : Eigen::VectorXd(trials[0].y_rad.row(0).transpose());
+  HammersteinMimoFit fit = FitHammersteinStatic(set, rest, options);
+  FitHammersteinDynamic(trials, options, &fit);
+  return fit;
+}
+
+// ---------------------------------------------------------------------------------------------
+// CLI adapter.
+namespace {
+
+struct MimoColumns {
+  std::vector<std::string> inputs, outputs;
+};
+
+MimoTrialData ReadMimo(const Trial& trial, const MimoColumns& cols, const std::string& label) {
+  MimoTrialData d;
+  d.sample_period_s = UniformSamplePeriod(trial, label);
+  d.u_us = RequireColumns(trial, cols.inputs, label);
+  d.y_rad = RequireColumns(trial, cols.outputs, label);
+  if ((d.u_us.array() < 0.0).any() || (d.u_us.array() > 300.0).any()) {
+    throw std::runtime_error(label + ": u.* pulse widths must lie in [0, 300] us");
+  }
+  return d;
+}
+
+MethodResult RunHammersteinMimo(const std::vector<Trial>& train, const std::vector<Trial>& test,
+                                const ProgressFn& progress) {
+  if (train.empty()) throw std::runtime_error("--train: no trials");
+  MimoColumns cols{train[0].NamesWithPrefix("u."), train[0].NamesWithPrefix("q.")};
+  if (cols.inputs.empty()) throw std::runtime_error("train trial 0: no u.* input column");
+  if (cols.outputs.empty()) throw std::runtime_error("train trial 0: no q.* output column");
+  const int n = static_cast<int>(cols.inputs.size());
+  const int q = static_cast<int>(cols.outputs.size());
+  MetadataOptions md(train[0].metadata, "hammerstein");
+  HammersteinMimoOptions o;
+  o.muscles_l = md.Int("muscles_l", n, 1, 64);
+  o.starts = md.Int("starts", o.starts, 1, 100000);
+  o.dynamic_starts = md.Int("dynamic_starts", o.dynamic_starts, 1, 1000);
+  o.seed = static_cast<unsigned>(md.Int("seed", 1, 0, 2147483647));
+  o.min_step_s = md.Real("min_step_s", o.min_step_s, 0.0, 1e6);
+  o.ss_window_s = md.Real("ss_window_s", o.ss_window_s, 0.0, 1e6);
+  md.RejectUnknown();
+  std::vector<MimoTrialData> tr;
+  for (std::size_t t = 0; t < train.size(); ++t) {
+    const std::string label = "train trial " + std::to_string(t);
+    RequireSamples(train[t], 10, label, "dynamic fit");
+    tr.push_back(ReadMimo(train[t], cols, label));
+  }
+  const SteadyStateSet set = ExtractSteadyState(tr, o.min_step_s, o.ss_window_s);
+  const int l = o.muscles_l;
+  const long unknowns = static_cast<long>(l) * (n + 1) + static_cast<long>(l) * q;
+  if (set.u_us.rows() * q <= unknowns) {
+    throw std::runtime_error("train: " + std::to_string(set.u_us.rows()) +
+                             " steady-state points (constant input for >= " + Num(o.min_step_s) +
+                             " s), need more than " + std::to_string(unknowns / q) +
+                             " for l = " + std::to_string(l));
+  }
+  if (progress) progress(0.0, "static step (multi-start, " + std::to_string(o.starts) + ")");
+  const HammersteinMimoFit fit = FitHammersteinMimo(tr, o);
+  if (progress) progress(0.9, "evaluation");
+
+  const HammersteinMimoParams& p = fit.params;
+  std::string y =
+      "# fesim identify: hammerstein-mimo (paper 000_0a6c0de9fc69df7c eq. 16-24, "
+      "two-step identification of section 4)\nmethod: hammerstein-mimo\n";
+  y += "inputs: [";
+  for (int k = 0; k < n; ++k) y += (k ? ", " : "") + cols.inputs[k];
+  y += "]\noutputs: [";
+  for (int i = 0; i < q; ++i) y += (i ? ", " : "") + cols.outputs[i];
+  y += "]\nmuscles_l: " + std::to_string(l) + "\n";
+  y += YamlParam("Omega", p.omega_rad_s, "rad/s", fit.theta_ci95(0), 0);
+  y += "joints:\n";
+  for (int i = 0; i < q; ++i) {
+    y += "  " + cols.outputs[i] + ":\n";
+    y += YamlParam("rest_r", p.rest_rad(i), "rad", NAN, 4);
+    y += YamlParam("mu", p.mu_s(i), "s", fit.theta_ci95(1 + i), 4);
+    for (int j = 0; j < l; ++j) {
+      y += YamlParam("D_" + std::to_string(j + 1), p.d_rad(i, j), "rad", fit.d_ci95(i, j), 4);
+    }
+  }
+  y += "# Psi = M(Phi) (eq. 39); ci95 of D are conditional on Psi\nmuscles:\n";
+  const auto phi = SigmoidsFromCutoffs(p.psi);
+  for (int j = 0; j < l; ++j) {
+    y += "  - unit: " + std::to_string(j + 1) + "\n";
+    for (int k = 0; k < n; ++k) {
+      y += YamlParam("u_db_" + cols.inputs[k], p.psi[j].u_db_us(k), "us",
+                     fit.psi_ci95(j * (n + 1) + k), 4);
+      y += YamlParam("delta_" + cols.inputs[k], phi[j].delta(k), "1/us", NAN, 4);
+    }
+    y += YamlParam("u_sat_" + cols.inputs[0], p.psi[j].u_sat_us, "us",
+                   fit.psi_ci95(j * (n + 1) + n), 4);
+    y += YamlParam("gamma", phi[j].gamma, "1", NAN, 4);
+  }
+  MethodResult result;
+  result.model_yaml = y;
+
+  const bool has_test = !test.empty();
+  const std::vector<Trial>& eval = has_test ? test : train;
+  Json fits = Json::Array();
+  std::vector<double> ne_sum(static_cast<std::size_t>(q), 0.0);
+  for (std::size_t t = 0; t < eval.size(); ++t) {
+    const std::string label =
+        std::string(has_test ? "test" : "train") + " trial " + std::to_string(t);
+    const MimoTrialData d = ReadMimo(eval[t], cols, label);
+    const Eigen::MatrixXd yhat = SimulateHammersteinMimo(p, d.u_us, d.sample_period_s);
+    Json f = Json::Object();
+    f.Set("trial", static_cast<int>(t));
+    Json joints = Json::Object();
+    Trial pred;
+    pred.metadata["source"] = "fesim identify --method hammerstein-mimo";
+    pred.time = eval[t].time;
+    for (int k = 0; k < n; ++k) pred.AddColumn(cols.inputs[k], eval[t].Column(cols.inputs[k]));
+    for (int i = 0; i < q; ++i) {
+      const std::vector<double> yv(d.y_rad.col(i).data(), d.y_rad.col(i).data() + d.y_rad.rows());
+      std::vector<double> yh(yhat.col(i).data(), yhat.col(i).data() + yhat.rows());
+      Json jf = Json::Object();
+      jf.Set("best_fit_percent", BestFitPercent(yv, yh));
+      const double ne = NormalisedError(yv, yh);
+      jf.Set("normalised_error", ne);
+      ne_sum[static_cast<std::size_t>(i)] += ne;
+      jf.Set("rms_rad", Rms(yv, yh));
+      joints.Set(cols.outputs[i], jf);
+      pred.AddColumn(cols.outputs[i], std::move(yh));
+    }
+    f.Set("joints", joints);
+    fits.Push(f);
+    result.predictions.push_back(std::move(pred));
+  }
+  Json mean_ne = Json::Object();
+  for (int i = 0; i < q; ++i)
+    mean_ne.Set(cols.outputs[i], ne_sum[i] / static_cast<double>(eval.size()));
+  const auto mean_sd = [](const std::vector<double>& v) {
+    Json j = Json::Object();
+    double m = 0, s = 0;
+    for (double x : v) m += x;
+    m /= std::max<std::size_t>(1, v.size());
+    for (double x : v) s += (x - m) * (x - m);
+    j.Set("mean", m);
+    j.Set("std", v.size() > 1 ? std::sqrt(s / (v.size() - 1)) : 0.0);
+    j.Set("count", static_cast<int>(v.size()));
+    j.Set("all", v);
+    return j;
+  };
+  Json m = Json::Object();
+  m.Set("method", "hammerstein-mimo");
+  m.Set("prediction", "simulation from the steady state of the first input (not one-step-ahead)");
+  m.Set("steady_state_points", static_cast<int>(set.u_us.rows()));
+  m.Set(has_test ? "test" : "train", fits);
+  m.Set("mean_normalised_error", mean_ne);
+  m.Set("static_cost_rad2", fit.static_cost);
+  m.Set("dynamic_cost_rad2", fit.dynamic_cost);
+  m.Set("static_local_step_wall_s", mean_sd(fit.static_step_wall_s));
+  m.Set("dynamic_local_step_wall_s", mean_sd(fit.dynamic_step_wall_s));
+  std::vector<double> iters(fit.static_step_iterations.begin(), fit.static_step_iterations.end());
+  m.Set("static_local_step_iterations", iters);
+  m.Set("total_wall_s", fit.total_wall_s);
+  result.metrics = m;
+  if (progress) progress(1.0, "done");
+  return result;
+}
+
+}  // namespace
+
+MethodEntry HammersteinMimoMethod() {
+  return {"hammerstein-mimo",
+          "MIMO Hammerstein hand model, two-step fit (static Psi/d, then Theta), paper 000",
+          RunHammersteinMimo};
+}
+
+}  // namespace fesim::identification

@@ -1,0 +1,612 @@
+#include "identification/tremor_arx.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "identification/method_support.h"
+#include "identification/metrics.h"
+#include "identification/nnls.h"
+
+namespace fesim::identification {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kSlopeTol = 1e-10;  // relative violation of h' ≥ 0 accepted before a cut
+
+double Seconds(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+Eigen::RowVectorXd PolyRow(int m, double s) {
+  Eigen::RowVectorXd r(m + 1);
+  double p = 1.0;
+  for (int k = 0; k <= m; ++k, p *= s) r(k) = p;
+  return r;
+}
+
+Eigen::RowVectorXd SlopeRow(int m, double s) {
+  Eigen::RowVectorXd r = Eigen::RowVectorXd::Zero(m + 1);
+  double p = 1.0;
+  for (int k = 1; k <= m; ++k, p *= s) r(k) = k * p;
+  return r;
+}
+
+double PolyValue(const Eigen::VectorXd& beta, double s) {
+  double v = 0.0;
+  for (Eigen::Index k = beta.size() - 1; k >= 0; --k) v = v * s + beta(k);
+  return v;
+}
+
+/// (min, argmin) of h'(s) = Σ k β_k s^{k−1} over [lo, hi]: ends and real roots of h''.
+std::pair<double, double> SlopeMinimum(const Eigen::VectorXd& beta, double lo, double hi) {
+  const int m = static_cast<int>(beta.size()) - 1;
+  const auto slope = [&](double s) { return SlopeRow(m, s).dot(beta); };
+  std::pair<double, double> best{slope(lo), lo};
+  const double vhi = slope(hi);
+  if (vhi < best.first) best = {vhi, hi};
+  // h''(s) = Σ_{k≥2} k(k−1) β_k s^{k−2}
+  Eigen::VectorXd c(std::max(0, m - 1));
+  for (int k = 2; k <= m; ++k) c(k - 2) = k * (k - 1) * beta(k);
+  int deg = static_cast<int>(c.size()) - 1;
+  const double cmax = c.size() ? c.cwiseAbs().maxCoeff() : 0.0;
+  while (deg >= 1 && std::abs(c(deg)) <= 1e-14 * cmax) --deg;
+  if (deg >= 1) {
+    Eigen::MatrixXd comp = Eigen::MatrixXd::Zero(deg, deg);
+    for (int i = 1; i < deg; ++i) comp(i, i - 1) = 1.0;
+    for (int i = 0; i < deg; ++i) comp(i, deg - 1) = -c(i) / c(deg);
+    const Eigen::VectorXcd roots = Eigen::EigenSolver<Eigen::MatrixXd>(comp, false).eigenvalues();
+    for (Eigen::Index r = 0; r < roots.size(); ++r) {
+      const double x = roots(r).real();
+      if (std::abs(roots(r).imag()) > 1e-9 * (1.0 + std::abs(x)) || x <= lo || x >= hi) continue;
+      const double v = slope(x);
+      if (v < best.first) best = {v, x};
+    }
+  }
+  return best;
+}
+
+int FirstRow(const TremorOrders& o) { return std::max(o.poles_l, o.delay_m + o.zeros_n); }
+
+struct Problem {
+  const TremorData* data;
+  TremorOrders o;
+  double u_scale;
+  double omega;  // rad/sample; < 0 means no tremor regressors
+  double s_min, s_max;
+  int constraint_points;
+  std::vector<Eigen::VectorXd> s;  // normalised inputs
+
+  bool HasTremor() const { return omega >= 0.0; }
+  int TremorCols() const { return HasTremor() ? 2 * static_cast<int>(data->y.size()) : 0; }
+  Eigen::Index Rows() const {
+    Eigen::Index r = 0;
+    for (const auto& y : data->y) r += std::max<Eigen::Index>(0, y.size() - FirstRow(o));
+    return r;
+  }
+  double Tremor(const Eigen::VectorXd& lam, std::size_t t, Eigen::Index k) const {
+    if (!HasTremor()) return 0.0;
+    return lam(2 * t) * std::cos(omega * k) + lam(2 * t + 1) * std::sin(omega * k);
+  }
+};
+
+/// θ_n of eq. (17) subject to h' ≥ 0 on [s_min, s_max] (grid + exact cutting planes).
+LinearLsResult NonlinearStep(const Problem& P, const Eigen::VectorXd& a, const Eigen::VectorXd& b,
+                             const Eigen::VectorXd& lam) {
+  const TremorOrders& o = P.o;
+  const int k0 = FirstRow(o);
+  const int m = o.poly_degree;
+  Eigen::MatrixXd Phi(P.Rows(), m + 1);
+  Eigen::VectorXd Y(P.Rows());
+  Eigen::Index r = 0;
+  for (std::size_t t = 0; t < P.data->y.size(); ++t) {
+    const Eigen::VectorXd& y = P.data->y[t];
+    for (Eigen::Index k = k0; k < y.size(); ++k, ++r) {
+      double yn = y(k);
+      for (int i = 1; i <= o.poles_l; ++i) yn += a(i - 1) * y(k - i);
+      Y(r) = yn - P.Tremor(lam, t, k);
+      Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(m + 1);
+      for (int j = 0; j <= o.zeros_n; ++j) row += b(j) * PolyRow(m, P.s[t](k - o.delay_m - j));
+      Phi.row(r) = row;
+    }
+  }
+  std::vector<double> pts;
+  for (int g = 0; g < P.constraint_points; ++g) {
+    pts.push_back(P.s_min + (P.s_max - P.s_min) * g / std::max(1, P.constraint_points - 1));
+  }
+  LinearLsResult res;
+  for (int cut = 0; cut < 20; ++cut) {
+    Eigen::MatrixXd G(static_cast<Eigen::Index>(pts.size()), m + 1);
+    for (std::size_t g = 0; g < pts.size(); ++g) G.row(g) = SlopeRow(m, pts[g]);
+    res.theta = LeastSquaresInequality(Phi, Y, G, Eigen::VectorXd::Zero(G.rows())).x;
+    const auto [vmin, at] = SlopeMinimum(res.theta, P.s_min, P.s_max);
+    const double scale = SlopeRow(m, P.s_max).cwiseAbs().dot(res.theta.cwiseAbs()) + 1e-300;
+    if (vmin >= -kSlopeTol * scale) break;
+    pts.push_back(at);
+  }
+  res.cost = (Phi * res.theta - Y).squaredNorm();
+  const Eigen::MatrixXd jtj = Phi.transpose() * Phi;
+  res.ci95_half_width = SolveLinearLs(Phi, Y).ci95_half_width;
+  return res;
+}
+
+/// θ_l = [a; b; λ per trial] of eq. (21).
+LinearLsResult LinearStep(const Problem& P, const Eigen::VectorXd& beta) {
+  const TremorOrders& o = P.o;
+  const int k0 = FirstRow(o);
+  const int p = o.poles_l + o.zeros_n + 1 + P.TremorCols();
+  Eigen::MatrixXd Phi = Eigen::MatrixXd::Zero(P.Rows(), p);
+  Eigen::VectorXd Y(P.Rows());
+  Eigen::Index r = 0;
+  for (std::size_t t = 0; t < P.data->y.size(); ++t) {
+    const Eigen::VectorXd& y = P.data->y[t];
+    Eigen::VectorXd h(y.size());
+    for (Eigen::Index k = 0; k < y.size(); ++k) h(k) = PolyValue(beta, P.s[t](k));
+    for (Eigen::Index k = k0; k < y.size(); ++k, ++r) {
+      for (int i = 1; i <= o.poles_l; ++i) Phi(r, i - 1) = -y(k - i);
+      for (int j = 0; j <= o.zeros_n; ++j) Phi(r, o.poles_l + j) = h(k - o.delay_m - j);
+      if (P.HasTremor()) {
+        const int c = o.poles_l + o.zeros_n + 1 + 2 * static_cast<int>(t);
+        Phi(r, c) = std::cos(P.omega * k);
+        Phi(r, c + 1) = std::sin(P.omega * k);
+      }
+      Y(r) = y(k);
+    }
+  }
+  return SolveLinearLs(Phi, Y);
+}
+
+double Cost(const Problem& P, const Eigen::VectorXd& beta, const Eigen::VectorXd& a,
+            const Eigen::VectorXd& b, const Eigen::VectorXd& lam) {
+  const TremorOrders& o = P.o;
+  const int k0 = FirstRow(o);
+  double v = 0.0;
+  for (std::size_t t = 0; t < P.data->y.size(); ++t) {
+    const Eigen::VectorXd& y = P.data->y[t];
+    Eigen::VectorXd h(y.size());
+    for (Eigen::Index k = 0; k < y.size(); ++k) h(k) = PolyValue(beta, P.s[t](k));
+    for (Eigen::Index k = k0; k < y.size(); ++k) {
+      double e = y(k) - P.Tremor(lam, t, k);
+      for (int i = 1; i <= o.poles_l; ++i) e += a(i - 1) * y(k - i);
+      for (int j = 0; j <= o.zeros_n; ++j) e -= b(j) * h(k - o.delay_m - j);
+      v += e * e;
+    }
+  }
+  return v;
+}
+
+struct RunResult {
+  Eigen::VectorXd beta, a, b, lam, beta_ci, l_ci;
+  int iterations = 0;
+  std::vector<double> history;
+  double cost = 0.0;
+};
+
+/// Algorithm 1 of paper 001 (§3.3.4).
+RunResult Algorithm1(const Problem& P, const TremorOptions& opt) {
+  const TremorOrders& o = P.o;
+  RunResult rr;
+  rr.a = Eigen::VectorXd::Zero(o.poles_l);
+  rr.b = Eigen::VectorXd::Constant(o.zeros_n + 1, 1.0 / (o.zeros_n + 1));
+  rr.lam = Eigen::VectorXd::Zero(P.TremorCols());
+  double scale = 0.0;
+  for (const auto& y : P.data->y) scale += y.squaredNorm();
+  double v_prev = std::numeric_limits<double>::infinity();
+  for (rr.iterations = 1; rr.iterations <= opt.max_iterations; ++rr.iterations) {
+    rr.beta = NonlinearStep(P, rr.a, rr.b, rr.lam).theta;
+    const Eigen::VectorXd th = LinearStep(P, rr.beta).theta;
+    rr.a = th.head(o.poles_l);
+    rr.b = th.segment(o.poles_l, o.zeros_n + 1);
+    rr.lam = th.tail(P.TremorCols());
+    const double gain = rr.b.sum() / (1.0 + rr.a.sum());
+    if (std::isfinite(gain) && gain > 1e-300) {
+      rr.b /= gain;
+      rr.beta *= gain;
+    }
+    rr.cost = Cost(P, rr.beta, rr.a, rr.b, rr.lam);
+    rr.history.push_back(rr.cost);
+    if (std::abs(rr.cost - v_prev) < opt.tolerance_eps * scale) break;
+    v_prev = rr.cost;
+  }
+  rr.iterations = std::min(rr.iterations, opt.max_iterations);
+  rr.beta_ci = NonlinearStep(P, rr.a, rr.b, rr.lam).ci95_half_width;
+  rr.l_ci = LinearStep(P, rr.beta).ci95_half_width;
+  return rr;
+}
+
+/// One-step residual of the tremor-free fit, summed periodogram peak in the band (Hz).
+double PeriodogramPeak(const Problem& P, const RunResult& rr, double f_lo, double f_hi) {
+  const double T = P.data->sample_period_s;
+  Eigen::Index n_max = 0;
+  std::vector<Eigen::VectorXd> res;
+  const int k0 = FirstRow(P.o);
+  for (std::size_t t = 0; t < P.data->y.size(); ++t) {
+    const Eigen::VectorXd& y = P.data->y[t];
+    Eigen::VectorXd e = Eigen::VectorXd::Zero(y.size());
+    for (Eigen::Index k = k0; k < y.size(); ++k) {
+      double v = y(k);
+      for (int i = 1; i <= P.o.poles_l; ++i) v += rr.a(i - 1) * y(k - i);
+      for (int j = 0; j <= P.o.zeros_n; ++j) {
+        v -= rr.b(j) * PolyValue(rr.beta, P.s[t](k - P.o.delay_m - j));
+      }
+      e(k) = v;
+    }
+    res.push_back(e);
+    n_max = std::max(n_max, y.size());
+  }
+  const double df = 1.0 / (4.0 * static_cast<double>(n_max) * T);
+  double best_f = f_lo, best_p = -1.0;
+  for (double f = f_lo; f <= f_hi; f += df) {
+    const double w = 2.0 * kPi * f * T;
+    double p = 0.0;
+    for (const auto& e : res) {
+      std::complex<double> acc = 0.0;
+      for (Eigen::Index k = 0; k < e.size(); ++k) acc += e(k) * std::polar(1.0, -w * k);
+      p += std::norm(acc);
+    }
+    if (p > best_p) {
+      best_p = p;
+      best_f = f;
+    }
+  }
+  return best_f;
+}
+
+Problem MakeProblem(const TremorData& data, const TremorOptions& opt, double u_scale) {
+  Problem P;
+  P.data = &data;
+  P.o = opt.orders;
+  P.u_scale = u_scale;
+  P.omega = -1.0;
+  P.constraint_points = std::max(2, opt.constraint_points);
+  P.s_min = INFINITY;
+  P.s_max = -INFINITY;
+  for (const auto& u : data.u_us) {
+    P.s.push_back(u / u_scale);
+    P.s_min = std::min(P.s_min, P.s.back().minCoeff());
+    P.s_max = std::max(P.s_max, P.s.back().maxCoeff());
+  }
+  return P;
+}
+
+}  // namespace
+
+Eigen::Vector2d CoactivationSplit(const Coactivation& c, double u_us) {
+  return u_us >= 0.0 ? Eigen::Vector2d(u_us + c.c_agonist_us, c.c_antagonist_us)
+                     : Eigen::Vector2d(c.c_agonist_us, c.c_antagonist_us - u_us);
+}
+
+double CoactivationCombine(const Coactivation& c, double u_agonist_us, double u_antagonist_us) {
+  return (u_agonist_us - c.c_agonist_us) - (u_antagonist_us - c.c_antagonist_us);
+}
+
+double TremorRecruitment(const TremorModel& m, double u_us) {
+  return PolyValue(m.beta, u_us / m.u_scale_us);
+}
+
+double TremorRecruitmentSlope(const TremorModel& m, double u_us) {
+  return SlopeRow(static_cast<int>(m.beta.size()) - 1, u_us / m.u_scale_us).dot(m.beta) /
+         m.u_scale_us;
+}
+
+double MinimumRecruitmentSlope(const Eigen::VectorXd& beta, double s_min, double s_max) {
+  return SlopeMinimum(beta, s_min, s_max).first;
+}
+
+Eigen::VectorXd SimulateTremorArx(const TremorModel& m, const Eigen::VectorXd& u_us,
+                                  const Eigen::VectorXd& y_init) {
+  const TremorOrders& o = m.orders;
+  const int k0 = FirstRow(o);
+  const Eigen::Index N = u_us.size();
+  if (y_init.size() < std::min<Eigen::Index>(k0, N)) {
+    throw std::invalid_argument("SimulateTremorArx: need the first max(l_P, m_P + n_P) samples");
+  }
+  Eigen::VectorXd h(N), y(N);
+  for (Eigen::Index k = 0; k < N; ++k) h(k) = TremorRecruitment(m, u_us(k));
+  const double w = 2.0 * kPi * m.tremor_hz * m.sample_period_s;
+  for (Eigen::Index k = 0; k < N; ++k) {
+    if (k < k0) {
+      y(k) = y_init(k);
+      continue;
+    }
+    double v = m.lambda1 * std::cos(w * k) + m.lambda2 * std::sin(w * k);
+    for (int i = 1; i <= o.poles_l; ++i) v -= m.a(i - 1) * y(k - i);
+    for (int j = 0; j <= o.zeros_n; ++j) v += m.b(j) * h(k - o.delay_m - j);
+    y(k) = v;
+  }
+  return y;
+}
+
+TremorFit FitTremorArx(const TremorData& data, const TremorOptions& options, double u_scale_us) {
+  const auto t0 = Clock::now();
+  const TremorOrders& o = options.orders;
+  if (o.poles_l < 1 || o.zeros_n < 0 || o.delay_m < 0 || o.poly_degree < 1) {
+    throw std::invalid_argument("tremor orders: need l_P >= 1, n_P >= 0, m_P >= 0, degree >= 1");
+  }
+  if (!(u_scale_us > 0.0) || data.y.empty()) {
+    throw std::invalid_argument("FitTremorArx: need data and u_scale > 0");
+  }
+  Problem P = MakeProblem(data, options, u_scale_us);
+  const double T = data.sample_period_s;
+  double f_hz = options.tremor_hz;
+  if (f_hz <= 0.0) {
+    const RunResult free = Algorithm1(P, options);
+    const double peak = PeriodogramPeak(P, free, options.tremor_min_hz, options.tremor_max_hz);
+    Eigen::Index n_max = 0;
+    for (const auto& y : data.y) n_max = std::max(n_max, y.size());
+    const double bin = 1.0 / (static_cast<double>(n_max) * T);
+    // Golden-section refinement of V_N over one periodogram bin either side.
+    double lo = std::max(1e-6, peak - bin), hi = peak + bin;
+    const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+    const auto cost_at = [&](double f) {
+      Problem Q = P;
+      Q.omega = 2.0 * kPi * f * T;
+      return Algorithm1(Q, options).cost;
+    };
+    double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
+    double c1 = cost_at(x1), c2 = cost_at(x2);
+    while (hi - lo > 1e-10 * peak) {
+      if (c1 < c2) {
+        hi = x2;
+        x2 = x1;
+        c2 = c1;
+        x1 = hi - g * (hi - lo);
+        c1 = cost_at(x1);
+      } else {
+        lo = x1;
+        x1 = x2;
+        c1 = c2;
+        x2 = lo + g * (hi - lo);
+        c2 = cost_at(x2);
+      }
+    }
+    f_hz = 0.5 * (lo + hi);
+  }
+  P.omega = 2.0 * kPi * f_hz * T;
+  const RunResult rr = Algorithm1(P, options);
+  TremorFit fit;
+  TremorModel& m = fit.model;
+  m.orders = o;
+  m.u_scale_us = u_scale_us;
+  m.beta = rr.beta;
+  m.a = rr.a;
+  m.b = rr.b;
+  m.lambda1 = rr.lam(0);
+  m.lambda2 = rr.lam(1);
+  m.tremor_hz = f_hz;
+  m.sample_period_s = T;
+  m.s_min = P.s_min;
+  m.s_max = P.s_max;
+  fit.iterations = rr.iterations;
+  fit.cost_history = rr.history;
+  fit.beta_ci95 = rr.beta_ci;
+  fit.theta_l_ci95 = rr.l_ci;
+  fit.wall_s = Seconds(t0);
+  return fit;
+}
+
+namespace {
+
+double SimBestFit(const TremorModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y) {
+  const Eigen::VectorXd yh = SimulateTremorArx(m, u, y);
+  return BestFitPercent(std::vector<double>(y.data(), y.data() + y.size()),
+                        std::vector<double>(yh.data(), yh.data() + yh.size()));
+}
+
+}  // namespace
+
+std::vector<TremorSweepEntry> SweepTremorOrders(const TremorData& data, const TremorOptions& base,
+                                                const std::vector<int>& poles,
+                                                const std::vector<int>& zeros,
+                                                const std::vector<int>& delays, double u_scale_us) {
+  std::vector<TremorSweepEntry> out;
+  const std::size_t T = data.y.size();
+  for (int l : poles) {
+    for (int n : zeros) {
+      for (int d : delays) {
+        TremorOptions opt = base;
+        opt.orders.poles_l = l;
+        opt.orders.zeros_n = n;
+        opt.orders.delay_m = d;
+        TremorSweepEntry e;
+        e.orders = opt.orders;
+        for (std::size_t i = 0; i < T; ++i) {
+          TremorData one;
+          one.sample_period_s = data.sample_period_s;
+          one.u_us = {data.u_us[i]};
+          one.y = {data.y[i]};
+          const TremorFit fit = FitTremorArx(one, opt, u_scale_us);
+          const std::size_t j = (i + 1) % T;
+          e.validation_best_fit += SimBestFit(fit.model, data.u_us[i], data.y[i]) / T;
+          e.cross_validation_best_fit += SimBestFit(fit.model, data.u_us[j], data.y[j]) / T;
+        }
+        out.push_back(e);
+      }
+    }
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// CLI adapter.
+namespace {
+
+struct TremorColumns {
+  std::string agonist, antagonist, output;
+};
+
+TremorColumns PickTremorColumns(const Trial& t, const std::string& label) {
+  const auto us = t.NamesWithPrefix("u.");
+  const auto qs = t.NamesWithPrefix("q.");
+  if (us.size() != 2) {
+    throw std::runtime_error(label +
+                             ": tremor-arx needs exactly two u.* columns (agonist, "
+                             "antagonist), found " +
+                             std::to_string(us.size()));
+  }
+  if (qs.size() != 1) {
+    throw std::runtime_error(label + ": tremor-arx needs exactly one q.* column, found " +
+                             std::to_string(qs.size()));
+  }
+  return {us[0], us[1], qs[0]};
+}
+
+MethodResult RunTremor(const std::vector<Trial>& train, const std::vector<Trial>& test,
+                       const ProgressFn& progress) {
+  if (train.empty()) throw std::runtime_error("--train: no trials");
+  const TremorColumns cols = PickTremorColumns(train[0], "train trial 0");
+  MetadataOptions md(train[0].metadata, "tremor");
+  TremorOptions opt;
+  const bool orders_given = train[0].metadata.count("tremor.poles_l") ||
+                            train[0].metadata.count("tremor.zeros_n") ||
+                            train[0].metadata.count("tremor.delay_m");
+  opt.orders.poles_l = md.Int("poles_l", opt.orders.poles_l, 1, 200);
+  opt.orders.zeros_n = md.Int("zeros_n", opt.orders.zeros_n, 0, 200);
+  opt.orders.delay_m = md.Int("delay_m", opt.orders.delay_m, 0, 200);
+  opt.orders.poly_degree = md.Int("poly_degree", opt.orders.poly_degree, 1, 9);
+  opt.tremor_hz = md.Real("hz", 0.0, 0.0, 1e3);
+  opt.tolerance_eps = md.Real("eps", opt.tolerance_eps, 1e-300, 1.0);
+  const int sweep = md.Int("sweep", orders_given ? 0 : 1, 0, 1);
+  // Co-activation levels: per-channel minimum over the training trials unless given.
+  Coactivation c{INFINITY, INFINITY};
+  std::vector<Eigen::MatrixXd> raw;
+  for (std::size_t t = 0; t < train.size(); ++t) {
+    const std::string label = "train trial " + std::to_string(t);
+    RequireSamples(train[t], 50, label, "ARX orders");
+    raw.push_back(RequireColumns(train[t], {cols.agonist, cols.antagonist, cols.output}, label));
+    c.c_agonist_us = std::min(c.c_agonist_us, raw.back().col(0).minCoeff());
+    c.c_antagonist_us = std::min(c.c_antagonist_us, raw.back().col(1).minCoeff());
+  }
+  c.c_agonist_us = md.Real("c_agonist_us", c.c_agonist_us, 0.0, 300.0);
+  c.c_antagonist_us = md.Real("c_antagonist_us", c.c_antagonist_us, 0.0, 300.0);
+  md.RejectUnknown();
+  const auto to_data = [&](const std::vector<Trial>& trials, const std::string& what) {
+    TremorData d;
+    for (std::size_t t = 0; t < trials.size(); ++t) {
+      const std::string label = what + " trial " + std::to_string(t);
+      const double T = UniformSamplePeriod(trials[t], label);
+      if (t == 0) d.sample_period_s = T;
+      if (std::abs(T - d.sample_period_s) > 1e-6 * T) {
+        throw std::runtime_error(label + ": sample period differs from trial 0");
+      }
+      const Eigen::MatrixXd x =
+          RequireColumns(trials[t], {cols.agonist, cols.antagonist, cols.output}, label);
+      Eigen::VectorXd u(x.rows());
+      for (Eigen::Index k = 0; k < x.rows(); ++k) u(k) = CoactivationCombine(c, x(k, 0), x(k, 1));
+      d.u_us.push_back(u);
+      d.y.push_back(x.col(2));
+    }
+    return d;
+  };
+  const TremorData tr = to_data(train, "train");
+  double u_scale = 0.0;
+  for (const auto& u : tr.u_us) u_scale = std::max(u_scale, u.cwiseAbs().maxCoeff());
+  if (!(u_scale > 0.0)) throw std::runtime_error("train: combined input u is identically zero");
+  Json metrics = Json::Object();
+  metrics.Set("method", "tremor-arx");
+  if (opt.tremor_hz <= 0.0) {
+    if (progress) progress(0.05, "tremor frequency");
+    opt.tremor_hz = FitTremorArx(tr, opt, u_scale).model.tremor_hz;
+  }
+  if (sweep && tr.y.size() >= 2) {
+    if (progress) progress(0.2, "order sweep");
+    const auto entries = SweepTremorOrders(tr, opt, {2, 4, 8, 12}, {1, 3, 7}, {1}, u_scale);
+    Json js = Json::Array();
+    double best = -INFINITY;
+    for (const auto& e : entries) {
+      Json j = Json::Object();
+      j.Set("poles_l", e.orders.poles_l);
+      j.Set("zeros_n", e.orders.zeros_n);
+      j.Set("delay_m", e.orders.delay_m);
+      j.Set("validation_best_fit_percent", e.validation_best_fit);
+      j.Set("cross_validation_best_fit_percent", e.cross_validation_best_fit);
+      js.Push(j);
+      if (e.cross_validation_best_fit > best) {
+        best = e.cross_validation_best_fit;
+        opt.orders = e.orders;
+      }
+    }
+    metrics.Set("order_sweep", js);
+  }
+  if (progress) progress(0.8, "final fit");
+  const TremorFit fit = FitTremorArx(tr, opt, u_scale);
+  const TremorModel& m = fit.model;
+  std::string y = "# fesim identify: tremor-arx (paper 001_50576a960b4d02ae eq. 5-21; P(1) = 1)\n";
+  y += "method: tremor-arx\ninputs: {agonist: " + cols.agonist +
+       ", antagonist: " + cols.antagonist + "}\noutput: " + cols.output + "\n";
+  y += "orders: {poles_l: " + std::to_string(m.orders.poles_l) +
+       ", zeros_n: " + std::to_string(m.orders.zeros_n) +
+       ", delay_m: " + std::to_string(m.orders.delay_m) +
+       ", poly_degree: " + std::to_string(m.orders.poly_degree) + "}\n";
+  y += YamlParam("c_agonist", c.c_agonist_us, "us", NAN, 0);
+  y += YamlParam("c_antagonist", c.c_antagonist_us, "us", NAN, 0);
+  y += YamlParam("u_scale", m.u_scale_us, "us", NAN, 0);
+  y += YamlParam("tremor_frequency", m.tremor_hz, "Hz", NAN, 0);
+  y += "# h(u) = sum_k beta_k (u/u_scale)^k; ci95 conditional on the other block\nbeta:\n";
+  for (Eigen::Index k = 0; k < m.beta.size(); ++k) {
+    y += YamlParam("beta" + std::to_string(k), m.beta(k), "rad", fit.beta_ci95(k), 2);
+  }
+  y += "a:\n";
+  for (Eigen::Index i = 0; i < m.a.size(); ++i) {
+    y += YamlParam("a" + std::to_string(i + 1), m.a(i), "1", fit.theta_l_ci95(i), 2);
+  }
+  y += "b:\n";
+  for (Eigen::Index j = 0; j < m.b.size(); ++j) {
+    y += YamlParam("b" + std::to_string(j), m.b(j), "1", fit.theta_l_ci95(m.a.size() + j), 2);
+  }
+  const Eigen::Index li = m.a.size() + m.b.size();
+  y += "# tremor amplitudes of training trial 0 (phase from its first sample)\n";
+  y += YamlParam("lambda1", m.lambda1, "rad", fit.theta_l_ci95(li), 0);
+  y += YamlParam("lambda2", m.lambda2, "rad", fit.theta_l_ci95(li + 1), 0);
+  MethodResult result;
+  result.model_yaml = y;
+  const bool has_test = !test.empty();
+  if (has_test) PickTremorColumns(test[0], "test trial 0");
+  const TremorData ev = has_test ? to_data(test, "test") : tr;
+  const std::vector<Trial>& eval = has_test ? test : train;
+  Json fits = Json::Array();
+  for (std::size_t t = 0; t < ev.y.size(); ++t) {
+    const Eigen::VectorXd yh = SimulateTremorArx(m, ev.u_us[t], ev.y[t]);
+    const std::vector<double> yv(ev.y[t].data(), ev.y[t].data() + ev.y[t].size());
+    std::vector<double> yhv(yh.data(), yh.data() + yh.size());
+    Json f = Json::Object();
+    f.Set("trial", static_cast<int>(t));
+    f.Set("best_fit_percent", BestFitPercent(yv, yhv));
+    f.Set("normalised_error", NormalisedError(yv, yhv));
+    f.Set("rms_rad", Rms(yv, yhv));
+    fits.Push(f);
+    Trial pred;
+    pred.metadata["source"] = "fesim identify --method tremor-arx";
+    pred.time = eval[t].time;
+    pred.AddColumn(cols.agonist, eval[t].Column(cols.agonist));
+    pred.AddColumn(cols.antagonist, eval[t].Column(cols.antagonist));
+    pred.AddColumn(cols.output, std::move(yhv));
+    result.predictions.push_back(std::move(pred));
+  }
+  metrics.Set(has_test ? "test" : "train", fits);
+  metrics.Set("prediction", "simulation from the first max(l_P, m_P + n_P) measured samples");
+  metrics.Set("iterations", fit.iterations);
+  metrics.Set("cost_history", fit.cost_history);
+  metrics.Set("wall_s", fit.wall_s);
+  metrics.Set("min_recruitment_slope_rad_per_us",
+              MinimumRecruitmentSlope(m.beta, m.s_min, m.s_max) / m.u_scale_us);
+  result.metrics = metrics;
+  if (progress) progress(1.0, "done");
+  return result;
+}
+
+}  // namespace
+
+MethodEntry TremorArxMethod() {
+  return {"tremor-arx",
+          "tremor wrist model: co-activation, monotone polynomial IRC, ARX + tremor, paper 001",
+          RunTremor};
+}
+
+}  // namespace fesim::identification

@@ -1,0 +1,153 @@
+#include "identification/hammerstein_mimo.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "identification/metrics.h"
+
+namespace fesim::identification {
+namespace {
+
+constexpr double kRecoveryTol = 1e-3;    // relative error, noiseless data
+constexpr double kNoiseStd_rad = 0.005;  // ≈ 0.3°, tracker-like angle noise
+constexpr double kNoisyTol = 0.05;       // relative error of D, Ψ, Θ under that noise
+constexpr double kSamplePeriod = 0.025;  // s (40 Hz)
+constexpr double kStep_s = 5.0;          // paper 000 §5.1
+constexpr double kStepDC_tol = 1e-12;
+// Transient left 5 s after a step (Ω = 4 rad/s, μ ≤ 0.3 s): ≈ (1 + Ωt) e^{−Ωt}·|Δz| ~ 1e-6 rad.
+constexpr double kSettledTol_rad = 1e-5;
+constexpr unsigned kSeed = 4242;
+
+HammersteinMimoParams Planted() {
+  HammersteinMimoParams p;
+  CutoffParams a, b;
+  a.u_db_us = Eigen::Vector2d(60.0, 200.0);
+  a.u_sat_us = 180.0;
+  b.u_db_us = Eigen::Vector2d(220.0, 80.0);
+  b.u_sat_us = 400.0;
+  p.psi = {a, b};
+  p.d_rad.resize(3, 2);
+  p.d_rad << 0.8, -0.5, 0.3, 0.6, -0.4, 0.9;
+  p.omega_rad_s = 4.0;
+  p.mu_s = Eigen::Vector3d(0.15, 0.3, 0.2);
+  p.rest_rad = Eigen::Vector3d(0.1, 0.5, 0.3);
+  return p;
+}
+
+// Step grid of paper 000 §5.1 / Fig. 6: 50 µs spacing over {u1 + u2 ≤ 300}, serpentine order
+// starting at rest; `transpose` swaps the roles of the inputs (the paper's second traversal).
+Eigen::MatrixXd StepGrid(bool transpose) {
+  std::vector<Eigen::Vector2d> pts;
+  for (int i = 0; i <= 6; ++i) {
+    for (int jj = 0; jj <= 6 - i; ++jj) {
+      const int j = (i % 2 == 0) ? jj : 6 - i - jj;
+      pts.emplace_back(transpose ? 50.0 * j : 50.0 * i, transpose ? 50.0 * i : 50.0 * j);
+    }
+  }
+  const int per = static_cast<int>(std::lround(kStep_s / kSamplePeriod));
+  Eigen::MatrixXd u(static_cast<Eigen::Index>(pts.size()) * per, 2);
+  for (std::size_t s = 0; s < pts.size(); ++s) {
+    u.middleRows(static_cast<Eigen::Index>(s) * per, per).rowwise() = pts[s].transpose();
+  }
+  return u;
+}
+
+std::vector<MimoTrialData> Trials(const HammersteinMimoParams& p, double noise, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> e(0.0, noise > 0 ? noise : 1.0);
+  std::vector<MimoTrialData> out;
+  for (bool tr : {false, true}) {
+    MimoTrialData d;
+    d.sample_period_s = kSamplePeriod;
+    d.u_us = StepGrid(tr);
+    d.y_rad = SimulateHammersteinMimo(p, d.u_us, kSamplePeriod);
+    if (noise > 0) {
+      for (Eigen::Index k = 0; k < d.y_rad.size(); ++k) d.y_rad.data()[k] += e(rng);
+    }
+    out.push_back(d);
+  }
+  return out;
+}
+
+double Rel(double a, double b) { return std::abs(a - b) / std::abs(b); }
+
+void ExpectClose(const HammersteinMimoParams& got, const HammersteinMimoParams& want, double tol) {
+  ASSERT_EQ(got.psi.size(), want.psi.size());
+  for (std::size_t j = 0; j < want.psi.size(); ++j) {
+    for (int k = 0; k < 2; ++k) {
+      EXPECT_LT(Rel(got.psi[j].u_db_us(k), want.psi[j].u_db_us(k)), tol) << "u_db " << j << k;
+    }
+    EXPECT_LT(Rel(got.psi[j].u_sat_us, want.psi[j].u_sat_us), tol) << "u_sat " << j;
+  }
+  EXPECT_LT((got.d_rad - want.d_rad).norm() / want.d_rad.norm(), tol);
+  EXPECT_LT(Rel(got.omega_rad_s, want.omega_rad_s), tol);
+  for (int i = 0; i < 3; ++i) EXPECT_LT(Rel(got.mu_s(i), want.mu_s(i)), tol) << "mu " << i;
+}
+
+TEST(HammersteinMimo, JointDynamicsHaveUnitDcGainAndCriticallyDampedStep) {
+  const double T = 0.01, omega = 3.0;
+  const JointFilter f = DiscretiseJointDynamics(omega, 0.0, T);
+  Eigen::Vector3d x = Eigen::Vector3d::Zero();
+  for (int k = 1; k <= 200; ++k) {
+    x = f.Ad * x + f.Bd * 1.0;
+    const double t = k * T;
+    EXPECT_NEAR(f.C * x, 1.0 - (1.0 + omega * t) * std::exp(-omega * t), 1e-12);
+  }
+  const JointFilter g = DiscretiseJointDynamics(omega, 0.4, T);
+  const Eigen::Vector3d xs = (Eigen::Matrix3d::Identity() - g.Ad).lu().solve(g.Bd);
+  EXPECT_NEAR(g.C * xs, 1.0, kStepDC_tol);  // H̃(0) = 1 (eq. 34)
+}
+
+TEST(HammersteinMimo, SteadyStateSetIsTheEndOfEachStep) {
+  const auto trials = Trials(Planted(), 0.0, kSeed);
+  const SteadyStateSet set = ExtractSteadyState({trials[0]}, 1.0, 0.2);
+  ASSERT_EQ(set.u_us.rows(), 28);  // grid points with u1 + u2 ≤ 300 at 50 µs
+  for (Eigen::Index s = 0; s < set.u_us.rows(); ++s) {
+    const Eigen::Vector3d want =
+        Planted().rest_rad - StaticDeflection(Planted(), set.u_us.row(s).transpose());
+    EXPECT_LT((set.y_rad.row(s).transpose() - want).norm(), kSettledTol_rad);
+  }
+}
+
+TEST(HammersteinMimo, TwoStepFitRecoversPlantedParametersNoiseless) {
+  const HammersteinMimoParams truth = Planted();
+  const auto fit = FitHammersteinMimo(Trials(truth, 0.0, kSeed), HammersteinMimoOptions{});
+  ExpectClose(fit.params, truth, kRecoveryTol);
+  EXPECT_LT((fit.params.rest_rad - truth.rest_rad).norm(), 1e-9);
+  EXPECT_EQ(fit.static_step_wall_s.size(), 20u);
+}
+
+TEST(HammersteinMimo, StaysCloseUnderAngleNoise) {
+  const HammersteinMimoParams truth = Planted();
+  const auto train = Trials(truth, kNoiseStd_rad, kSeed + 1);
+  const auto fit = FitHammersteinMimo(train, HammersteinMimoOptions{});
+  ExpectClose(fit.params, truth, kNoisyTol);
+  // Simulation Best Fit on a fresh noisy trial stays near the noise floor.
+  const auto test = Trials(truth, kNoiseStd_rad, kSeed + 2);
+  const Eigen::MatrixXd yhat = SimulateHammersteinMimo(fit.params, test[0].u_us, kSamplePeriod);
+  for (int i = 0; i < 3; ++i) {
+    const std::vector<double> y(test[0].y_rad.col(i).data(),
+                                test[0].y_rad.col(i).data() + test[0].y_rad.rows());
+    const std::vector<double> yh(yhat.col(i).data(), yhat.col(i).data() + yhat.rows());
+    EXPECT_GT(BestFitPercent(y, yh), 90.0) << "joint " << i;
+  }
+}
+
+TEST(HammersteinMimo, MethodRejectsMissingColumnsAndNaN) {
+  Trial t;
+  for (int k = 0; k < 50; ++k) t.time.push_back(0.025 * k);
+  t.AddColumn("u.ch1", std::vector<double>(50, 0.0));
+  const auto method = HammersteinMimoMethod();
+  EXPECT_THROW(method.run({t}, {}, nullptr), std::runtime_error);  // no q.*
+  std::vector<double> q(50, 0.1);
+  q[7] = NAN;
+  t.AddColumn("q.wrist", q);
+  EXPECT_THROW(method.run({t}, {}, nullptr), std::runtime_error);  // NaN
+  t.MutableColumn("q.wrist")[7] = 0.1;
+  EXPECT_THROW(method.run({t}, {}, nullptr), std::runtime_error);  // no steps: too few points
+}
+
+}  // namespace
+}  // namespace fesim::identification
