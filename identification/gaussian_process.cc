@@ -1,5 +1,6 @@
 #include "identification/gaussian_process.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -29,6 +30,18 @@ Eigen::MatrixXd NoisyKernel(const SeArdHyperParams& hp, const Eigen::MatrixXd& X
   Eigen::MatrixXd K = SeArdKernelMatrix(hp, X, X);
   K.diagonal().array() += hp.noise_sd * hp.noise_sd;
   return K;
+}
+
+/// K(Xs, X) v computed in row blocks so that no m × n temporary is formed for large m.
+Eigen::VectorXd ChunkedKernelTimes(const SeArdHyperParams& hp, const Eigen::MatrixXd& Xs,
+                                   const Eigen::MatrixXd& X, const Eigen::VectorXd& v) {
+  constexpr Eigen::Index kBlock = 256;
+  Eigen::VectorXd out(Xs.rows());
+  for (Eigen::Index r = 0; r < Xs.rows(); r += kBlock) {
+    const Eigen::Index m = std::min(kBlock, Xs.rows() - r);
+    out.segment(r, m) = SeArdKernelMatrix(hp, Xs.middleRows(r, m), X) * v;
+  }
+  return out;
 }
 
 }  // namespace
@@ -192,6 +205,10 @@ GpPrediction GaussianProcess::Predict(const Eigen::VectorXd& x) const {
   return p;
 }
 
+Eigen::VectorXd GaussianProcess::PredictMean(const Eigen::MatrixXd& Xs) const {
+  return ChunkedKernelTimes(hp_, Xs, X_, alpha_);
+}
+
 Eigen::VectorXd GaussianProcess::LooResiduals() const {
   const Eigen::MatrixXd Kinv = llt_.solve(Eigen::MatrixXd::Identity(X_.rows(), X_.rows()));
   return alpha_.cwiseQuotient(Kinv.diagonal());
@@ -231,6 +248,11 @@ GpPrediction SemiparametricGp::Predict(const Eigen::VectorXd& x, const Eigen::Ve
   p.variance =
       std::max(hp_.signal_sd * hp_.signal_sd - ks.dot(Kinv_ks), 0.0) + r.dot(a_ldlt_.solve(r));
   return p;
+}
+
+Eigen::VectorXd SemiparametricGp::PredictMean(const Eigen::MatrixXd& Xs,
+                                              const Eigen::MatrixXd& Hs) const {
+  return Hs * beta_bar_ + ChunkedKernelTimes(hp_, Xs, X_, alpha_);
 }
 
 }  // namespace fesim::identification

@@ -79,6 +79,8 @@ class GaussianProcess {
  public:
   GaussianProcess(const SeArdHyperParams& hp, const Eigen::MatrixXd& X, const Eigen::VectorXd& y);
   GpPrediction Predict(const Eigen::VectorXd& x) const;
+  /// Means only at the rows of Xs (m × D), batched: K(Xs, X) K_y⁻¹ y.
+  Eigen::VectorXd PredictMean(const Eigen::MatrixXd& Xs) const;
   /// y_i − μ_{−i}(x_i), closed form.
   Eigen::VectorXd LooResiduals() const;
   /// Predictive variance of y_i when left out, 1/[K_y⁻¹]_ii.
@@ -100,6 +102,8 @@ class SemiparametricGp {
                    const Eigen::MatrixXd& Phi, const Eigen::VectorXd& b, const Eigen::MatrixXd& B);
   /// x: GP input; h: basis h(x) at the same point.
   GpPrediction Predict(const Eigen::VectorXd& x, const Eigen::VectorXd& h) const;
+  /// Means only at the rows of Xs (m × D) with basis rows Hs (m × k), batched (eq. 8).
+  Eigen::VectorXd PredictMean(const Eigen::MatrixXd& Xs, const Eigen::MatrixXd& Hs) const;
   /// β̄, the posterior mean of the basis coefficients.
   const Eigen::VectorXd& beta_bar() const { return beta_bar_; }
 

@@ -237,14 +237,33 @@ InvDynModel FitInvDyn(InvDynKind kind, const std::vector<std::string>& joints,
   return m;
 }
 
-InvDynPrediction PredictInvDyn(const InvDynModel& model, const Eigen::MatrixXd& X) {
+InvDynPrediction PredictInvDyn(const InvDynModel& model, const Eigen::MatrixXd& X,
+                               bool with_variance) {
   const std::size_t J = model.joints.size();
   if (X.cols() != static_cast<Eigen::Index>(3 * J)) {
     throw std::invalid_argument("inverse dynamics: X must have 3 columns per joint");
   }
   InvDynPrediction p;
   p.mean.resize(X.rows(), static_cast<Eigen::Index>(J));
-  p.variance.resize(X.rows(), static_cast<Eigen::Index>(J));
+  p.variance = Eigen::MatrixXd::Zero(X.rows(), static_cast<Eigen::Index>(J));
+  if (!with_variance) {
+    for (std::size_t j = 0; j < J; ++j) {
+      const auto jj = static_cast<Eigen::Index>(j);
+      const Eigen::MatrixXd Phi = BasisMatrix(X, j, J);
+      switch (model.kind) {
+        case InvDynKind::kParametric:
+          p.mean.col(jj) = Phi * model.parametric[j].beta;
+          break;
+        case InvDynKind::kGp:
+          p.mean.col(jj) = model.gp[j]->PredictMean(X);
+          break;
+        case InvDynKind::kSemiparametric:
+          p.mean.col(jj) = model.spgp[j]->PredictMean(X, Phi);
+          break;
+      }
+    }
+    return p;
+  }
   for (Eigen::Index i = 0; i < X.rows(); ++i) {
     const Eigen::VectorXd x = X.row(i).transpose();
     for (std::size_t j = 0; j < J; ++j) {
@@ -283,8 +302,8 @@ InvDynCv LeaveOneTrajectoryOut(InvDynKind kind, const ReachingData& data,
     const Eigen::MatrixXd Xtr = Rows(data.X, tr), Ttr = Rows(data.tau, tr);
     const Eigen::MatrixXd Xte = Rows(data.X, te), Tte = Rows(data.tau, te);
     const InvDynModel m = FitInvDyn(kind, data.joints, Xtr, Ttr, options, hyper);
-    const auto pte = PredictInvDyn(m, Xte);
-    const auto ptr = PredictInvDyn(m, Xtr);
+    const auto pte = PredictInvDyn(m, Xte, false);
+    const auto ptr = PredictInvDyn(m, Xtr, false);
     cv.folds.push_back(data.group_names[static_cast<std::size_t>(g)]);
     for (std::size_t j = 0; j < J; ++j) {
       const auto jj = static_cast<Eigen::Index>(j);

@@ -109,7 +109,9 @@ InvDynModel FitInvDyn(InvDynKind kind, const std::vector<std::string>& joints,
 struct InvDynPrediction {
   Eigen::MatrixXd mean, variance;
 };
-InvDynPrediction PredictInvDyn(const InvDynModel& model, const Eigen::MatrixXd& X);
+/// With `with_variance` false only the means are computed (variance left zero), batched.
+InvDynPrediction PredictInvDyn(const InvDynModel& model, const Eigen::MatrixXd& X,
+                               bool with_variance = true);
 
 /// Leave-one-trajectory-out CV: RMS error per fold and joint, normalised by the joint's maximum
 /// |τ| over the whole data set (paper 004 §II-C, Fig. 5).

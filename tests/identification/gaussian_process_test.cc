@@ -147,6 +147,12 @@ TEST(GaussianProcess, PredictionEqualsEquationSix) {
   const auto p = gp.Predict(x);
   EXPECT_NEAR(p.mean, ks.dot(Ky.inverse() * d.y), 1e-9);
   EXPECT_NEAR(p.variance, hp.signal_sd * hp.signal_sd - ks.dot(Ky.inverse() * ks), 1e-9);
+  // Batched means equal the pointwise ones.
+  const Data probe = MakeData(9, 0.0, kSeed + 9);
+  const Eigen::VectorXd batch = gp.PredictMean(probe.X);
+  for (int i = 0; i < 9; ++i) {
+    EXPECT_NEAR(batch(i), gp.Predict(probe.X.row(i).transpose()).mean, kExactTol);
+  }
 }
 
 class Semiparametric : public ::testing::Test {
@@ -207,6 +213,15 @@ TEST_F(Semiparametric, PosteriorBetaEqualsFormula) {
   const Eigen::Vector2d beta = (B_.inverse() + phi_.transpose() * Kinv * phi_).inverse() *
                                (phi_.transpose() * Kinv * d_.y + B_.inverse() * b_);
   EXPECT_LT((sp.beta_bar() - beta).norm(), 1e-7);
+  const Data probe = MakeData(9, 0.0, kSeed + 9);
+  Eigen::MatrixXd H(9, 2);
+  H.col(0).setOnes();
+  H.col(1) = probe.X.col(0);
+  const Eigen::VectorXd batch = sp.PredictMean(probe.X, H);
+  for (int i = 0; i < 9; ++i) {
+    EXPECT_NEAR(batch(i), sp.Predict(probe.X.row(i).transpose(), H.row(i).transpose()).mean,
+                kExactTol);
+  }
 }
 
 }  // namespace

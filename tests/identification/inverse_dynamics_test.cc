@@ -190,6 +190,10 @@ TEST(InverseDynamics, SemiparametricBeatsParametricWhenModelIsIncomplete) {
   const auto sp = FitInvDyn(InvDynKind::kSemiparametric, data.joints, data.X, data.tau, opt);
   const auto cv_par = LeaveOneTrajectoryOut(InvDynKind::kParametric, data, opt, par);
   const auto cv_sp = LeaveOneTrajectoryOut(InvDynKind::kSemiparametric, data, opt, sp);
+  // Batched means (used in CV) equal the pointwise predictions with variance.
+  const auto with_var = PredictInvDyn(sp, data.X.topRows(50), true);
+  const auto means = PredictInvDyn(sp, data.X.topRows(50), false);
+  EXPECT_LT((with_var.mean - means.mean).cwiseAbs().maxCoeff(), kExactTol);
   for (int j = 0; j < 2; ++j) {
     EXPECT_LT(cv_sp.nrmse.col(j).mean(), cv_par.nrmse.col(j).mean()) << "joint " << j;
     EXPECT_LT(cv_sp.training_nrmse(j), cv_par.training_nrmse(j)) << "joint " << j;
