@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 
 #include "identification/metrics.h"
 
@@ -149,6 +150,37 @@ double MeanFrom(const std::vector<double>& time, const std::vector<double>& valu
   return n == 0 ? std::numeric_limits<double>::quiet_NaN() : sum / static_cast<double>(n);
 }
 
+void ApplyEkfMetadata(const Trial& trial, ShoulderEkfConfig* config) {
+  auto& t = config->tuning;
+  auto& p = config->initial;
+  const std::vector<std::pair<std::string, double*>> fields = {
+      {"q_theta", &t.q_theta},   {"q_omega", &t.q_omega},   {"q_k_ant", &t.q_k_ant},
+      {"q_k_post", &t.q_k_post}, {"q_r_m", &t.q_r_m},       {"q_k_m", &t.q_k_m},
+      {"r_theta", &t.r_theta},   {"r_omega", &t.r_omega},   {"p0_theta", &t.p0_theta},
+      {"p0_omega", &t.p0_omega}, {"p0_param", &t.p0_param}, {"k_ant", &p.k_ant},
+      {"k_post", &p.k_post},     {"r_m", &p.r_m},           {"k_m", &p.k_m}};
+  for (const auto& [key, value] : trial.metadata) {
+    if (key.rfind("ekf.", 0) != 0) continue;
+    const std::string field = key.substr(4);
+    double* target = nullptr;
+    for (const auto& f : fields) {
+      if (f.first == field) target = f.second;
+    }
+    if (target == nullptr) throw std::runtime_error("metadata " + key + ": unknown EKF setting");
+    double v;
+    try {
+      v = std::stod(value);
+    } catch (const std::exception&) {
+      throw std::runtime_error("metadata " + key + ": not a number: " + value);
+    }
+    if (!(v >= 0.0)) throw std::runtime_error("metadata " + key + ": must be >= 0");
+    *target = v;
+  }
+  if (!(t.r_theta > 0.0) || !(t.r_omega > 0.0)) {
+    throw std::runtime_error("metadata ekf.r_theta / ekf.r_omega: must be > 0");
+  }
+}
+
 MethodResult RunShoulderEkfMethod(const std::vector<Trial>& train, const std::vector<Trial>& test,
                                   const ProgressFn& progress) {
   if (train.empty()) throw std::runtime_error("shoulder-ekf: no training trials");
@@ -156,6 +188,7 @@ MethodResult RunShoulderEkfMethod(const std::vector<Trial>& train, const std::ve
   for (const auto& t : train) data.push_back(ExtractShoulderData(t));
   ShoulderEkfConfig config;
   ThetaMaxFromMetadata(train[0], &config.theta_max_ant, &config.theta_max_post);
+  ApplyEkfMetadata(train[0], &config);
   const double known_c = KnownFrictionFromMetadata(train[0]);
 
   // Offline model-2 fit on the same data: the reference of paper 003 Table IV, and c when the

@@ -24,7 +24,9 @@
 // samples with a NaN measurement skip the measurement update.
 //
 // Trial conventions: as shoulder_models.h (a.* or u.* activations, q.<joint>, optional qd.<joint>).
-// Optional metadata: friction_c (rad/s²; else the offline model-2 fit provides c),
+// Optional metadata: ekf.<tuning field> (e.g. `ekf.r_omega: 1e-4`, `ekf.q_k_ant: 1e-3`, fields and
+// units of ShoulderEkfTuning; `ekf.k_ant` etc. set the initial guess) overrides the defaults, and
+// an unknown ekf.* key is an error; friction_c (rad/s²; else the offline model-2 fit provides c),
 // theta_max_ant / theta_max_post (rad), and ground truth for reports: true_k_ant, true_k_post
 // (s⁻²), true_r_m (s⁻¹), true_k_m (s⁻²).
 #pragma once
@@ -150,6 +152,10 @@ double ConvergenceTime(const std::vector<double>& time, const std::vector<double
 
 /// Mean of `values` over the samples with time ≥ t_from.
 double MeanFrom(const std::vector<double>& time, const std::vector<double>& values, double t_from);
+
+/// Applies the ekf.* metadata overrides of `trial` to `config`; throws std::runtime_error naming
+/// the key when it is unknown, not a number or negative.
+void ApplyEkfMetadata(const Trial& trial, ShoulderEkfConfig* config);
 
 /// `fesim identify --method shoulder-ekf`.
 MethodResult RunShoulderEkfMethod(const std::vector<Trial>& train, const std::vector<Trial>& test,

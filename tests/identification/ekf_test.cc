@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <random>
+#include <string>
 
 namespace fesim::identification {
 namespace {
@@ -223,6 +224,49 @@ TEST(Ekf, NaNMeasurementSkipsUpdate) {
   ekf.Update(NAN, 0.1);
   EXPECT_EQ(ekf.state(), x);
   EXPECT_EQ(ekf.covariance(), P);
+}
+
+TEST(Ekf, TuningFromMetadataIsValidated) {
+  Trial t;
+  t.metadata["ekf.r_omega"] = "2e-4";
+  t.metadata["ekf.k_m"] = "5";
+  ShoulderEkfConfig cfg;
+  ApplyEkfMetadata(t, &cfg);
+  EXPECT_EQ(cfg.tuning.r_omega, 2e-4);
+  EXPECT_EQ(cfg.initial.k_m, 5.0);
+  t.metadata["ekf.r_omgea"] = "1";
+  try {
+    ApplyEkfMetadata(t, &cfg);
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("ekf.r_omgea"), std::string::npos);
+  }
+}
+
+TEST(Ekf, MethodReportsConvergenceAndErrorsAgainstTruthAndOffline) {
+  const Truth truth;
+  const ShoulderData d = OwnModelData(truth, 120.0, 1e9, 1.0, 1e-4, 1e-3, kSeed + 3);
+  Trial t;
+  t.time = d.time;
+  t.AddColumn("a.deltoid_anterior", d.sigma_ant);
+  t.AddColumn("a.deltoid_posterior", d.sigma_post);
+  t.AddColumn("q.shoulder_horizontal", d.theta);
+  t.AddColumn("qd.shoulder_horizontal", d.omega);
+  t.metadata["friction_c"] = std::to_string(truth.c);
+  t.metadata["true_k_ant"] = std::to_string(truth.k_ant);
+  t.metadata["ekf.r_omega"] = "1e-6";
+  const auto r = RunShoulderEkfMethod({t}, {}, nullptr);
+  ASSERT_EQ(r.predictions.size(), 1u);
+  const auto& k_ant = r.predictions[0].Column("param.k_ant");
+  EXPECT_NEAR(k_ant.back(), truth.k_ant, kReconvergedRelTol * truth.k_ant);
+  const std::string m = r.metrics.Dump();
+  EXPECT_NE(m.find("convergence_time_s"), std::string::npos);
+  EXPECT_NE(m.find("error_vs_truth_percent"), std::string::npos);
+  EXPECT_NE(m.find("error_vs_offline_percent"), std::string::npos);
+  // The tuning used is written to the model YAML.
+  EXPECT_NE(r.model_yaml.find("measurement_variance: {theta: 0.01, omega: 1e-06}"),
+            std::string::npos)
+      << r.model_yaml;
 }
 
 TEST(Ekf, ConvergenceTimeIsFirstTimeInsideBandForGood) {
