@@ -349,6 +349,18 @@ MethodResult RunInvDynMethod(InvDynKind kind, const std::vector<Trial>& train,
   if (kind != InvDynKind::kParametric) {
     result.metrics.Set("gp_training_points", static_cast<unsigned long>(model.training_points));
   }
+  if (kind == InvDynKind::kGp) {
+    // Closed-form leave-one-sample-out residuals of each joint's GP on its training points
+    // (Rasmussen & Williams eq. 5.12), RMS normalised by the joint's maximum |τ|.
+    Json loo = Json::Object();
+    for (std::size_t j = 0; j < J; ++j) {
+      const double max_tau = data.tau.col(static_cast<Eigen::Index>(j)).cwiseAbs().maxCoeff();
+      const Eigen::VectorXd r = model.gp[j]->LooResiduals();
+      loo.Set(data.joints[j], std::sqrt(r.squaredNorm() / static_cast<double>(r.size())) /
+                                  std::max(max_tau, 1e-12));
+    }
+    result.metrics.Set("loo_sample_nrmse_closed_form", std::move(loo));
+  }
 
   if (data.group_names.size() >= 2) {
     if (progress) progress(0.3, "leave-one-trajectory-out CV");

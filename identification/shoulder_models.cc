@@ -16,7 +16,9 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 /// Velocities below this are treated as "at rest" when building the equation-error start, rad/s.
 constexpr double kRestVelocity = 1e-3;
 constexpr int kMaxLmIterations = 200;
-constexpr double kLmRelativeTolerance = 1e-14;
+constexpr double kLmMaxLambda = 1e12;
+constexpr double kLmStepTolerance = 1e-9;       // stop when ‖Δp‖ ≤ this × ‖p‖
+constexpr double kLmRelativeTolerance = 1e-8;  // stop when a step gains less than this × cost
 constexpr double kFdRelativeStep = 1e-6;
 constexpr double kZ95 = 1.959963984540054;
 
@@ -318,11 +320,12 @@ ShoulderFit FitShoulderModel(ShoulderModel model, const std::vector<ShoulderData
   double lambda = 1e-3;
   Eigen::MatrixXd J = jacobian(p, r);
   int it = 0;
-  for (; it < kMaxLmIterations; ++it) {
+  bool converged = false;
+  for (; it < kMaxLmIterations && !converged; ++it) {
     const Eigen::MatrixXd A = J.transpose() * J;
     const Eigen::VectorXd g = J.transpose() * r;
     bool accepted = false;
-    while (lambda < 1e12) {
+    while (!accepted && lambda < kLmMaxLambda) {
       Eigen::MatrixXd M = A;
       M.diagonal() += lambda * A.diagonal() + Eigen::VectorXd::Constant(nfree, 1e-15);
       const Eigen::VectorXd step = M.ldlt().solve(-g);
@@ -333,19 +336,25 @@ ShoulderFit FitShoulderModel(ShoulderModel model, const std::vector<ShoulderData
       const double c_new = r_new.squaredNorm();
       if (c_new < cost) {
         const double gain = cost - c_new;
+        const double moved = (trial - p).norm();
         p = trial;
         r = r_new;
         cost = c_new;
         lambda = std::max(lambda / 3.0, 1e-12);
         accepted = true;
-        if (gain <= kLmRelativeTolerance * std::max(cost, 1e-300)) lambda = 1e13;  // converged
-        break;
+        converged = gain <= kLmRelativeTolerance * cost ||
+                    moved <= kLmStepTolerance * (p.norm() + kLmStepTolerance);
+      } else {
+        lambda *= 4.0;
       }
-      lambda *= 4.0;
     }
-    if (!accepted || lambda >= 1e12) break;
+    if (!accepted) {
+      converged = true;  // no descent step left at this resolution: a local minimum
+      break;
+    }
     J = jacobian(p, r);
   }
+  fit.converged = converged;
   fit.iterations = it;
   fit.p = p;
   fit.cost = cost;
@@ -451,6 +460,7 @@ MethodResult RunShoulderModelMethod(ShoulderModel model, const std::vector<Trial
   result.metrics.Set("trials", std::move(per));
   result.metrics.Set("training_cost_sum_J_L_velocity", fit.cost);
   result.metrics.Set("iterations", fit.iterations);
+  result.metrics.Set("converged", fit.converged);
   result.metrics.Set("fit_wall_time_s", wall);
   if (progress) progress(1.0, "done");
   return result;

@@ -138,6 +138,7 @@ struct ShoulderFit {
   bool friction_known = false;  ///< c was given (metadata friction_c), not fitted.
   double cost = 0.0;            ///< Σ J_L(ω) over trials at the optimum.
   int iterations = 0;           ///< Levenberg–Marquardt iterations.
+  bool converged = false;       ///< false when the iteration limit stopped the fit.
 };
 
 /// Offline nonlinear least squares on angular velocity (paper 003 §III-A). `initial` (optional,
