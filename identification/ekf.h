@@ -157,7 +157,11 @@ double MeanFrom(const std::vector<double>& time, const std::vector<double>& valu
 /// the key when it is unknown, not a number or negative.
 void ApplyEkfMetadata(const Trial& trial, ShoulderEkfConfig* config);
 
-/// `fesim identify --method shoulder-ekf`.
+/// `fesim identify --method shoulder-ekf`: offline model-2 fit of `train` (reference and c),
+/// then the filter on each trial of `test` (or `train`). Predictions are the filtered θ, ω
+/// (q.<joint>, qd.<joint>) and the parameter tracks (param.k_ant, param.k_post, param.r_m,
+/// param.k_m); metrics give J_L, per-parameter convergence time (±5 % band), mean after
+/// convergence and % error against the offline fit and against metadata true_* values.
 MethodResult RunShoulderEkfMethod(const std::vector<Trial>& train, const std::vector<Trial>& test,
                                   const ProgressFn& progress);
 /// Registry entry for `fesim identify --method shoulder-ekf`.

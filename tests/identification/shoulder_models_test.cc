@@ -141,6 +141,36 @@ TEST(ShoulderModels, Model1FitRecoversPlantedParametersWithKnownFriction) {
   EXPECT_EQ(fit.p(8), truth.c);
 }
 
+TEST(ShoulderModels, MethodPredictsHeldOutTrialBySimulation) {
+  ShoulderModel2Params truth;
+  truth.k_ant = 1.9;
+  truth.k_post = 2.33;
+  truth.k_m = 6.56;
+  truth.r_m = 1.3;
+  truth.c = 0.1;
+  auto to_trial = [](const ShoulderData& d) {
+    Trial t;
+    t.time = d.time;
+    t.AddColumn("a.deltoid_posterior", d.sigma_post);  // order must not matter
+    t.AddColumn("a.deltoid_anterior", d.sigma_ant);
+    t.AddColumn("q.shoulder", d.theta);
+    t.AddColumn("qd.shoulder", d.omega);
+    return t;
+  };
+  const Eigen::VectorXd p = ToVector(truth);
+  const Trial train = to_trial(
+      Simulated(ShoulderModel::kModel2, p, truth.theta_max_ant, truth.theta_max_post, kSeed + 5));
+  const Trial test = to_trial(
+      Simulated(ShoulderModel::kModel2, p, truth.theta_max_ant, truth.theta_max_post, kSeed + 6));
+  const auto r = RunShoulderModelMethod(ShoulderModel::kModel2, {train}, {test}, nullptr);
+  ASSERT_EQ(r.predictions.size(), 1u);
+  const auto& w_hat = r.predictions[0].Column("qd.shoulder");
+  const auto& th_hat = r.predictions[0].Column("q.shoulder");
+  EXPECT_LT(PerformanceIndexJL(test.Column("qd.shoulder"), w_hat), 1e-4);
+  EXPECT_LT(PerformanceIndexJL(test.Column("q.shoulder"), th_hat), 1e-4);
+  EXPECT_NE(r.model_yaml.find("k_ant: {value: 1.9"), std::string::npos) << r.model_yaml;
+}
+
 TEST(ShoulderModels, BadInputNamesTheColumn) {
   Trial t;
   for (int i = 0; i < 20; ++i) t.time.push_back(0.01 * i);
