@@ -81,11 +81,15 @@ void BM_DynamicLocalStep(benchmark::State& state) {
   HammersteinMimoOptions o;
   const HammersteinMimoFit stat = FitHammersteinStatic(set, Planted().rest_rad, o);
   o.dynamic_starts = 1;
+  double iters = 0, steps = 0;
   for (auto _ : state) {
     HammersteinMimoFit fit = stat;
     FitHammersteinDynamic(trials, o, &fit);
+    iters += fit.dynamic_step_iterations[0];
+    steps += 1;
     benchmark::DoNotOptimize(fit.dynamic_cost);
   }
+  state.counters["lm_iterations_per_step"] = iters / steps;
   state.counters["samples"] = static_cast<double>(trials[0].u_us.rows() * 2);
 }
 BENCHMARK(BM_DynamicLocalStep)->Unit(benchmark::kMillisecond);

@@ -24,9 +24,10 @@ double Seconds(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-constexpr double kMuNegligible_s = 1e-6;  // below this the first-order lag is dropped
-constexpr double kSatMargin = 1e-2;       // u_sat ≥ (1 + margin) u_db_1 keeps Ψ inside P
-constexpr double kRidge = 1e-12;          // relative ridge of the bounded d sub-problem
+constexpr double kMuNegligible_s = 1e-6;      // below this the first-order lag is dropped
+constexpr double kSatMargin = 1e-2;           // u_sat ≥ (1 + margin) u_db_1 keeps Ψ inside P
+constexpr double kRidge = 1e-12;              // relative ridge of the bounded d sub-problem
+constexpr double kRelativeTolerance = 1e-10;  // LM stops when the cost falls by less than this
 
 /// min ‖E x − f‖ subject to |x_k| ≤ bound (a tiny ridge keeps E full rank).
 Eigen::VectorXd BoundedLs(const Eigen::MatrixXd& E, const Eigen::VectorXd& f, double bound) {
@@ -44,11 +45,22 @@ Eigen::VectorXd BoundedLs(const Eigen::MatrixXd& E, const Eigen::VectorXd& f, do
   return LeastSquaresInequality(Er, fr, G, h).x;
 }
 
-/// H (S×l) of activations for all points of 𝒳.
+/// H (N×l) of activations h̃(u(k), φ_j) (eq. 22) for every row u(k) of `u`, vectorised.
 Eigen::MatrixXd ActivationMatrix(const std::vector<SigmoidParams>& phi, const Eigen::MatrixXd& u) {
-  Eigen::MatrixXd H(u.rows(), static_cast<Eigen::Index>(phi.size()));
-  for (Eigen::Index s = 0; s < u.rows(); ++s) {
-    H.row(s) = MuscleActivations(phi, u.row(s).transpose()).transpose();
+  const Eigen::Index l = static_cast<Eigen::Index>(phi.size());
+  Eigen::MatrixXd delta(u.cols(), l);
+  for (Eigen::Index j = 0; j < l; ++j) {
+    if (phi[j].delta.size() != u.cols()) {
+      throw std::invalid_argument("activations: " + std::to_string(u.cols()) + " inputs for " +
+                                  std::to_string(phi[j].delta.size()) + " gains");
+    }
+    delta.col(j) = phi[j].delta;
+  }
+  Eigen::MatrixXd H = u * delta;  // Σ_k δ_{j,k} u_k
+  for (Eigen::Index j = 0; j < l; ++j) {
+    auto x = H.col(j).array().min(700.0);  // e^x overflows beyond; the limit of eq. (22) is 1
+    const Eigen::ArrayXd e = x.exp();
+    H.col(j) = ((e - 1.0) / (e + phi[j].gamma)).matrix();
   }
   return H;
 }
@@ -124,13 +136,10 @@ JointFilter DiscretiseJointDynamics(double omega_rad_s, double mu_s, double samp
 
 Eigen::MatrixXd SimulateHammersteinMimo(const HammersteinMimoParams& p, const Eigen::MatrixXd& u_us,
                                         double sample_period_s) {
-  const auto phi = SigmoidsFromCutoffs(p.psi);
   const Eigen::Index N = u_us.rows();
   const Eigen::Index q = p.d_rad.rows();
-  Eigen::MatrixXd Z(N, q);
-  for (Eigen::Index k = 0; k < N; ++k) {
-    Z.row(k) = (p.d_rad * MuscleActivations(phi, u_us.row(k).transpose())).transpose();
-  }
+  const Eigen::MatrixXd Z =
+      ActivationMatrix(SigmoidsFromCutoffs(p.psi), u_us) * p.d_rad.transpose();
   Eigen::MatrixXd Y(N, q);
   for (Eigen::Index i = 0; i < q; ++i) {
     const JointFilter f = DiscretiseJointDynamics(p.omega_rad_s, p.mu_s(i), sample_period_s);
@@ -226,7 +235,7 @@ HammersteinMimoFit FitHammersteinStatic(const SteadyStateSet& set, const Eigen::
   best.cost = std::numeric_limits<double>::infinity();
   LmOptions lo;
   lo.max_iterations = 200;
-  lo.relative_tolerance = 1e-14;
+  lo.relative_tolerance = kRelativeTolerance;
   for (int s = 0; s < std::max(1, options.starts); ++s) {
     Eigen::VectorXd x0(p);
     for (int k = 0; k < p; ++k) x0(k) = lower(k) + unit(rng) * (upper(k) - lower(k));
@@ -275,31 +284,68 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
   std::vector<Eigen::MatrixXd> Z, Yt;
   Eigen::Index n_res = 0;
   for (const auto& t : trials) {
-    Eigen::MatrixXd z(t.u_us.rows(), q);
-    for (Eigen::Index k = 0; k < t.u_us.rows(); ++k) {
-      z.row(k) =
-          (fit->params.d_rad * MuscleActivations(phi, t.u_us.row(k).transpose())).transpose();
-    }
-    Z.push_back(z);
+    Z.push_back(ActivationMatrix(phi, t.u_us) * fit->params.d_rad.transpose());
     Yt.push_back((-t.y_rad).rowwise() + fit->params.rest_rad.transpose());
     n_res += t.u_us.rows() * q;
   }
-  const auto residual = [&](const Eigen::VectorXd& theta) -> Eigen::VectorXd {
+  // Residual rows are grouped by joint: joint i's block depends on Ω and μ_i only. The joints'
+  // recursions are interleaved in one pass over the samples (independent dependency chains).
+  const Eigen::Index rows_per_joint = n_res / std::max<Eigen::Index>(q, 1);
+  // The cascade of eq. (18) makes Ad lower triangular: each state update is one FMA deep on its
+  // own previous value, so the recursion runs at a few cycles per sample.
+  struct Tri {
+    double a11, a21, a22, a31, a32, a33, b1, b2, b3, c2, c3;
+  };
+  const auto tri = [](const JointFilter& f) {
+    return Tri{f.Ad(0, 0), f.Ad(1, 0), f.Ad(1, 1), f.Ad(2, 0), f.Ad(2, 1), f.Ad(2, 2),
+               f.Bd(0),    f.Bd(1),    f.Bd(2),    f.C(1),     f.C(2)};
+  };
+  const auto residual_of = [&](double omega, const Eigen::VectorXd& mu) -> Eigen::VectorXd {
     Eigen::VectorXd r(n_res);
-    Eigen::Index o = 0;
-    for (Eigen::Index i = 0; i < q; ++i) {
-      for (std::size_t t = 0; t < trials.size(); ++t) {
-        const JointFilter f =
-            DiscretiseJointDynamics(theta(0), theta(1 + i), trials[t].sample_period_s);
-        const Eigen::Index N = Z[t].rows();
-        Eigen::Vector3d x = Eigen::Vector3d::Constant(N > 0 ? Z[t](0, i) : 0.0);
+    Eigen::Index offset = 0;
+    for (std::size_t t = 0; t < trials.size(); ++t) {
+      const Eigen::Index N = Z[t].rows();
+      for (Eigen::Index i = 0; i < q; ++i) {
+        const Tri c = tri(DiscretiseJointDynamics(omega, mu(i), trials[t].sample_period_s));
+        const double* z = Z[t].col(i).data();
+        const double* yt = Yt[t].col(i).data();
+        double* out = r.data() + i * rows_per_joint + offset;
+        double x1 = N > 0 ? z[0] : 0.0, x2 = x1, x3 = x1;
         for (Eigen::Index k = 0; k < N; ++k) {
-          r(o++) = Yt[t](k, i) - f.C * x;
-          x = f.Ad * x + f.Bd * Z[t](k, i);
+          out[k] = yt[k] - (c.c2 * x2 + c.c3 * x3);
+          const double n1 = c.a11 * x1 + c.b1 * z[k];
+          const double n2 = c.a22 * x2 + (c.a21 * x1 + c.b2 * z[k]);
+          const double n3 = c.a33 * x3 + (c.a31 * x1 + c.a32 * x2 + c.b3 * z[k]);
+          x1 = n1;
+          x2 = n2;
+          x3 = n3;
         }
       }
+      offset += N;
     }
     return r;
+  };
+  const auto residual = [&](const Eigen::VectorXd& theta) {
+    return residual_of(theta(0), theta.tail(q));
+  };
+  // Structured forward differences: one simulation with Ω perturbed, and one with every μ_i
+  // perturbed at once (joint i's rows see only μ_i).
+  constexpr double kFdStep = 1e-7;
+  const auto jacobian = [&](const Eigen::VectorXd& theta, const Eigen::VectorXd& r0, int* evals) {
+    Eigen::MatrixXd J = Eigen::MatrixXd::Zero(n_res, q + 1);
+    const double h0 = -kFdStep * std::max(std::abs(theta(0)), 1e-3);  // inward of Ω ≤ Ω_max
+    J.col(0) = (residual_of(theta(0) + h0, theta.tail(q)) - r0) / h0;
+    Eigen::VectorXd h(q);
+    for (Eigen::Index i = 0; i < q; ++i) h(i) = kFdStep * std::max(std::abs(theta(1 + i)), 1e-3);
+    const Eigen::VectorXd r_mu = residual_of(theta(0), theta.tail(q) + h);
+    for (Eigen::Index i = 0; i < q; ++i) {
+      J.block(i * rows_per_joint, 1 + i, rows_per_joint, 1) =
+          (r_mu.segment(i * rows_per_joint, rows_per_joint) -
+           r0.segment(i * rows_per_joint, rows_per_joint)) /
+          h(i);
+    }
+    *evals += 2;
+    return J;
   };
   const HammersteinMimoBounds& b = options.bounds;
   Eigen::VectorXd lower(q + 1), upper(q + 1);
@@ -317,9 +363,10 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
     x0.tail(q).setConstant(0.1);
     const auto ts = Clock::now();
     LmOptions lo;
-    lo.relative_tolerance = 1e-14;
-    LmResult r = LevenbergMarquardt(residual, x0, lower, upper, lo);
+    lo.relative_tolerance = kRelativeTolerance;
+    LmResult r = LevenbergMarquardt(residual, x0, lower, upper, lo, {}, jacobian);
     fit->dynamic_step_wall_s.push_back(Seconds(ts));
+    fit->dynamic_step_iterations.push_back(r.iterations);
     if (r.cost < best.cost) best = std::move(r);
   }
   fit->params.omega_rad_s = best.x(0);

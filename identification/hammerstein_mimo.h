@@ -86,11 +86,12 @@ struct MimoTrialData {
 
 struct HammersteinMimoFit {
   HammersteinMimoParams params;
-  std::vector<double> static_step_wall_s;   ///< wall time of each static local optimisation, s.
-  std::vector<double> dynamic_step_wall_s;  ///< wall time of each dynamic local optimisation, s.
-  std::vector<int> static_step_iterations;  ///< LM iterations per static start.
-  double static_cost = 0.0;                 ///< Σ‖ỹ − D h‖² on 𝒳, rad².
-  double dynamic_cost = 0.0;                ///< Σ‖y − ŷ‖² on the dynamic data, rad².
+  std::vector<double> static_step_wall_s;    ///< wall time of each static local optimisation, s.
+  std::vector<double> dynamic_step_wall_s;   ///< wall time of each dynamic local optimisation, s.
+  std::vector<int> static_step_iterations;   ///< LM iterations per static start.
+  std::vector<int> dynamic_step_iterations;  ///< LM iterations per dynamic start.
+  double static_cost = 0.0;                  ///< Σ‖ỹ − D h‖² on 𝒳, rad².
+  double dynamic_cost = 0.0;                 ///< Σ‖y − ŷ‖² on the dynamic data, rad².
   double total_wall_s = 0.0;
   Eigen::VectorXd psi_ci95;    ///< half-widths of Ψ in the order of PackCutoffs, µs.
   Eigen::MatrixXd d_ci95;      ///< half-widths of D (conditional on Ψ), rad.

@@ -29,11 +29,22 @@ Eigen::MatrixXd Jacobian(const ResidualFn& residual, const Eigen::VectorXd& x,
   return J;
 }
 
+/// JᵀJ as column dot products (cheaper than a packed GEMM for tall, thin J).
+Eigen::MatrixXd Gram(const Eigen::MatrixXd& J) {
+  const Eigen::Index p = J.cols();
+  Eigen::MatrixXd G(p, p);
+  for (Eigen::Index i = 0; i < p; ++i) {
+    for (Eigen::Index j = 0; j <= i; ++j) G(i, j) = G(j, i) = J.col(i).dot(J.col(j));
+  }
+  return G;
+}
+
 }  // namespace
 
 LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
                             const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
-                            const LmOptions& options, const ProjectionFn& project) {
+                            const LmOptions& options, const ProjectionFn& project,
+                            const JacobianFn& jacobian) {
   if (lower.size() != x0.size() || upper.size() != x0.size()) {
     throw std::invalid_argument("LevenbergMarquardt: bounds and x0 sizes differ");
   }
@@ -44,9 +55,12 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
   res.evaluations = 1;
   res.cost = res.residual.squaredNorm();
   const int p = static_cast<int>(x0.size());
-  Eigen::MatrixXd J =
-      Jacobian(residual, res.x, res.residual, upper, options.fd_relative_step, &res.evaluations);
-  Eigen::MatrixXd jtj = J.transpose() * J;
+  const auto jac = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& r) {
+    return jacobian ? jacobian(x, r, &res.evaluations)
+                    : Jacobian(residual, x, r, upper, options.fd_relative_step, &res.evaluations);
+  };
+  Eigen::MatrixXd J = jac(res.x, res.residual);
+  Eigen::MatrixXd jtj = Gram(J);
   Eigen::VectorXd g = J.transpose() * res.residual;
   double lambda = options.initial_damping * std::max(jtj.diagonal().maxCoeff(), 1e-300);
   double nu = 2.0;
@@ -70,9 +84,8 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
       ++res.iterations;
       lambda = std::max(lambda / 3.0, 1e-300);
       nu = 2.0;
-      J = Jacobian(residual, res.x, res.residual, upper, options.fd_relative_step,
-                   &res.evaluations);
-      jtj = J.transpose() * J;
+      J = jac(res.x, res.residual);
+      jtj = Gram(J);
       g = J.transpose() * res.residual;
       if (decrease <= options.relative_tolerance * old_cost || res.cost == 0.0) break;
     } else {

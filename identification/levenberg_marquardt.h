@@ -29,13 +29,18 @@ struct LmResult {
 
 /// r(x) → residual vector (fixed length).
 using ResidualFn = std::function<Eigen::VectorXd(const Eigen::VectorXd&)>;
+/// (x, r(x)) → J(x), optional analytic or structured Jacobian (forward differences otherwise);
+/// it should add the residual evaluations it makes to *evaluations.
+using JacobianFn = std::function<Eigen::MatrixXd(const Eigen::VectorXd&, const Eigen::VectorXd&,
+                                                 int* evaluations)>;
 /// Maps a point onto the feasible set after clamping to the bounds (identity if empty).
 using ProjectionFn = std::function<void(Eigen::VectorXd*)>;
 
 /// Minimises ‖r(x)‖² subject to lower ≤ x ≤ upper (entries may be ±inf).
 LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
                             const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
-                            const LmOptions& options = {}, const ProjectionFn& project = {});
+                            const LmOptions& options = {}, const ProjectionFn& project = {},
+                            const JacobianFn& jacobian = {});
 
 /// 95 % half-widths 1.96 √diag(σ² (JᵀJ)⁻¹), σ² = cost / (N − p); NaN where not estimable.
 Eigen::VectorXd ConfidenceHalfWidths95(const Eigen::MatrixXd& jtj, double cost, long n_residuals);

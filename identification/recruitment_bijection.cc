@@ -50,20 +50,30 @@ SigmoidParams SigmoidFromCutoffs(const CutoffParams& psi) {
                                 std::to_string(SaturationRatioBound()) + " u_db_1");
   }
   const double target = psi.u_sat_us / psi.u_db_us(0);
-  // f is strictly decreasing in γ; bracket in s = ln γ.
-  double lo = -60.0, hi = 60.0;  // f(e^-60) ≈ α, f(e^60) ≈ 1 + ...
-  hi = std::log(1e300);
+  // f is strictly decreasing in γ: safeguarded Newton on s = ln γ inside a bisection bracket.
+  double lo = -60.0, hi = std::log(1e300);
   while (SaturationRatio(std::exp(lo)) < target && lo > -700.0) lo -= 60.0;
-  for (int it = 0; it < 200 && hi - lo > 1e-15 * std::max(1.0, std::abs(lo)); ++it) {
-    const double mid = 0.5 * (lo + hi);
-    if (SaturationRatio(std::exp(mid)) > target) {
-      lo = mid;
+  double s = 0.0;
+  for (int it = 0; it < 200; ++it) {
+    const double g = std::exp(s);
+    const double A = std::log(19.0 * g + 20.0);
+    const double B = std::log1p((g + 1.0) / 19.0);
+    const double r = A / B - target;
+    if (r > 0.0) {
+      lo = s;
     } else {
-      hi = mid;
+      hi = s;
     }
+    // d f / d s = γ (A' B − A B') / B², A' = 19/(19γ + 20), B' = 1/(γ + 20)
+    const double dfds = g * (19.0 / (19.0 * g + 20.0) * B - A / (g + 20.0)) / (B * B);
+    double next = dfds < 0.0 ? s - r / dfds : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    const double step = std::abs(next - s);
+    s = next;
+    if (step <= 1e-14 * (1.0 + std::abs(s)) || hi - lo <= 1e-14 * (1.0 + std::abs(s))) break;
   }
   SigmoidParams phi;
-  phi.gamma = std::exp(0.5 * (lo + hi));
+  phi.gamma = std::exp(s);
   const double a = std::log1p((phi.gamma + 1.0) / 19.0);
   phi.delta = a * psi.u_db_us.cwiseInverse();
   return phi;

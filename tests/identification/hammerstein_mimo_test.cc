@@ -149,5 +149,31 @@ TEST(HammersteinMimo, MethodRejectsMissingColumnsAndNaN) {
   EXPECT_THROW(method.run({t}, {}, nullptr), std::runtime_error);  // no steps: too few points
 }
 
+TEST(HammersteinMimo, MethodEntryFitsTrialsAndReportsPerJointMetrics) {
+  const auto data = Trials(Planted(), 0.0, kSeed);
+  std::vector<Trial> trials;
+  for (const auto& d : data) {
+    Trial t;
+    for (Eigen::Index k = 0; k < d.u_us.rows(); ++k) t.time.push_back(kSamplePeriod * k);
+    for (int c = 0; c < 2; ++c) {
+      t.AddColumn("u.ch" + std::to_string(c + 1),
+                  std::vector<double>(d.u_us.col(c).data(), d.u_us.col(c).data() + d.u_us.rows()));
+    }
+    const char* joints[] = {"q.wrist", "q.mcp", "q.pip"};
+    for (int i = 0; i < 3; ++i) {
+      t.AddColumn(joints[i], std::vector<double>(d.y_rad.col(i).data(),
+                                                 d.y_rad.col(i).data() + d.y_rad.rows()));
+    }
+    trials.push_back(t);
+  }
+  const MethodResult r = HammersteinMimoMethod().run(trials, {trials[1]}, nullptr);
+  ASSERT_EQ(r.predictions.size(), 1u);
+  const auto& yhat = r.predictions[0].Column("q.mcp");
+  const auto& y = trials[1].Column("q.mcp");
+  EXPECT_GT(BestFitPercent(y, yhat), 99.9);
+  EXPECT_NE(r.model_yaml.find("Omega: {value: 4"), std::string::npos) << r.model_yaml;
+  EXPECT_NE(r.metrics.Dump().find("static_local_step_wall_s"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace fesim::identification

@@ -146,5 +146,39 @@ TEST(SplineHammerstein, Algorithm2FromAlgorithm1IsFasterAndFitsAtLeastAsWell) {
   EXPECT_LE(from_alg1.model.linear.a(1), 1.0);
 }
 
+Trial ToTrial(const Eigen::VectorXd& u, const Eigen::VectorXd& y, const std::string& out) {
+  Trial t;
+  for (Eigen::Index k = 0; k < u.size(); ++k) t.time.push_back(kSamplePeriod * k);
+  t.AddColumn("u.triceps", std::vector<double>(u.data(), u.data() + u.size()));
+  t.AddColumn(out, std::vector<double>(y.data(), y.data() + y.size()));
+  return t;
+}
+
+TEST(SplineHammerstein, MethodEntriesUseTorqueColumnAndRejectBadInput) {
+  const SplineHammersteinModel truth = Planted();
+  const SisoData d = Generate(truth, 1, 1200, 0.0, kSeed + 3);
+  Trial t = ToTrial(d.u_us[0], d.y[0], "tau.elbow");
+  t.AddColumn("q.elbow", std::vector<double>(t.size(), 1.57));  // locked joint: ignored
+  t.metadata["spline.knots_m"] = "5";
+  const MethodResult r = SplineOeMethod().run({t}, {}, nullptr);
+  ASSERT_EQ(r.predictions.size(), 1u);
+  // The CLI places knots on the data range, not on the planted ones: a close, not exact, fit.
+  EXPECT_GT(BestFitPercent(t.Column("tau.elbow"), r.predictions[0].Column("tau.elbow")), 99.5);
+  EXPECT_NE(r.model_yaml.find("output: tau.elbow"), std::string::npos);
+
+  Trial bad = t;
+  bad.metadata["spline.poles"] = "2";  // unknown option
+  EXPECT_THROW(SplineArxMethod().run({bad}, {}, nullptr), std::runtime_error);
+  bad = t;
+  bad.MutableColumn("tau.elbow")[10] = NAN;
+  EXPECT_THROW(SplineArxMethod().run({bad}, {}, nullptr), std::runtime_error);
+  const Trial short_trial = ToTrial(d.u_us[0].head(20), d.y[0].head(20), "tau.elbow");
+  EXPECT_THROW(SplineArxMethod().run({short_trial}, {}, nullptr), std::runtime_error);
+  Trial no_input;
+  no_input.time = t.time;
+  no_input.AddColumn("tau.elbow", t.Column("tau.elbow"));
+  EXPECT_THROW(SplineArxMethod().run({no_input}, {}, nullptr), std::runtime_error);
+}
+
 }  // namespace
 }  // namespace fesim::identification

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <random>
 
+#include "identification/metrics.h"
+
 namespace fesim::identification {
 namespace {
 
@@ -190,6 +192,39 @@ TEST(TremorArx, OrderSweepPrefersTheTrueOrderInCrossValidation) {
   EXPECT_GT(sweep[1].validation_best_fit, 99.0);
   // The tremor phase differs between trials, so cross-validation keeps a residual tremor error.
   EXPECT_GT(sweep[1].cross_validation_best_fit, sweep[0].cross_validation_best_fit);
+}
+
+TEST(TremorArx, MethodEntryMapsCoactivationAndFitsTwoTrials) {
+  const TremorModel truth = Planted();
+  const TremorData d = Data(truth, 2, 0.0, kSeed + 6);
+  const Coactivation c{30.0, 45.0};
+  std::vector<Trial> trials;
+  for (int t = 0; t < 2; ++t) {
+    Trial tr;
+    std::vector<double> fcr, ecr;
+    for (Eigen::Index k = 0; k < d.u_us[t].size(); ++k) {
+      tr.time.push_back(kSamplePeriod * k);
+      const Eigen::Vector2d s = CoactivationSplit(c, d.u_us[t](k));
+      fcr.push_back(s(0));
+      ecr.push_back(s(1));
+    }
+    tr.AddColumn("u.fcr", fcr);
+    tr.AddColumn("u.ecr", ecr);
+    tr.AddColumn("q.wrist", std::vector<double>(d.y[t].data(), d.y[t].data() + d.y[t].size()));
+    tr.metadata["tremor.poles_l"] = "2";
+    tr.metadata["tremor.zeros_n"] = "1";
+    tr.metadata["tremor.delay_m"] = "1";
+    tr.metadata["tremor.hz"] = "5";
+    trials.push_back(tr);
+  }
+  const MethodResult r = TremorArxMethod().run(trials, {}, nullptr);
+  ASSERT_EQ(r.predictions.size(), 2u);
+  EXPECT_GT(BestFitPercent(trials[0].Column("q.wrist"), r.predictions[0].Column("q.wrist")), 99.0);
+  EXPECT_NE(r.model_yaml.find("c_agonist: {value: 30"), std::string::npos) << r.model_yaml;
+  Trial one_input = trials[0];
+  one_input.names.erase(one_input.names.begin() + 1);
+  one_input.columns.erase(one_input.columns.begin() + 1);
+  EXPECT_THROW(TremorArxMethod().run({one_input}, {}, nullptr), std::runtime_error);
 }
 
 }  // namespace
