@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <vector>
 
 namespace fesim::identification {
 namespace {
@@ -101,14 +102,30 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
 Eigen::VectorXd ConfidenceHalfWidths95(const Eigen::MatrixXd& jtj, double cost, long n_residuals) {
   const long p = jtj.rows();
   Eigen::VectorXd half = Eigen::VectorXd::Constant(p, std::numeric_limits<double>::quiet_NaN());
-  if (n_residuals <= p) return half;
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(jtj, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Eigen::VectorXd s = svd.singularValues();
-  if (s.size() == 0 || s(s.size() - 1) <= 1e-14 * s(0)) return half;
-  const Eigen::MatrixXd cov = svd.matrixV() * s.cwiseInverse().asDiagonal() *
-                              svd.matrixU().transpose() *
-                              (cost / static_cast<double>(n_residuals - p));
-  for (long k = 0; k < p; ++k) half(k) = 1.96 * std::sqrt(std::max(cov(k, k), 0.0));
+  if (n_residuals <= p || p == 0) return half;
+  // Pseudo-inverse; parameters that take part in an unidentifiable direction (e.g. one held at a
+  // bound where the cost is flat) get NaN, the others their interval.
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(jtj);
+  const Eigen::VectorXd s = eig.eigenvalues();
+  const Eigen::MatrixXd& V = eig.eigenvectors();
+  const double smax = s.cwiseAbs().maxCoeff();
+  if (!(smax > 0.0)) return half;
+  std::vector<bool> free(static_cast<std::size_t>(p), true);
+  Eigen::VectorXd inv = Eigen::VectorXd::Zero(p);
+  for (long i = 0; i < p; ++i) {
+    if (s(i) > 1e-12 * smax) {
+      inv(i) = 1.0 / s(i);
+    } else {
+      for (long k = 0; k < p; ++k) {
+        if (std::abs(V(k, i)) > 1e-6) free[static_cast<std::size_t>(k)] = false;
+      }
+    }
+  }
+  const Eigen::MatrixXd cov =
+      V * inv.asDiagonal() * V.transpose() * (cost / static_cast<double>(n_residuals - p));
+  for (long k = 0; k < p; ++k) {
+    if (free[static_cast<std::size_t>(k)]) half(k) = 1.96 * std::sqrt(std::max(cov(k, k), 0.0));
+  }
   return half;
 }
 

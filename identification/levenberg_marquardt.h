@@ -42,7 +42,8 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
                             const LmOptions& options = {}, const ProjectionFn& project = {},
                             const JacobianFn& jacobian = {});
 
-/// 95 % half-widths 1.96 √diag(σ² (JᵀJ)⁻¹), σ² = cost / (N − p); NaN where not estimable.
+/// 95 % half-widths 1.96 √diag(σ² (JᵀJ)⁺), σ² = cost / (N − p); NaN for parameters in a
+/// singular direction of JᵀJ (not estimable, e.g. held at a bound where the cost is flat).
 Eigen::VectorXd ConfidenceHalfWidths95(const Eigen::MatrixXd& jtj, double cost, long n_residuals);
 
 }  // namespace fesim::identification

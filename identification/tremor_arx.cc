@@ -220,8 +220,11 @@ RunResult Algorithm1(const Problem& P, const TremorOptions& opt) {
   return rr;
 }
 
-/// One-step residual of the tremor-free fit, summed periodogram peak in the band (Hz).
-double PeriodogramPeak(const Problem& P, const RunResult& rr, double f_lo, double f_hi) {
+/// One-step residual A y − B h(u) of a low-order tremor-free fit (a high-order AR part could
+/// absorb the tremor); frequencies (Hz) of the `count` largest local maxima of its summed
+/// periodogram in the band, largest first.
+std::vector<double> PeriodogramPeaks(const Problem& P, const RunResult& rr, double f_lo,
+                                     double f_hi, int count) {
   const double T = P.data->sample_period_s;
   Eigen::Index n_max = 0;
   std::vector<Eigen::VectorXd> res;
@@ -241,7 +244,7 @@ double PeriodogramPeak(const Problem& P, const RunResult& rr, double f_lo, doubl
     n_max = std::max(n_max, y.size());
   }
   const double df = 1.0 / (4.0 * static_cast<double>(n_max) * T);
-  double best_f = f_lo, best_p = -1.0;
+  std::vector<double> f_grid, power;
   for (double f = f_lo; f <= f_hi; f += df) {
     const double w = 2.0 * kPi * f * T;
     double p = 0.0;
@@ -250,12 +253,22 @@ double PeriodogramPeak(const Problem& P, const RunResult& rr, double f_lo, doubl
       for (Eigen::Index k = 0; k < e.size(); ++k) acc += e(k) * std::polar(1.0, -w * k);
       p += std::norm(acc);
     }
-    if (p > best_p) {
-      best_p = p;
-      best_f = f;
-    }
+    f_grid.push_back(f);
+    power.push_back(p);
   }
-  return best_f;
+  std::vector<std::pair<double, double>> peaks;  // (power, f)
+  for (std::size_t i = 0; i < power.size(); ++i) {
+    const bool left = i == 0 || power[i] >= power[i - 1];
+    const bool right = i + 1 == power.size() || power[i] >= power[i + 1];
+    if (left && right) peaks.emplace_back(power[i], f_grid[i]);
+  }
+  std::sort(peaks.rbegin(), peaks.rend());
+  std::vector<double> out;
+  for (std::size_t i = 0; i < peaks.size() && static_cast<int>(i) < count; ++i) {
+    out.push_back(peaks[i].second);
+  }
+  if (out.empty()) out.push_back(0.5 * (f_lo + f_hi));
+  return out;
 }
 
 Problem MakeProblem(const TremorData& data, const TremorOptions& opt, double u_scale) {
@@ -336,19 +349,31 @@ TremorFit FitTremorArx(const TremorData& data, const TremorOptions& options, dou
   const double T = data.sample_period_s;
   double f_hz = options.tremor_hz;
   if (f_hz <= 0.0) {
-    const RunResult free = Algorithm1(P, options);
-    const double peak = PeriodogramPeak(P, free, options.tremor_min_hz, options.tremor_max_hz);
+    Problem low = P;  // second order at most, so the AR part cannot absorb the tremor
+    low.o.poles_l = std::min(2, o.poles_l);
+    low.o.zeros_n = std::min(1, o.zeros_n);
+    const RunResult free = Algorithm1(low, options);
+    const auto cost_at = [&](double f) {
+      Problem Q = P;
+      Q.omega = 2.0 * kPi * f * T;
+      return Algorithm1(Q, options).cost;
+    };
+    // The 3 largest periodogram peaks compete on V_N of the full fit (input harmonics and noise
+    // can out-shine the tremor in the band).
+    double peak = 0.0, best = INFINITY;
+    for (double f : PeriodogramPeaks(low, free, options.tremor_min_hz, options.tremor_max_hz, 3)) {
+      const double v = cost_at(f);
+      if (v < best) {
+        best = v;
+        peak = f;
+      }
+    }
     Eigen::Index n_max = 0;
     for (const auto& y : data.y) n_max = std::max(n_max, y.size());
     const double bin = 1.0 / (static_cast<double>(n_max) * T);
     // Golden-section refinement of V_N over one periodogram bin either side.
     double lo = std::max(1e-6, peak - bin), hi = peak + bin;
     const double g = 0.5 * (std::sqrt(5.0) - 1.0);
-    const auto cost_at = [&](double f) {
-      Problem Q = P;
-      Q.omega = 2.0 * kPi * f * T;
-      return Algorithm1(Q, options).cost;
-    };
     double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
     double c1 = cost_at(x1), c2 = cost_at(x2);
     while (hi - lo > 1e-10 * peak) {

@@ -33,8 +33,9 @@
 //   whole interval, not only at samples.
 // * λ_1, λ_2 are real (the paper's "integers" would not fit a continuous amplitude). The tremor
 //   period N_p need not be an integer: when not given, the frequency is found by scanning the
-//   periodogram of the tremor-free residual over [tremor_min_hz, tremor_max_hz] and refining by
-//   golden-section search on V_N.
+//   periodogram of the one-step residual of a tremor-free fit of order ≤ 2 over
+//   [tremor_min_hz, tremor_max_hz]; its 3 largest peaks compete on V_N of the full fit, and the
+//   winner is refined by golden-section search on V_N.
 // * Simulated output: ŷ = (B_P/A_P) h_IRC(u) + d/A_P from the first l_P measured samples.
 // * ε is relative: stop when |V_N^j − V_N^{j−1}| < ε Σ y².
 #pragma once
