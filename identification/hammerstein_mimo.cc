@@ -24,10 +24,10 @@ double Seconds(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-constexpr double kMuNegligible_s = 1e-12;     // below this the first-order lag is dropped
-constexpr double kSatMargin = 1e-2;           // u_sat ≥ (1 + margin) u_db_1 keeps Ψ inside P
-constexpr double kRidge = 1e-12;              // relative ridge of the bounded d sub-problem
-constexpr double kRelativeTolerance = 1e-10;  // LM stops when the cost falls by less than this
+constexpr double kMuNegligible_s = 1e-12;    // below this the first-order lag is dropped
+constexpr double kSatMargin = 1e-2;          // u_sat ≥ (1 + margin) u_db_1 keeps Ψ inside P
+constexpr double kRidge = 1e-12;             // relative ridge of the bounded d sub-problem
+constexpr double kRelativeTolerance = 1e-8;  // LM stops when the cost falls by less than this
 
 /// min ‖E x − f‖ subject to |x_k| ≤ bound (a tiny ridge keeps E full rank).
 Eigen::VectorXd BoundedLs(const Eigen::MatrixXd& E, const Eigen::VectorXd& f, double bound) {
