@@ -429,8 +429,10 @@ double SimBestFit(const TremorModel& m, const Eigen::VectorXd& u, const Eigen::V
 std::vector<TremorSweepEntry> SweepTremorOrders(const TremorData& data, const TremorOptions& base,
                                                 const std::vector<int>& poles,
                                                 const std::vector<int>& zeros,
-                                                const std::vector<int>& delays, double u_scale_us) {
+                                                const std::vector<int>& delays, double u_scale_us,
+                                                const ProgressFn& progress) {
   std::vector<TremorSweepEntry> out;
+  const double total = static_cast<double>(poles.size() * zeros.size() * delays.size());
   const std::size_t T = data.y.size();
   for (int l : poles) {
     for (int n : zeros) {
@@ -452,6 +454,11 @@ std::vector<TremorSweepEntry> SweepTremorOrders(const TremorData& data, const Tr
           e.cross_validation_best_fit += SimBestFit(fit.model, data.u_us[j], data.y[j]) / T;
         }
         out.push_back(e);
+        if (progress) {
+          progress(static_cast<double>(out.size()) / total, "order sweep l_P=" + std::to_string(l) +
+                                                                " n_P=" + std::to_string(n) +
+                                                                " m_P=" + std::to_string(d));
+        }
       }
     }
   }
@@ -541,7 +548,11 @@ MethodResult RunTremor(const std::vector<Trial>& train, const std::vector<Trial>
   }
   if (sweep && tr.y.size() >= 2) {
     if (progress) progress(0.2, "order sweep");
-    const auto entries = SweepTremorOrders(tr, opt, {2, 4, 8, 12}, {1, 3, 7}, {1}, u_scale);
+    const ProgressFn sweep_progress = [&progress](double f, const std::string& stage) {
+      if (progress) progress(0.2 + 0.6 * f, stage);
+    };
+    const auto entries =
+        SweepTremorOrders(tr, opt, {2, 4, 8, 12}, {1, 3, 7}, {1}, u_scale, sweep_progress);
     Json js = Json::Array();
     double best = -INFINITY;
     for (const auto& e : entries) {

@@ -118,6 +118,7 @@ TremorFit FitTremorArx(const TremorData& data, const TremorOptions& options, dou
 
 /// Order sweep (§4.2–4.3): for every (l_P, n_P, m_P) of the grid and every trial i, fit on trial
 /// i; validation Best Fit on trial i, cross-validation on trial i+1 (cyclic), averaged.
+/// `progress` (optional) is told the fraction of the grid done.
 struct TremorSweepEntry {
   TremorOrders orders;
   double validation_best_fit = 0.0;        ///< %.
@@ -126,7 +127,8 @@ struct TremorSweepEntry {
 std::vector<TremorSweepEntry> SweepTremorOrders(const TremorData& data, const TremorOptions& base,
                                                 const std::vector<int>& poles,
                                                 const std::vector<int>& zeros,
-                                                const std::vector<int>& delays, double u_scale_us);
+                                                const std::vector<int>& delays, double u_scale_us,
+                                                const ProgressFn& progress = nullptr);
 
 /// CLI entry "tremor-arx". With ≥ 2 training trials, the orders are chosen by a sweep over
 /// l_P ∈ {2, 4, 8, 12}, n_P ∈ {1, 3, 7}, m_P ∈ {1} (best cross-validation), unless given in
