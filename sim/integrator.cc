@@ -1,0 +1,258 @@
+#include "sim/integrator.h"
+
+#include <cvodes/cvodes.h>
+#include <nvector/nvector_serial.h>
+#include <sundials/sundials_context.h>
+#include <sunlinsol/sunlinsol_dense.h>
+#include <sunmatrix/sunmatrix_dense.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+namespace fesim::sim {
+
+std::vector<double> StimulationSchedule::At(double t, int channels) const {
+  const auto it = std::upper_bound(times.begin(), times.end(), t);
+  if (it == times.begin()) return std::vector<double>(channels, 0.0);
+  return values[static_cast<std::size_t>(it - times.begin()) - 1];
+}
+
+namespace {
+
+constexpr long kMaxSteps = 1000000;
+// Report times or breakpoints closer than this to the current time (s) are treated as reached:
+// the state cannot change measurably over 1e-9 s, and CVODES rejects such intervals.
+constexpr double kMinInterval = 1e-9;
+
+/// Breakpoints (stimulation changes) strictly after t0.
+std::vector<double> Breakpoints(const StimulationSchedule& schedule, double t0) {
+  std::vector<double> b;
+  for (double t : schedule.times) {
+    if (t > t0) b.push_back(t);
+  }
+  return b;
+}
+
+std::string DescribeState(const UpperLimbModel& model, const SimTK::State& s) {
+  // Name the coordinate furthest outside its range: the usual culprit of a blow-up.
+  const auto q = model.GetQs(s);
+  int worst = 0;
+  double excess = -INFINITY;
+  for (int i = 0; i < kNumCoordinates; ++i) {
+    const auto& p = model.params().coordinates[i].passive;
+    const double e = std::max(p.min_angle_rad - q[i], q[i] - p.max_angle_rad);
+    if (!std::isfinite(q[i])) {
+      worst = i;
+      excess = INFINITY;
+      break;
+    }
+    if (e > excess) {
+      excess = e;
+      worst = i;
+    }
+  }
+  return "coordinate " + CoordinateNames()[worst] + " at " + std::to_string(q[worst]) +
+         " rad (range " + std::to_string(model.params().coordinates[worst].passive.min_angle_rad) +
+         ".." + std::to_string(model.params().coordinates[worst].passive.max_angle_rad) + ")";
+}
+
+struct CvodesContext {
+  const UpperLimbModel* model;
+  SimTK::State* state;
+  bool prescribe;
+  long rhs = 0;
+};
+
+void LoadState(CvodesContext* c, double t, const double* y) {
+  SimTK::Vector& Y = c->state->updY();
+  for (int i = 0; i < Y.size(); ++i) Y[i] = y[i];
+  c->state->setTime(t);
+  if (c->prescribe) c->model->system().prescribe(*c->state);
+  c->model->system().realize(*c->state, SimTK::Stage::Acceleration);
+}
+
+int Rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user) {
+  auto* c = static_cast<CvodesContext*>(user);
+  ++c->rhs;
+  try {
+    LoadState(c, t, N_VGetArrayPointer(y));
+  } catch (const std::exception&) {
+    return 1;  // recoverable: CVODES retries with a smaller step
+  }
+  const SimTK::Vector& yd = c->state->getYDot();
+  double* out = N_VGetArrayPointer(ydot);
+  for (int i = 0; i < yd.size(); ++i) {
+    out[i] = yd[i];
+    if (!std::isfinite(out[i])) return 1;
+  }
+  return 0;
+}
+
+/// Owns the SUNDIALS objects (RAII).
+class Cvodes {
+ public:
+  Cvodes(int n, double tol, bool adams, CvodesContext* ctx) {
+    if (SUNContext_Create(nullptr, &sunctx_) != 0) throw std::runtime_error("SUNContext_Create");
+    y_ = N_VNew_Serial(n, sunctx_);
+    mem_ = CVodeCreate(adams ? CV_ADAMS : CV_BDF, sunctx_);
+    a_ = SUNDenseMatrix(n, n, sunctx_);
+    ls_ = SUNLinSol_Dense(y_, a_, sunctx_);
+    tol_ = tol;
+    ctx_ = ctx;
+  }
+  ~Cvodes() {
+    if (mem_ != nullptr) CVodeFree(&mem_);
+    if (ls_ != nullptr) SUNLinSolFree(ls_);
+    if (a_ != nullptr) SUNMatDestroy(a_);
+    if (y_ != nullptr) N_VDestroy(y_);
+    if (sunctx_ != nullptr) SUNContext_Free(&sunctx_);
+  }
+  Cvodes(const Cvodes&) = delete;
+  Cvodes& operator=(const Cvodes&) = delete;
+
+  void Start(double t0, const SimTK::Vector& y0) {
+    double* y = N_VGetArrayPointer(y_);
+    for (int i = 0; i < y0.size(); ++i) y[i] = y0[i];
+    if (!initialised_) {
+      Check(CVodeInit(mem_, Rhs, t0, y_), "CVodeInit", t0);
+      Check(CVodeSStolerances(mem_, tol_, tol_), "CVodeSStolerances", t0);
+      Check(CVodeSetUserData(mem_, ctx_), "CVodeSetUserData", t0);
+      Check(CVodeSetLinearSolver(mem_, ls_, a_), "CVodeSetLinearSolver", t0);
+      Check(CVodeSetMaxNumSteps(mem_, kMaxSteps), "CVodeSetMaxNumSteps", t0);
+      initialised_ = true;
+    } else {
+      Check(CVodeReInit(mem_, t0, y_), "CVodeReInit", t0);
+    }
+  }
+  /// Advances to exactly t_out (≤ stop) and leaves the solution in the context's state.
+  void AdvanceTo(double t_out, double stop) {
+    Check(CVodeSetStopTime(mem_, stop), "CVodeSetStopTime", t_out);
+    double t_reached = 0.0;
+    const int flag = CVode(mem_, t_out, y_, &t_reached, CV_NORMAL);
+    if (flag < 0) {
+      LoadState(ctx_, t_reached, N_VGetArrayPointer(y_));
+      throw std::runtime_error("integration failed at t = " + std::to_string(t_reached) +
+                               " s (CVODES " + CVodeGetReturnFlagName(flag) + "); " +
+                               DescribeState(*ctx_->model, *ctx_->state) +
+                               ". Hint: check stimulation, stiffness and range limits, or "
+                               "tighten integrator.tolerance");
+    }
+    LoadState(ctx_, t_out, N_VGetArrayPointer(y_));
+  }
+  void AddStats(IntegrationStats* s) const {
+    if (!initialised_) return;
+    long v = 0;
+    CVodeGetNumSteps(mem_, &v);
+    s->steps += v;
+    CVodeGetNumJacEvals(mem_, &v);
+    s->jacobian_evaluations += v;
+  }
+
+ private:
+  void Check(int flag, const char* what, double t) {
+    if (flag < 0) {
+      throw std::runtime_error(std::string(what) + " failed at t = " + std::to_string(t) + " s");
+    }
+  }
+  SUNContext sunctx_ = nullptr;
+  N_Vector y_ = nullptr;
+  void* mem_ = nullptr;
+  SUNMatrix a_ = nullptr;
+  SUNLinearSolver ls_ = nullptr;
+  double tol_ = 1e-6;
+  bool initialised_ = false;
+  CvodesContext* ctx_ = nullptr;
+};
+
+bool HasPrescribed(const ModelParams& p) {
+  for (const auto& c : p.coordinates) {
+    if (c.mode == CoordinateMode::kPrescribed) return true;
+  }
+  return false;
+}
+
+/// Calls segment(t_from, t_to_event) for each interval between breakpoints and
+/// report(t) at report times, applying stimulation at breakpoints. Shared by both integrators.
+template <typename Advance, typename Restart>
+void Drive(const UpperLimbModel& model, const StimulationSchedule& schedule,
+           const std::vector<double>& report_times, SimTK::State* state, const Observer& observer,
+           Advance advance, Restart restart, IntegrationStats* stats) {
+  const int nc = model.num_channels();
+  const double t0 = state->getTime();
+  model.SetStimulation(*state, schedule.At(t0, nc));
+  const std::vector<double> breaks = Breakpoints(schedule, t0);
+  std::size_t next_break = 0;
+  restart(t0);
+  const double kInf = std::numeric_limits<double>::infinity();
+  for (double t_r : report_times) {
+    if (t_r < state->getTime() - 1e-12) throw std::invalid_argument("report times not sorted");
+    while (next_break < breaks.size() && breaks[next_break] <= t_r) {
+      const double tb = breaks[next_break];
+      if (tb > state->getTime() + kMinInterval) advance(tb, tb);
+      model.SetStimulation(*state, schedule.At(tb, nc));
+      restart(tb);
+      ++stats->restarts;
+      ++next_break;
+    }
+    const double stop = next_break < breaks.size() ? breaks[next_break] : kInf;
+    if (t_r > state->getTime() + kMinInterval) advance(t_r, stop);
+    model.system().realize(*state, SimTK::Stage::Acceleration);
+    observer(*state);
+  }
+}
+
+}  // namespace
+
+IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorParams& params,
+                                const StimulationSchedule& schedule,
+                                const std::vector<double>& report_times, SimTK::State* state,
+                                const Observer& observer) {
+  IntegrationStats stats;
+  if (params.method != IntegratorParams::Method::kSimbodyRkMerson) {
+    CvodesContext ctx{&model, state, HasPrescribed(model.params())};
+    Cvodes cv(state->getNY(), params.tolerance,
+              params.method == IntegratorParams::Method::kCvodesAdams, &ctx);
+    Drive(
+        model, schedule, report_times, state, observer,
+        [&](double t, double stop) { cv.AdvanceTo(t, stop); },
+        [&](double t) {
+          cv.AddStats(&stats);
+          state->setTime(t);
+          cv.Start(t, state->getY());
+        },
+        &stats);
+    cv.AddStats(&stats);
+    // AddStats accumulates the counters of each restart interval; CVodeReInit resets them.
+    stats.rhs_evaluations = ctx.rhs;
+    return stats;
+  }
+  // Simbody's Runge–Kutta–Merson, restarted at each breakpoint like CVODES.
+  std::unique_ptr<SimTK::RungeKuttaMersonIntegrator> integ;
+  Drive(
+      model, schedule, report_times, state, observer,
+      [&](double t, double stop) {
+        while (integ->getTime() < t) integ->stepTo(t, stop);
+        *state = integ->getState();
+        if (std::abs(state->getTime() - t) > 1e-9) {
+          throw std::runtime_error(
+              "Simbody integrator stopped at t = " + std::to_string(state->getTime()) +
+              " s before " + std::to_string(t) + " s");
+        }
+      },
+      [&](double t) {
+        if (integ) stats.steps += integ->getNumStepsTaken();
+        state->setTime(t);
+        integ = std::make_unique<SimTK::RungeKuttaMersonIntegrator>(model.system());
+        integ->setAccuracy(params.tolerance);
+        integ->setReturnEveryInternalStep(false);
+        integ->initialize(*state);
+      },
+      &stats);
+  if (integ) stats.steps += integ->getNumStepsTaken();
+  return stats;
+}
+
+}  // namespace fesim::sim

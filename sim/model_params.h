@@ -1,0 +1,159 @@
+// Parameters of the ground-truth upper-limb model (papers/000_0a6c0de9fc69df7c.txt eq. 12):
+//   y = H_RB · R · H_hill · H_IRC · A · u
+// Immutable after loading and validation (Pinocchio's Model / MuJoCo's mjModel): per-trial state
+// lives in SimTK::State and trial records.
+//
+// Frames (Simbody/OpenSim convention): ground G is the fixed thorax; X anterior, Y superior,
+// Z to the right (lateral for the modelled right arm). Gravity defaults to −9.81 Y.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "muscles/electrode_array.h"
+#include "muscles/hill.h"
+#include "muscles/recruitment.h"
+#include "sim/arm_support.h"
+#include "sim/passive_joint.h"
+#include "tendons/tendon_network.h"
+
+namespace fesim::sim {
+
+/// The ten coordinates, in state order. Signs (right arm, at zero of the outer coordinates):
+///  shoulder_elv_plane  about G's Y; 0 = frontal (abduction) plane, 90° = sagittal (flexion) plane
+///  shoulder_elevation  raises the arm within that plane (Y-X-Y Euler sequence, papers/004_*)
+///  shoulder_rotation   about the humerus long axis, internal rotation positive
+///  elbow_flexion       0 = extended, flexion positive
+///  pro_sup             0 = neutral (thumb forward, palm medial), pronation positive
+///  wrist_flexion       flexion positive; wrist_deviation radial deviation positive
+///  mcp/pip/dip_flexion index finger, flexion positive
+enum Coordinate : int {
+  kShoulderElvPlane = 0,
+  kShoulderElevation,
+  kShoulderRotation,
+  kElbowFlexion,
+  kProSup,
+  kWristFlexion,
+  kWristDeviation,
+  kMcpFlexion,
+  kPipFlexion,
+  kDipFlexion,
+  kNumCoordinates
+};
+
+/// Names used in scenario files and trial columns (q.<name>), indexed by Coordinate.
+const std::array<std::string, kNumCoordinates>& CoordinateNames();
+/// Index of a coordinate name, or −1.
+int CoordinateIndex(const std::string& name);
+
+/// Rigid segments with mass, indexed in UpperLimbModel and BandParams::segment.
+enum Segment : int {
+  kHumerus = 0,
+  kForearm,
+  kHand,
+  kProximalPhalanx,
+  kMiddlePhalanx,
+  kDistalPhalanx,
+  kNumSegments
+};
+const std::array<std::string, kNumSegments>& SegmentNames();
+int SegmentIndex(const std::string& name);
+
+/// Inertial and geometric properties of one segment, in its body frame B whose origin is the
+/// proximal joint centre and whose −Y axis runs along the segment to its distal joint.
+struct SegmentParams {
+  double mass_kg = 1.0;                             ///< > 0.
+  double length_m = 0.3;                            ///< proximal to distal joint centre, > 0.
+  std::array<double, 3> com_in_body_m{};            ///< centre of mass p_BC, m.
+  std::array<double, 3> inertia_about_com_kg_m2{};  ///< principal moments (Ixx, Iyy, Izz), kg·m².
+};
+
+/// How a coordinate moves during a trial.
+enum class CoordinateMode { kFree, kLocked, kPrescribed };
+
+/// A prescribed coordinate trajectory q(t) = offset + amplitude sin(2π f t + phase).
+struct SinePrescription {
+  double offset_rad = 0.0;
+  double amplitude_rad = 0.0;
+  double frequency_hz = 0.0;  ///< ≥ 0.
+  double phase_rad = 0.0;
+};
+
+struct CoordinateParams {
+  CoordinateMode mode = CoordinateMode::kFree;
+  double initial_rad = 0.0;          ///< q at t = 0 (the lock angle when locked), rad.
+  double initial_speed_rad_s = 0.0;  ///< q̇ at t = 0 (free coordinates), rad/s.
+  PassiveJointParams passive;
+  SinePrescription prescription;  ///< used when mode == kPrescribed.
+};
+
+/// One muscle: architecture, recruitment, activation dynamics, path.
+struct MuscleParams {
+  std::string name;
+  muscles::HillParams hill;
+  muscles::RecruitmentParams recruitment;
+  double activation_omega_rad_s = 6.0;  ///< Ω_i of eq. (6), rad/s, > 0.
+  tendons::MusclePath path;             ///< crossings and l_MT at the reference posture.
+};
+
+/// One stimulation channel: either a set of pads of the electrode array (weights from the
+/// array geometry) or an electrode pair with explicit weights per muscle, or both.
+struct ChannelParams {
+  std::string name;
+  std::vector<int> pads;                                       ///< array pads driven, may be empty.
+  std::vector<std::pair<std::string, double>> muscle_weights;  ///< explicit A entries.
+};
+
+/// Electrode array geometry: pads (index = row·cols + col) and the motor point of each muscle it
+/// can reach (muscles without one are reached only through explicit weights).
+struct ElectrodeArrayParams {
+  int rows = 4, cols = 6;
+  double pitch_m = 0.015;
+  muscles::SkinPoint origin;  ///< pad (0, 0).
+  std::vector<std::pair<std::string, muscles::SkinPoint>> motor_points;
+  double spread_m = 0.012;  ///< σ, m.
+};
+
+/// A joint-level sensor: one column per listed coordinate, sampled at rate_hz with additive
+/// zero-mean Gaussian noise of standard deviation noise_std.
+struct SensorParams {
+  double rate_hz = 100.0;        ///< > 0.
+  double noise_std = 0.0;        ///< in the measured unit (rad, rad/s or N·m), ≥ 0.
+  std::vector<int> coordinates;  ///< Coordinate indices.
+};
+
+struct SensorSuite {
+  SensorParams angles;           ///< q.<joint>: camera / hand tracker, rad.
+  SensorParams velocities;       ///< qd.<joint>: IMU gyroscope, rad/s.
+  SensorParams torques;          ///< tau.<joint>: torque sensor on locked coordinates, N·m.
+  double truth_rate_hz = 100.0;  ///< rate of the noiseless truth record, Hz.
+};
+
+struct IntegratorParams {
+  /// kCvodes: BDF (stiff, default); kCvodesAdams: Adams–Moulton (non-stiff, little numerical
+  /// damping, for conservative checks); kSimbodyRkMerson: Simbody's explicit RK cross-check.
+  enum class Method { kCvodes, kCvodesAdams, kSimbodyRkMerson };
+  Method method = Method::kCvodes;
+  double tolerance = 1e-6;  ///< relative and absolute accuracy, > 0.
+};
+
+/// Everything that defines one virtual participant on one rig.
+struct ModelParams {
+  std::array<SegmentParams, kNumSegments> segments;
+  std::array<CoordinateParams, kNumCoordinates> coordinates;
+  std::array<double, 3> shoulder_in_ground_m{0.0, 1.43, 0.22};  ///< glenohumeral centre in G, m.
+  std::array<double, 3> gravity_m_s2{0.0, -9.81, 0.0};
+  double index_mcp_offset_m = 0.02;  ///< index MCP lateral (thumb-side) offset in the hand, m.
+  std::vector<MuscleParams> muscles;
+  ElectrodeArrayParams array;
+  std::vector<ChannelParams> channels;
+  std::vector<BandParams> bands;
+  std::vector<WeightCompensationParams> weight_compensation;
+};
+
+/// The electrode matrix A (muscles × channels) implied by the array geometry and explicit
+/// channel weights. Throws std::invalid_argument naming an unknown muscle or pad.
+muscles::ArrayMatrix BuildElectrodeMatrix(const ModelParams& model);
+
+}  // namespace fesim::sim

@@ -1,0 +1,35 @@
+// Passive joint moments (papers/000_0a6c0de9fc69df7c.txt eq. 14; values papers/004_* Table I).
+//
+//   τ_p(q, q̇) = k (q₀ − q) − b q̇ + τ_lim(q) − τ_c(q̇)
+//   τ_lim(q)  = (K_L/κ) (e^{−κ (q − q_min)} − e^{−κ (q_max − q)})       (exponential range limits,
+//               Riener & Edrich 1999 form; K_L = stiffness at the limit, κ = sharpness)
+//   V(q)      = ½ k (q − q₀)² + (K_L/κ²)(e^{−κ (q − q_min)} + e^{−κ (q_max − q)}),  τ = −∂V/∂q
+//   τ_c(q̇)   = F_c tanh(q̇ / v_c)   (optional Coulomb friction, papers/003_*, smoothed over v_c)
+// Units: q rad, q̇ rad/s, τ N·m, V J. Sign: positive τ accelerates q positively.
+#pragma once
+
+namespace fesim::sim {
+
+/// Passive properties of one coordinate.
+struct PassiveJointParams {
+  double stiffness_nm_per_rad = 0.0;        ///< k, N·m/rad, ≥ 0.
+  double damping_nms_per_rad = 0.0;         ///< b, N·m·s/rad, ≥ 0.
+  double rest_angle_rad = 0.0;              ///< q₀, rad.
+  double min_angle_rad = -1.5;              ///< q_min, rad.
+  double max_angle_rad = 1.5;               ///< q_max, rad, > q_min.
+  double limit_stiffness_nm_per_rad = 0.0;  ///< K_L, N·m/rad, ≥ 0 (0 disables the limits).
+  double limit_sharpness_per_rad = 20.0;    ///< κ, 1/rad, > 0.
+  double coulomb_friction_nm = 0.0;         ///< F_c, N·m, ≥ 0.
+  double coulomb_velocity_rad_s = 0.01;     ///< v_c, rad/s, > 0 (smoothing width).
+};
+
+/// Conservative part: −∂V/∂q (spring + limits), N·m.
+double PassiveElasticTorque(const PassiveJointParams& p, double q_rad);
+/// Dissipative part: −b q̇ − τ_c(q̇), N·m.
+double PassiveDissipativeTorque(const PassiveJointParams& p, double qdot_rad_s);
+/// Total passive torque, N·m.
+double PassiveJointTorque(const PassiveJointParams& p, double q_rad, double qdot_rad_s);
+/// Potential V(q) of the conservative part, J.
+double PassiveJointPotential(const PassiveJointParams& p, double q_rad);
+
+}  // namespace fesim::sim

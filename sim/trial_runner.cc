@@ -1,0 +1,139 @@
+#include "sim/trial_runner.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "sim/sensors.h"
+
+namespace fesim::sim {
+namespace {
+
+const double kNaN = std::nan("");
+
+struct SensorColumns {
+  std::vector<bool> on;                     // per merged row
+  std::vector<std::vector<double>> values;  // per listed coordinate
+};
+
+}  // namespace
+
+TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req) {
+  if (!(req.duration_s > 0.0)) throw std::invalid_argument("trial duration must be > 0");
+  const SensorSuite& sens = req.sensors;
+  const auto& names = CoordinateNames();
+  const int nc = model.num_channels();
+  const int nm = model.num_muscles();
+
+  const std::vector<double> angle_t = SampleTimes(sens.angles.rate_hz, req.duration_s);
+  const std::vector<double> vel_t = SampleTimes(sens.velocities.rate_hz, req.duration_s);
+  const std::vector<double> torque_t = SampleTimes(sens.torques.rate_hz, req.duration_s);
+  const std::vector<double> truth_t = SampleTimes(sens.truth_rate_hz, req.duration_s);
+  std::vector<std::vector<double>> grids = {truth_t};
+  if (!sens.angles.coordinates.empty()) grids.push_back(angle_t);
+  if (!sens.velocities.coordinates.empty()) grids.push_back(vel_t);
+  if (!sens.torques.coordinates.empty()) grids.push_back(torque_t);
+  const std::vector<double> report = MergeTimes(grids);
+  const std::vector<bool> on_truth = OnGrid(report, truth_t);
+  const std::vector<bool> on_angle = OnGrid(report, angle_t);
+  const std::vector<bool> on_vel = OnGrid(report, vel_t);
+  const std::vector<bool> on_torque = OnGrid(report, torque_t);
+
+  // Truth record and measured record are filled row by row.
+  TrialResult result;
+  std::vector<double> meas_t;
+  std::vector<std::vector<double>> meas_u(nc), meas_q(sens.angles.coordinates.size()),
+      meas_qd(sens.velocities.coordinates.size()), meas_tau(sens.torques.coordinates.size());
+  std::vector<double> truth_time;
+  std::vector<std::vector<double>> tr_u(nc), tr_q(kNumCoordinates), tr_qd(kNumCoordinates),
+      tr_a(nm), tr_f(nm), tr_tm(kNumCoordinates), tr_tau(sens.torques.coordinates.size());
+  GaussianNoise angle_noise(DeriveSeed(req.seed, 1)), vel_noise(DeriveSeed(req.seed, 2)),
+      torque_noise(DeriveSeed(req.seed, 3));
+
+  std::size_t row = 0;
+  SimTK::State state = model.MakeInitialState();
+  const auto observer = [&](const SimTK::State& s) {
+    const std::size_t i = row++;
+    const std::vector<double> u = model.GetStimulation(s);
+    const std::vector<double> q = model.GetQs(s);
+    const std::vector<double> qd = model.GetUs(s);
+    const bool need_torque = !sens.torques.coordinates.empty() && (on_torque[i] || on_truth[i]);
+    const std::vector<double> tau = need_torque ? model.SensorTorques(s) : std::vector<double>();
+    if (on_truth[i]) {
+      const MuscleSnapshot m = model.ComputeMuscles(s);
+      result.fibre_clamped = result.fibre_clamped || m.any_clamped;
+      truth_time.push_back(s.getTime());
+      for (int k = 0; k < nc; ++k) tr_u[k].push_back(u[k]);
+      for (int c = 0; c < kNumCoordinates; ++c) {
+        tr_q[c].push_back(q[c]);
+        tr_qd[c].push_back(qd[c]);
+        tr_tm[c].push_back(m.joint_torque_nm[c]);
+      }
+      for (int j = 0; j < nm; ++j) {
+        tr_a[j].push_back(m.activation[j]);
+        tr_f[j].push_back(m.force_n[j]);
+      }
+      for (std::size_t k = 0; k < sens.torques.coordinates.size(); ++k) {
+        tr_tau[k].push_back(tau[sens.torques.coordinates[k]]);
+      }
+    }
+    const bool measured_row = (on_angle[i] && !meas_q.empty()) || (on_vel[i] && !meas_qd.empty()) ||
+                              (on_torque[i] && !meas_tau.empty());
+    if (!measured_row) return;
+    meas_t.push_back(s.getTime());
+    for (int k = 0; k < nc; ++k) meas_u[k].push_back(u[k]);
+    for (std::size_t k = 0; k < meas_q.size(); ++k) {
+      meas_q[k].push_back(on_angle[i] ? q[sens.angles.coordinates[k]] +
+                                            angle_noise.Sample(sens.angles.noise_std)
+                                      : kNaN);
+    }
+    for (std::size_t k = 0; k < meas_qd.size(); ++k) {
+      meas_qd[k].push_back(on_vel[i] ? qd[sens.velocities.coordinates[k]] +
+                                           vel_noise.Sample(sens.velocities.noise_std)
+                                     : kNaN);
+    }
+    for (std::size_t k = 0; k < meas_tau.size(); ++k) {
+      meas_tau[k].push_back(on_torque[i] ? tau[sens.torques.coordinates[k]] +
+                                               torque_noise.Sample(sens.torques.noise_std)
+                                         : kNaN);
+    }
+  };
+  result.stats = IntegrateTrial(model, req.integrator, req.stimulation, report, &state, observer);
+
+  const auto& params = model.params();
+  Trial& m = result.measured;
+  m.time = meas_t;
+  for (int k = 0; k < nc; ++k) m.AddColumn("u." + params.channels[k].name, meas_u[k]);
+  for (std::size_t k = 0; k < meas_q.size(); ++k) {
+    m.AddColumn("q." + names[sens.angles.coordinates[k]], meas_q[k]);
+  }
+  for (std::size_t k = 0; k < meas_qd.size(); ++k) {
+    m.AddColumn("qd." + names[sens.velocities.coordinates[k]], meas_qd[k]);
+  }
+  for (std::size_t k = 0; k < meas_tau.size(); ++k) {
+    m.AddColumn("tau." + names[sens.torques.coordinates[k]], meas_tau[k]);
+  }
+  Trial& t = result.truth;
+  t.time = truth_time;
+  for (int k = 0; k < nc; ++k) t.AddColumn("u." + params.channels[k].name, tr_u[k]);
+  for (int c = 0; c < kNumCoordinates; ++c) t.AddColumn("q." + names[c], tr_q[c]);
+  for (int c = 0; c < kNumCoordinates; ++c) t.AddColumn("qd." + names[c], tr_qd[c]);
+  for (int j = 0; j < nm; ++j) t.AddColumn("a." + params.muscles[j].name, tr_a[j]);
+  for (int j = 0; j < nm; ++j) t.AddColumn("f." + params.muscles[j].name, tr_f[j]);
+  for (int c = 0; c < kNumCoordinates; ++c) t.AddColumn("tau_muscle." + names[c], tr_tm[c]);
+  for (std::size_t k = 0; k < tr_tau.size(); ++k) {
+    t.AddColumn("tau." + names[sens.torques.coordinates[k]], tr_tau[k]);
+  }
+  for (Trial* trial : {&m, &t}) {
+    trial->metadata["trial"] = req.name;
+    trial->metadata["seed"] = std::to_string(req.seed);
+    trial->metadata["duration_s"] = std::to_string(req.duration_s);
+  }
+  m.metadata["record"] = "measured";
+  m.metadata["angle_rate_hz"] = std::to_string(sens.angles.rate_hz);
+  m.metadata["velocity_rate_hz"] = std::to_string(sens.velocities.rate_hz);
+  m.metadata["torque_rate_hz"] = std::to_string(sens.torques.rate_hz);
+  t.metadata["record"] = "truth";
+  return result;
+}
+
+}  // namespace fesim::sim

@@ -1,0 +1,41 @@
+// One virtual trial: integrate the model under a stimulation schedule, sample the sensors with
+// their noise, and return the measured trial plus the noiseless truth (PRODUCT.md "Trial files").
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "scenarios/trial.h"
+#include "sim/integrator.h"
+#include "sim/model_params.h"
+#include "sim/upper_limb_model.h"
+
+namespace fesim::sim {
+
+struct TrialRequest {
+  std::string name = "trial";
+  double duration_s = 5.0;          ///< > 0.
+  StimulationSchedule stimulation;  ///< per channel, µs.
+  SensorSuite sensors;
+  IntegratorParams integrator;
+  std::uint64_t seed = 1;  ///< sensor noise seed.
+};
+
+struct TrialResult {
+  /// What the rig records: u.<channel> (µs), q.<coordinate> (rad, angle sensor), qd.<coordinate>
+  /// (rad/s, velocity sensor), tau.<coordinate> (N·m, torque sensor on locked/prescribed
+  /// coordinates); NaN where a sensor did not sample.
+  Trial measured;
+  /// Noiseless ground truth at SensorSuite::truth_rate_hz: u.*, q.* and qd.* of every
+  /// coordinate, a.<muscle>, f.<muscle> (N), tau_muscle.<coordinate> (R f, N·m) and tau.* of the
+  /// sensor-equipped coordinates without noise.
+  Trial truth;
+  IntegrationStats stats;
+  bool fibre_clamped = false;  ///< some fibre reached its minimum length during the trial.
+};
+
+/// Runs one trial from the model's initial state. Throws std::runtime_error on integration
+/// failure (message names the time and coordinate).
+TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& request);
+
+}  // namespace fesim::sim

@@ -1,0 +1,404 @@
+#include "sim/upper_limb_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "muscles/activation.h"
+#include "muscles/hill.h"
+#include "muscles/recruitment.h"
+#include "sim/arm_support.h"
+#include "sim/passive_joint.h"
+#include "tendons/tendon_network.h"
+
+namespace fesim::sim {
+
+using SimTK::Real;
+using SimTK::State;
+using SimTK::Vec3;
+using SimTK::Vector;
+
+namespace {
+
+constexpr double kMaxPulseWidthUs = 300.0;
+
+Vec3 ToVec3(const std::array<double, 3>& a) { return Vec3(a[0], a[1], a[2]); }
+
+/// Frame at `p` whose Z axis is `axis` (a Pin rotates about its frames' common Z).
+SimTK::Transform PinFrame(const Vec3& axis, const Vec3& p) {
+  return SimTK::Transform(SimTK::Rotation(SimTK::UnitVec3(axis), SimTK::ZAxis), p);
+}
+
+SimTK::Body::Rigid RigidBody(const SegmentParams& s) {
+  const Vec3 com = ToVec3(s.com_in_body_m);
+  const SimTK::Inertia about_com(ToVec3(s.inertia_about_com_kg_m2));
+  return SimTK::Body::Rigid(
+      SimTK::MassProperties(s.mass_kg, com, about_com.shiftFromMassCenter(com, s.mass_kg)));
+}
+
+std::vector<double> QsOf(const SimTK::SimbodyMatterSubsystem& matter,
+                         const std::vector<SimTK::MobilizedBodyIndex>& bodies, const State& s) {
+  std::vector<double> q(bodies.size());
+  for (std::size_t i = 0; i < bodies.size(); ++i)
+    q[i] = matter.getMobilizedBody(bodies[i]).getOneQ(s, 0);
+  return q;
+}
+
+std::vector<double> UsOf(const SimTK::SimbodyMatterSubsystem& matter,
+                         const std::vector<SimTK::MobilizedBodyIndex>& bodies, const State& s) {
+  std::vector<double> u(bodies.size());
+  for (std::size_t i = 0; i < bodies.size(); ++i)
+    u[i] = matter.getMobilizedBody(bodies[i]).getOneU(s, 0);
+  return u;
+}
+
+/// Passive joint moments on every coordinate (thin adapter over passive_joint.h).
+class PassiveJointForce : public SimTK::Force::Custom::Implementation {
+ public:
+  PassiveJointForce(const SimTK::SimbodyMatterSubsystem& matter,
+                    std::vector<SimTK::MobilizedBodyIndex> bodies,
+                    std::shared_ptr<const ModelParams> params)
+      : matter_(matter), bodies_(std::move(bodies)), params_(std::move(params)) {}
+
+  void calcForce(const State& s, SimTK::Vector_<SimTK::SpatialVec>&, SimTK::Vector_<Vec3>&,
+                 Vector& mobility_forces) const override {
+    for (int i = 0; i < kNumCoordinates; ++i) {
+      const auto& mobod = matter_.getMobilizedBody(bodies_[i]);
+      const double tau = PassiveJointTorque(params_->coordinates[i].passive, mobod.getOneQ(s, 0),
+                                            mobod.getOneU(s, 0));
+      mobod.applyOneMobilityForce(s, 0, tau, mobility_forces);
+    }
+  }
+  Real calcPotentialEnergy(const State& s) const override {
+    double v = 0.0;
+    for (int i = 0; i < kNumCoordinates; ++i) {
+      v += PassiveJointPotential(params_->coordinates[i].passive,
+                                 matter_.getMobilizedBody(bodies_[i]).getOneQ(s, 0));
+    }
+    return v;
+  }
+
+ private:
+  const SimTK::SimbodyMatterSubsystem& matter_;
+  std::vector<SimTK::MobilizedBodyIndex> bodies_;
+  std::shared_ptr<const ModelParams> params_;
+};
+
+/// Elastic bands and weight compensation of the arm support (adapter over arm_support.h).
+class ArmSupportForce : public SimTK::Force::Custom::Implementation {
+ public:
+  ArmSupportForce(const SimTK::SimbodyMatterSubsystem& matter,
+                  std::vector<SimTK::MobilizedBodyIndex> segments,
+                  std::shared_ptr<const ModelParams> params)
+      : matter_(matter), segments_(std::move(segments)), params_(std::move(params)) {
+    const Vec3 g = ToVec3(params_->gravity_m_s2);
+    up_ = g.norm() > 0 ? Vec3(-g / g.norm()) : Vec3(0, 1, 0);
+  }
+
+  void calcForce(const State& s, SimTK::Vector_<SimTK::SpatialVec>& body_forces,
+                 SimTK::Vector_<Vec3>&, Vector&) const override {
+    for (const auto& band : params_->bands) {
+      const auto& mobod = matter_.getMobilizedBody(segments_[band.segment]);
+      const Vec3 p_B = ToVec3(band.cuff_in_segment_m);
+      const Vec3 p_G = mobod.findStationLocationInGround(s, p_B);
+      const Vec3d f = BandForce(band, {p_G[0], p_G[1], p_G[2]});
+      mobod.applyForceToBodyPoint(s, p_B, Vec3(f[0], f[1], f[2]), body_forces);
+    }
+    for (const auto& w : params_->weight_compensation) {
+      const auto& mobod = matter_.getMobilizedBody(segments_[w.segment]);
+      mobod.applyForceToBodyPoint(s, ToVec3(w.cuff_in_segment_m), w.force_n * up_, body_forces);
+    }
+  }
+  Real calcPotentialEnergy(const State& s) const override {
+    double v = 0.0;
+    for (const auto& band : params_->bands) {
+      const Vec3 p = matter_.getMobilizedBody(segments_[band.segment])
+                         .findStationLocationInGround(s, ToVec3(band.cuff_in_segment_m));
+      v += BandPotential(band, {p[0], p[1], p[2]});
+    }
+    for (const auto& w : params_->weight_compensation) {
+      const Vec3 p = matter_.getMobilizedBody(segments_[w.segment])
+                         .findStationLocationInGround(s, ToVec3(w.cuff_in_segment_m));
+      v -= w.force_n * SimTK::dot(up_, p);  // F = F_w·up is −∇V
+    }
+    return v;
+  }
+
+ private:
+  const SimTK::SimbodyMatterSubsystem& matter_;
+  std::vector<SimTK::MobilizedBodyIndex> segments_;
+  std::shared_ptr<const ModelParams> params_;
+  Vec3 up_;
+};
+
+/// A coordinate driven along q(t) = offset + A sin(2πft + φ) (robot-driven rigs).
+class SineMotion : public SimTK::Motion::Custom::Implementation {
+ public:
+  explicit SineMotion(const SinePrescription& p) : p_(p) {}
+  SimTK::Motion::Level getLevel(const State&) const override { return SimTK::Motion::Position; }
+  void calcPrescribedPosition(const State& s, int, Real* q) const override {
+    *q = p_.offset_rad + p_.amplitude_rad * std::sin(w() * s.getTime() + p_.phase_rad);
+  }
+  void calcPrescribedPositionDot(const State& s, int, Real* qd) const override {
+    *qd = p_.amplitude_rad * w() * std::cos(w() * s.getTime() + p_.phase_rad);
+  }
+  void calcPrescribedPositionDotDot(const State& s, int, Real* qdd) const override {
+    *qdd = -p_.amplitude_rad * w() * w() * std::sin(w() * s.getTime() + p_.phase_rad);
+  }
+
+ private:
+  double w() const { return 2.0 * SimTK::Pi * p_.frequency_hz; }
+  SinePrescription p_;
+};
+
+}  // namespace
+
+/// Muscles: stimulation (discrete variable) → A → recruitment → activation ODE (z states)
+/// → Hill force → τ = R(q) f. Thin adapter over muscles/ and tendons/.
+class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation {
+ public:
+  MuscleForce(const SimTK::SimbodyMatterSubsystem& matter,
+              const SimTK::GeneralForceSubsystem& forces,
+              std::vector<SimTK::MobilizedBodyIndex> bodies,
+              std::shared_ptr<const ModelParams> params,
+              std::shared_ptr<const muscles::ArrayMatrix> array)
+      : matter_(matter),
+        forces_(forces),
+        bodies_(std::move(bodies)),
+        params_(std::move(params)),
+        array_(std::move(array)) {
+    for (const auto& m : params_->muscles) paths_.push_back(m.path);
+  }
+
+  void realizeTopology(State& s) const override {
+    const int nm = static_cast<int>(params_->muscles.size());
+    z_start_ = forces_.allocateZ(s, Vector(2 * nm, 0.0));
+    stim_index_ = forces_.allocateDiscreteVariable(
+        s, SimTK::Stage::Dynamics,
+        new SimTK::Value<Vector>(Vector(static_cast<int>(params_->channels.size()), 0.0)));
+  }
+
+  void realizeDynamics(const State& s) const override {
+    // ż for every muscle: ȧ, ä of eq. (6) driven by w = H_IRC(A u).
+    const Vector& u = Stimulation(s);
+    const Vector& z = forces_.getZ(s);
+    Vector& zdot = forces_.updZDot(s);
+    const int nm = static_cast<int>(params_->muscles.size());
+    const int nc = array_->channels;
+    for (int j = 0; j < nm; ++j) {
+      double v = 0.0;
+      for (int k = 0; k < nc; ++k) v += (*array_)(j, k) * u[k];
+      const auto& m = params_->muscles[j];
+      const double w = muscles::Recruitment(m.recruitment, v);
+      const auto d = muscles::ActivationDerivative(m.activation_omega_rad_s, w,
+                                                   {z[z_start_ + 2 * j], z[z_start_ + 2 * j + 1]});
+      zdot[z_start_ + 2 * j] = d.a;
+      zdot[z_start_ + 2 * j + 1] = d.a_dot;
+    }
+  }
+
+  void calcForce(const State& s, SimTK::Vector_<SimTK::SpatialVec>&, SimTK::Vector_<Vec3>&,
+                 Vector& mobility_forces) const override {
+    const MuscleSnapshot snap = Compute(s);
+    for (int i = 0; i < kNumCoordinates; ++i) {
+      if (snap.joint_torque_nm[i] == 0.0) continue;
+      matter_.getMobilizedBody(bodies_[i])
+          .applyOneMobilityForce(s, 0, snap.joint_torque_nm[i], mobility_forces);
+    }
+  }
+  Real calcPotentialEnergy(const State&) const override { return 0.0; }
+
+  MuscleSnapshot Compute(const State& s) const {
+    const std::vector<double> q = QsOf(matter_, bodies_, s);
+    const std::vector<double> qd = UsOf(matter_, bodies_, s);
+    const Vector& z = forces_.getZ(s);
+    const int nm = static_cast<int>(params_->muscles.size());
+    MuscleSnapshot out;
+    out.activation.resize(nm);
+    out.force_n.resize(nm);
+    out.length_m.resize(nm);
+    out.velocity_m_s.resize(nm);
+    for (int j = 0; j < nm; ++j) {
+      const auto& m = params_->muscles[j];
+      const double l = tendons::MusculotendonLength(paths_[j], q);
+      const double v = tendons::MusculotendonVelocity(paths_[j], q, qd);
+      const auto fibre = muscles::FibreFromMusculotendon(m.hill, l, v);
+      out.any_clamped = out.any_clamped || fibre.clamped;
+      out.activation[j] = z[z_start_ + 2 * j];
+      out.force_n[j] = muscles::HillTendonForce(m.hill, out.activation[j], fibre);
+      out.length_m[j] = l;
+      out.velocity_m_s[j] = v;
+    }
+    out.joint_torque_nm = tendons::JointTorques(paths_, q, out.force_n);
+    return out;
+  }
+
+  const Vector& Stimulation(const State& s) const {
+    return SimTK::Value<Vector>::downcast(forces_.getDiscreteVariable(s, stim_index_));
+  }
+  Vector& UpdStimulation(State& s) const {
+    return SimTK::Value<Vector>::updDowncast(forces_.updDiscreteVariable(s, stim_index_));
+  }
+
+ private:
+  const SimTK::SimbodyMatterSubsystem& matter_;
+  const SimTK::GeneralForceSubsystem& forces_;
+  std::vector<SimTK::MobilizedBodyIndex> bodies_;
+  std::shared_ptr<const ModelParams> params_;
+  std::shared_ptr<const muscles::ArrayMatrix> array_;
+  std::vector<tendons::MusclePath> paths_;
+  // Topology-stage indices, written once by realizeTopology (Simbody's own pattern).
+  mutable SimTK::ZIndex z_start_;
+  mutable SimTK::DiscreteVariableIndex stim_index_;
+};
+
+UpperLimbModel::UpperLimbModel(ModelParams params)
+    : params_(std::make_shared<const ModelParams>(std::move(params))),
+      array_(std::make_shared<const muscles::ArrayMatrix>(BuildElectrodeMatrix(*params_))),
+      system_(std::make_unique<SimTK::MultibodySystem>()),
+      matter_(std::make_unique<SimTK::SimbodyMatterSubsystem>(*system_)),
+      forces_(std::make_unique<SimTK::GeneralForceSubsystem>(*system_)) {
+  const ModelParams& p = *params_;
+  for (const auto& b : p.bands) {
+    if (b.segment < 0 || b.segment >= kNumSegments) throw std::invalid_argument("band segment");
+  }
+  for (const auto& w : p.weight_compensation) {
+    if (w.segment < 0 || w.segment >= kNumSegments) throw std::invalid_argument("cuff segment");
+  }
+  const Vec3 X(1, 0, 0), Y(0, 1, 0), Z(0, 0, 1), O(0, 0, 0);
+  const auto& seg = p.segments;
+  SimTK::MobilizedBody& ground = matter_->updGround();
+
+  // Shoulder: Y (plane) – −X (elevation) – Y (axial rotation), papers/004_* Y-X-Y sequence.
+  SimTK::MobilizedBody::Pin plane(ground, PinFrame(Y, ToVec3(p.shoulder_in_ground_m)),
+                                  SimTK::Body::Massless(), PinFrame(Y, O));
+  SimTK::MobilizedBody::Pin elevation(plane, PinFrame(-X, O), SimTK::Body::Massless(),
+                                      PinFrame(-X, O));
+  SimTK::MobilizedBody::Pin humerus(elevation, PinFrame(Y, O), RigidBody(seg[kHumerus]),
+                                    PinFrame(Y, O));
+  SimTK::MobilizedBody::Pin forearm(humerus, PinFrame(Z, Vec3(0, -seg[kHumerus].length_m, 0)),
+                                    RigidBody(seg[kForearm]), PinFrame(Z, O));
+  SimTK::MobilizedBody::Pin radius(forearm, PinFrame(Y, Vec3(0, -seg[kForearm].length_m, 0)),
+                                   SimTK::Body::Massless(), PinFrame(Y, O));
+  SimTK::MobilizedBody::Pin carpal(radius, PinFrame(X, O), SimTK::Body::Massless(), PinFrame(X, O));
+  SimTK::MobilizedBody::Pin hand(carpal, PinFrame(Z, O), RigidBody(seg[kHand]), PinFrame(Z, O));
+  SimTK::MobilizedBody::Pin proximal(
+      hand, PinFrame(X, Vec3(p.index_mcp_offset_m, -seg[kHand].length_m, 0)),
+      RigidBody(seg[kProximalPhalanx]), PinFrame(X, O));
+  SimTK::MobilizedBody::Pin middle(proximal,
+                                   PinFrame(X, Vec3(0, -seg[kProximalPhalanx].length_m, 0)),
+                                   RigidBody(seg[kMiddlePhalanx]), PinFrame(X, O));
+  SimTK::MobilizedBody::Pin distal(middle, PinFrame(X, Vec3(0, -seg[kMiddlePhalanx].length_m, 0)),
+                                   RigidBody(seg[kDistalPhalanx]), PinFrame(X, O));
+  coordinate_bodies_ = {plane.getMobilizedBodyIndex(),   elevation.getMobilizedBodyIndex(),
+                        humerus.getMobilizedBodyIndex(), forearm.getMobilizedBodyIndex(),
+                        radius.getMobilizedBodyIndex(),  carpal.getMobilizedBodyIndex(),
+                        hand.getMobilizedBodyIndex(),    proximal.getMobilizedBodyIndex(),
+                        middle.getMobilizedBodyIndex(),  distal.getMobilizedBodyIndex()};
+  segment_bodies_ = {humerus.getMobilizedBodyIndex(), forearm.getMobilizedBodyIndex(),
+                     hand.getMobilizedBodyIndex(),    proximal.getMobilizedBodyIndex(),
+                     middle.getMobilizedBodyIndex(),  distal.getMobilizedBodyIndex()};
+
+  for (int i = 0; i < kNumCoordinates; ++i) {
+    if (p.coordinates[i].mode == CoordinateMode::kPrescribed) {
+      SimTK::Motion::Custom(matter_->updMobilizedBody(coordinate_bodies_[i]),
+                            new SineMotion(p.coordinates[i].prescription));
+    }
+  }
+
+  SimTK::Force::UniformGravity(*forces_, *matter_, ToVec3(p.gravity_m_s2));
+  SimTK::Force::Custom(*forces_, new PassiveJointForce(*matter_, coordinate_bodies_, params_));
+  if (!p.bands.empty() || !p.weight_compensation.empty()) {
+    SimTK::Force::Custom(*forces_, new ArmSupportForce(*matter_, segment_bodies_, params_));
+  }
+  auto* muscle = new MuscleForce(*matter_, *forces_, coordinate_bodies_, params_, array_);
+  muscle_force_ = muscle;
+  muscle_force_index_ = SimTK::Force::Custom(*forces_, muscle).getForceIndex();
+  system_->realizeTopology();
+}
+
+UpperLimbModel::~UpperLimbModel() = default;
+
+State UpperLimbModel::MakeInitialState() const {
+  State s = system_->getDefaultState();
+  for (int i = 0; i < kNumCoordinates; ++i) {
+    const auto& c = params_->coordinates[i];
+    const auto& mobod = matter_->getMobilizedBody(coordinate_bodies_[i]);
+    mobod.setOneQ(s, 0, c.initial_rad);
+    mobod.setOneU(s, 0, c.mode == CoordinateMode::kFree ? c.initial_speed_rad_s : 0.0);
+    if (c.mode == CoordinateMode::kLocked) mobod.lockAt(s, c.initial_rad, SimTK::Motion::Position);
+  }
+  system_->realizeModel(s);
+  s.setTime(0.0);
+  system_->prescribe(s);
+  system_->realize(s, SimTK::Stage::Velocity);
+  return s;
+}
+
+void UpperLimbModel::SetStimulation(State& state, const std::vector<double>& u_us) const {
+  if (static_cast<int>(u_us.size()) != num_channels()) {
+    throw std::invalid_argument("stimulation has " + std::to_string(u_us.size()) +
+                                " channels, model has " + std::to_string(num_channels()));
+  }
+  Vector& u = muscle_force_->UpdStimulation(state);
+  for (int k = 0; k < num_channels(); ++k) u[k] = std::clamp(u_us[k], 0.0, kMaxPulseWidthUs);
+}
+
+std::vector<double> UpperLimbModel::GetStimulation(const State& state) const {
+  const Vector& u = muscle_force_->Stimulation(state);
+  std::vector<double> out(u.size());
+  for (int k = 0; k < u.size(); ++k) out[k] = u[k];
+  return out;
+}
+
+double UpperLimbModel::GetQ(const State& s, int i) const { return CoordinateBody(i).getOneQ(s, 0); }
+double UpperLimbModel::GetU(const State& s, int i) const { return CoordinateBody(i).getOneU(s, 0); }
+std::vector<double> UpperLimbModel::GetQs(const State& s) const {
+  return QsOf(*matter_, coordinate_bodies_, s);
+}
+std::vector<double> UpperLimbModel::GetUs(const State& s) const {
+  return UsOf(*matter_, coordinate_bodies_, s);
+}
+
+MuscleSnapshot UpperLimbModel::ComputeMuscles(const State& s) const {
+  return muscle_force_->Compute(s);
+}
+
+std::vector<double> UpperLimbModel::MuscleMobilityForces(const State& s) const {
+  SimTK::Vector_<SimTK::SpatialVec> body_forces(matter_->getNumBodies(),
+                                                SimTK::SpatialVec(Vec3(0), Vec3(0)));
+  SimTK::Vector_<Vec3> particle_forces(0);
+  Vector mobility(s.getNU(), 0.0);
+  forces_->getForce(muscle_force_index_)
+      .calcForceContribution(s, body_forces, particle_forces, mobility);
+  std::vector<double> out(kNumCoordinates);
+  for (int i = 0; i < kNumCoordinates; ++i) out[i] = mobility[CoordinateBody(i).getFirstUIndex(s)];
+  return out;
+}
+
+std::vector<double> UpperLimbModel::SensorTorques(const State& s) const {
+  Vector motion_forces;
+  matter_->findMotionForces(s, motion_forces);
+  std::vector<double> tau(kNumCoordinates, std::nan(""));
+  for (int i = 0; i < kNumCoordinates; ++i) {
+    const auto& mobod = CoordinateBody(i);
+    if (params_->coordinates[i].mode == CoordinateMode::kFree) continue;
+    // Simbody's motion forces are the generalised forces the rig adds to hold the motion, with
+    // the sign of applied forces moved to the left-hand side (M u̇ = τ_applied − τ_motion): a held
+    // joint reads +τ_motion = what the limb pushes against the sensor.
+    tau[i] = motion_forces[mobod.getFirstUIndex(s)];
+  }
+  return tau;
+}
+
+const SimTK::MobilizedBody& UpperLimbModel::CoordinateBody(int i) const {
+  return matter_->getMobilizedBody(coordinate_bodies_.at(i));
+}
+
+const SimTK::MobilizedBody& UpperLimbModel::SegmentBody(int i) const {
+  return matter_->getMobilizedBody(segment_bodies_.at(i));
+}
+
+double UpperLimbModel::MechanicalEnergy(const State& s) const { return system_->calcEnergy(s); }
+
+}  // namespace fesim::sim

@@ -1,0 +1,104 @@
+// The ground-truth upper-limb model of papers/000_0a6c0de9fc69df7c.txt eq. (12) in Simbody:
+//   skeleton (H_RB, eq. 11) + passive joints (eq. 14 and range limits) + arm support
+//   + electrode array A (eq. 1) → recruitment (eq. 3) → activation (eq. 6, own Ω_i per muscle)
+//   → Hill muscles (eq. 4, 7) → Landsmeer tendon network R(q) (eq. 8–10) → joint torques.
+//
+// Muscles act through the tendon network as generalised forces τ = R(q) f with R = −∂l_MT/∂q
+// (papers/000 eq. 8), not as spatial line forces; this is the paper's formulation.
+//
+// Skeleton: thorax = ground. Shoulder as a Y–X–Y Euler sequence of three pins (papers/004_*)
+// with two massless intermediate bodies; it is singular at zero elevation (plane and axial
+// rotation share an axis), so elevation is kept ≥ 5° by its range limit. The forearm carries the
+// pro/supination pin at the wrist (the hand pronates, the forearm's inertia does not — departure
+// from an anatomical radius/ulna split). Wrist flexion then deviation, index MCP, PIP, DIP.
+//
+// The Simbody adapters (Force::Custom implementations in upper_limb_model.cc) only gather the
+// state and call the pure functions of muscles/, tendons/, passive_joint.h and arm_support.h.
+// The model is immutable after construction; every trial works on its own SimTK::State, so many
+// trials may run on one model in parallel.
+#pragma once
+
+#include <Simbody.h>
+
+#include <memory>
+#include <vector>
+
+#include "muscles/electrode_array.h"
+#include "sim/model_params.h"
+
+namespace fesim::sim {
+
+/// Per-muscle quantities at one instant.
+struct MuscleSnapshot {
+  std::vector<double> activation;       ///< a, 0–1.
+  std::vector<double> force_n;          ///< tendon force f, N.
+  std::vector<double> length_m;         ///< l_MT, m.
+  std::vector<double> velocity_m_s;     ///< dl_MT/dt, m/s.
+  std::vector<double> joint_torque_nm;  ///< τ = R f per coordinate, N·m.
+  bool any_clamped = false;             ///< a fibre hit its minimum length.
+};
+
+class UpperLimbModel {
+ public:
+  /// Builds and realises the topology. Throws std::invalid_argument on inconsistent params.
+  explicit UpperLimbModel(ModelParams params);
+  UpperLimbModel(const UpperLimbModel&) = delete;
+  UpperLimbModel& operator=(const UpperLimbModel&) = delete;
+  ~UpperLimbModel();
+
+  const ModelParams& params() const { return *params_; }
+  const SimTK::MultibodySystem& system() const { return *system_; }
+  const SimTK::SimbodyMatterSubsystem& matter() const { return *matter_; }
+  int num_muscles() const { return static_cast<int>(params_->muscles.size()); }
+  int num_channels() const { return static_cast<int>(params_->channels.size()); }
+  /// A (muscles × channels), dimensionless.
+  const muscles::ArrayMatrix& electrode_matrix() const { return *array_; }
+
+  /// A state at t = 0: initial angles and speeds, locks applied, activations 0, stimulation 0,
+  /// prescribed coordinates on their trajectories. Realised to Stage::Velocity.
+  SimTK::State MakeInitialState() const;
+
+  /// Sets the stimulation u (µs per channel) held from now on. Values are clipped to [0, 300].
+  void SetStimulation(SimTK::State& state, const std::vector<double>& u_us) const;
+  std::vector<double> GetStimulation(const SimTK::State& state) const;
+
+  double GetQ(const SimTK::State& state, int coordinate) const;
+  double GetU(const SimTK::State& state, int coordinate) const;
+  std::vector<double> GetQs(const SimTK::State& state) const;
+  std::vector<double> GetUs(const SimTK::State& state) const;
+
+  /// Muscle quantities (state realised to Stage::Velocity at least).
+  MuscleSnapshot ComputeMuscles(const SimTK::State& state) const;
+
+  /// Generalised forces (N·m per coordinate) that the muscle force element applies to the
+  /// multibody system, read back from Simbody (Force::calcForceContribution).
+  std::vector<double> MuscleMobilityForces(const SimTK::State& state) const;
+
+  /// Torque a sensor on each coordinate would read, N·m: for locked or prescribed coordinates
+  /// the torque the limb exerts on the rig (Simbody's motion force, needs Stage::Acceleration);
+  /// for a static held joint it equals the sum of applied moments (muscles, passive, gravity).
+  /// NaN for free coordinates.
+  std::vector<double> SensorTorques(const SimTK::State& state) const;
+
+  /// Mobilized body of a coordinate (the body that its pin moves) and of a segment.
+  const SimTK::MobilizedBody& CoordinateBody(int coordinate) const;
+  const SimTK::MobilizedBody& SegmentBody(int segment) const;
+
+  /// Total mechanical energy (kinetic + gravity + passive springs/limits + bands + weight
+  /// compensation), J. Needs Stage::Velocity.
+  double MechanicalEnergy(const SimTK::State& state) const;
+
+ private:
+  std::shared_ptr<const ModelParams> params_;
+  std::shared_ptr<const muscles::ArrayMatrix> array_;
+  std::unique_ptr<SimTK::MultibodySystem> system_;
+  std::unique_ptr<SimTK::SimbodyMatterSubsystem> matter_;
+  std::unique_ptr<SimTK::GeneralForceSubsystem> forces_;
+  std::vector<SimTK::MobilizedBodyIndex> coordinate_bodies_;  // index = Coordinate
+  std::vector<SimTK::MobilizedBodyIndex> segment_bodies_;     // index = Segment
+  class MuscleForce;
+  const MuscleForce* muscle_force_ = nullptr;  // owned by forces_
+  SimTK::ForceIndex muscle_force_index_;
+};
+
+}  // namespace fesim::sim

@@ -1,0 +1,227 @@
+#include "sim/upper_limb_model.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "sim/default_model.h"
+#include "sim/integrator.h"
+#include "tendons/tendon_network.h"
+
+namespace fesim::sim {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+constexpr double kEnergyDriftTol = 1e-5;  // relative to the peak kinetic energy
+constexpr double kTorqueTol = 1e-8;       // N·m
+constexpr double kPowerTol = 1e-4;        // relative to the peak joint power
+constexpr double kEquilibriumTol = 2e-4;  // rad
+
+/// Runs the model from its initial state and calls `f` at each report time.
+void RunModel(const UpperLimbModel& model, double duration, double dt, double tol,
+              const StimulationSchedule& stim, const Observer& f,
+              IntegratorParams::Method method = IntegratorParams::Method::kCvodes) {
+  IntegratorParams ip;
+  ip.method = method;
+  ip.tolerance = tol;
+  std::vector<double> times;
+  for (double t = 0.0; t <= duration + 1e-12; t += dt) times.push_back(t);
+  SimTK::State s = model.MakeInitialState();
+  IntegrateTrial(model, ip, stim, times, &s, f);
+}
+
+TEST(UpperLimbModel, EnergyConservedWithoutMusclesDampingOrSupport) {
+  ModelParams p = DefaultModelParams();
+  p.muscles.clear();
+  p.channels.clear();
+  p.array.motor_points.clear();
+  for (auto& c : p.coordinates) c.passive.damping_nms_per_rad = 0.0;
+  // Start the arm and wrist displaced so they swing. The undamped index-finger joints (natural
+  // frequencies up to ~40 Hz at ~10 g) are locked: they conserve energy too, but resolving their
+  // oscillation for 10 s costs minutes of integration without testing anything new.
+  for (int i = kShoulderElvPlane; i <= kWristDeviation; ++i) {
+    p.coordinates[i].initial_rad = p.coordinates[i].passive.rest_angle_rad + 0.2;
+  }
+  for (int i : {kMcpFlexion, kPipFlexion, kDipFlexion}) {
+    p.coordinates[i].mode = CoordinateMode::kLocked;
+    p.coordinates[i].initial_rad = p.coordinates[i].passive.rest_angle_rad;
+  }
+  p.coordinates[kShoulderElevation].initial_rad = 60 * kDeg;
+  const UpperLimbModel model(p);
+  double e0 = NAN, max_drift = 0.0, max_ke = 0.0;
+  RunModel(
+      model, 10.0, 0.01, 1e-8, {},
+      [&](const SimTK::State& s) {
+        const double e = model.MechanicalEnergy(s);
+        if (std::isnan(e0)) e0 = e;
+        max_drift = std::max(max_drift, std::abs(e - e0));
+        max_ke = std::max(max_ke, model.system().calcKineticEnergy(s));
+      },
+      IntegratorParams::Method::kCvodesAdams);
+  EXPECT_GT(max_ke, 0.1);  // it really moved
+  EXPECT_LT(max_drift / max_ke, kEnergyDriftTol) << "drift " << max_drift << " J of " << e0;
+  std::printf("energy drift %.3g J = %.3g of peak kinetic energy, %.3g of total energy\n",
+              max_drift, max_drift / max_ke, max_drift / std::abs(e0));
+}
+
+TEST(UpperLimbModel, PowerBalanceOfMuscles) {
+  // −Σ f · dl_MT/dt (lengths differentiated numerically along the motion) equals
+  // Σ τ · q̇ with τ the generalised forces Simbody actually received from the muscles.
+  const ModelParams p = DefaultModelParams();
+  const UpperLimbModel model(p);
+  StimulationSchedule stim;
+  stim.times = {0.0, 0.5};
+  stim.values = {{150, 0, 200, 0, 120, 0}, {60, 220, 0, 180, 0, 150}};
+  double max_power = 0.0, max_err = 0.0;
+  RunModel(model, 1.5, 0.05, 1e-8, stim, [&](const SimTK::State& s) {
+    const auto q = model.GetQs(s);
+    const auto qd = model.GetUs(s);
+    const MuscleSnapshot m = model.ComputeMuscles(s);
+    const auto tau = model.MuscleMobilityForces(s);
+    constexpr double h = 1e-6;
+    std::vector<double> qp(q), qm(q);
+    for (int i = 0; i < kNumCoordinates; ++i) {
+      qp[i] += h * qd[i];
+      qm[i] -= h * qd[i];
+    }
+    double muscle_power = 0.0, joint_power = 0.0;
+    for (std::size_t j = 0; j < p.muscles.size(); ++j) {
+      const double dldt = (tendons::MusculotendonLength(p.muscles[j].path, qp) -
+                           tendons::MusculotendonLength(p.muscles[j].path, qm)) /
+                          (2 * h);
+      muscle_power -= m.force_n[j] * dldt;
+    }
+    for (int i = 0; i < kNumCoordinates; ++i) joint_power += tau[i] * qd[i];
+    max_power = std::max(max_power, std::abs(joint_power));
+    max_err = std::max(max_err, std::abs(muscle_power - joint_power));
+  });
+  EXPECT_GT(max_power, 0.01);
+  EXPECT_LT(max_err / max_power, kPowerTol);
+}
+
+TEST(UpperLimbModel, LockedElbowSensorReadsTendonTorque) {
+  // Isometric rig (paper 002): every coordinate locked, no gravity, elbow at its passive rest
+  // angle. The torque sensor must read Σ_j R_ej f_j.
+  ModelParams p = DefaultModelParams();
+  p.gravity_m_s2 = {0, 0, 0};
+  for (auto& c : p.coordinates) {
+    c.mode = CoordinateMode::kLocked;
+    c.initial_rad = c.passive.rest_angle_rad;
+  }
+  const UpperLimbModel model(p);
+  StimulationSchedule stim;
+  stim.times = {0.0};
+  stim.values = {{0, 0, 250, 120, 0, 0}};
+  std::vector<tendons::MusclePath> paths;
+  for (const auto& m : p.muscles) paths.push_back(m.path);
+  int checked = 0;
+  RunModel(model, 2.0, 0.25, 1e-8, stim, [&](const SimTK::State& s) {
+    const MuscleSnapshot m = model.ComputeMuscles(s);
+    const auto r = tendons::MomentArmMatrix(paths, model.GetQs(s));
+    double expected = 0.0;
+    for (std::size_t j = 0; j < paths.size(); ++j)
+      expected += r[kElbowFlexion * paths.size() + j] * m.force_n[j];
+    const double measured = model.SensorTorques(s)[kElbowFlexion];
+    EXPECT_NEAR(measured, expected, kTorqueTol) << "t = " << s.getTime();
+    if (s.getTime() > 1.0) {
+      EXPECT_GT(std::abs(expected), 1.0);  // biceps and triceps really pull
+      ++checked;
+    }
+  });
+  EXPECT_GT(checked, 0);
+}
+
+TEST(UpperLimbModel, StaticEquilibriumOnSupportMatchesEnergyMinimum) {
+  // Sagittal arm with free shoulder elevation and elbow, held by an elastic band on the
+  // humerus and weight compensation on the forearm. Dynamics (forces, damping) must settle where
+  // the total potential energy is stationary — found independently by Newton's method on V(q).
+  ModelParams p = DefaultModelParams();
+  p.muscles.clear();
+  p.channels.clear();
+  p.array.motor_points.clear();
+  for (auto& c : p.coordinates) {
+    c.mode = CoordinateMode::kLocked;
+    c.initial_rad = c.passive.rest_angle_rad;
+  }
+  p.coordinates[kShoulderElvPlane].initial_rad = 90 * kDeg;
+  for (int i : {kShoulderElevation, kElbowFlexion}) {
+    p.coordinates[i].mode = CoordinateMode::kFree;
+    p.coordinates[i].passive.damping_nms_per_rad = 2.0;
+  }
+  p.coordinates[kShoulderElevation].initial_rad = 40 * kDeg;
+  p.coordinates[kElbowFlexion].initial_rad = 70 * kDeg;
+  BandParams band;
+  band.segment = kHumerus;
+  band.cuff_in_segment_m = {0.0, -0.2, 0.0};
+  band.anchor_in_ground_m = {0.3, 2.0, p.shoulder_in_ground_m[2]};
+  band.stiffness_n_per_m = 120.0;
+  band.slack_length_m = 0.3;
+  p.bands = {band};
+  p.weight_compensation = {{kForearm, {0.0, -0.12, 0.0}, 8.0}};
+  const UpperLimbModel model(p);
+
+  std::vector<double> settled;
+  RunModel(model, 30.0, 30.0, 1e-9, {}, [&](const SimTK::State& s) { settled = model.GetQs(s); });
+
+  SimTK::State s = model.MakeInitialState();
+  const auto energy = [&](double e, double k) {
+    model.CoordinateBody(kShoulderElevation).setOneQ(s, 0, e);
+    model.CoordinateBody(kElbowFlexion).setOneQ(s, 0, k);
+    model.CoordinateBody(kShoulderElevation).setOneU(s, 0, 0.0);
+    model.CoordinateBody(kElbowFlexion).setOneU(s, 0, 0.0);
+    model.system().realize(s, SimTK::Stage::Velocity);
+    return model.MechanicalEnergy(s);
+  };
+  double x[2] = {40 * kDeg, 70 * kDeg};
+  constexpr double h = 1e-4;
+  for (int it = 0; it < 30; ++it) {
+    double g[2], H[2][2];
+    const double f0 = energy(x[0], x[1]);
+    for (int i = 0; i < 2; ++i) {
+      double xp[2] = {x[0], x[1]}, xm[2] = {x[0], x[1]};
+      xp[i] += h;
+      xm[i] -= h;
+      g[i] = (energy(xp[0], xp[1]) - energy(xm[0], xm[1])) / (2 * h);
+      H[i][i] = (energy(xp[0], xp[1]) - 2 * f0 + energy(xm[0], xm[1])) / (h * h);
+    }
+    H[0][1] = H[1][0] = (energy(x[0] + h, x[1] + h) - energy(x[0] + h, x[1] - h) -
+                         energy(x[0] - h, x[1] + h) + energy(x[0] - h, x[1] - h)) /
+                        (4 * h * h);
+    const double det = H[0][0] * H[1][1] - H[0][1] * H[1][0];
+    x[0] -= (H[1][1] * g[0] - H[0][1] * g[1]) / det;
+    x[1] -= (H[0][0] * g[1] - H[1][0] * g[0]) / det;
+  }
+  EXPECT_NEAR(settled[kShoulderElevation], x[0], kEquilibriumTol);
+  EXPECT_NEAR(settled[kElbowFlexion], x[1], kEquilibriumTol);
+  // The support matters: without it the equilibrium is elsewhere.
+  EXPECT_GT(std::abs(x[0] - p.coordinates[kShoulderElevation].passive.rest_angle_rad), 0.05);
+}
+
+TEST(UpperLimbModel, PrescribedCoordinateFollowsItsTrajectory) {
+  ModelParams p = DefaultModelParams();
+  auto& elbow = p.coordinates[kElbowFlexion];
+  elbow.mode = CoordinateMode::kPrescribed;
+  elbow.prescription = {1.2, 0.3, 0.5, 0.0};
+  elbow.initial_rad = 1.2;
+  const UpperLimbModel model(p);
+  RunModel(model, 2.0, 0.1, 1e-7, {}, [&](const SimTK::State& s) {
+    const double t = s.getTime();
+    EXPECT_NEAR(model.GetQ(s, kElbowFlexion), 1.2 + 0.3 * std::sin(2 * SimTK::Pi * 0.5 * t), 1e-9);
+    EXPECT_TRUE(std::isfinite(model.SensorTorques(s)[kElbowFlexion]));
+  });
+}
+
+TEST(UpperLimbModel, StimulationIsClippedToPulseWidthLimits) {
+  const UpperLimbModel model(DefaultModelParams());
+  SimTK::State s = model.MakeInitialState();
+  model.SetStimulation(s, {-10, 400, 100, 0, 0, 0});
+  const auto u = model.GetStimulation(s);
+  EXPECT_EQ(u[0], 0.0);
+  EXPECT_EQ(u[1], 300.0);
+  EXPECT_EQ(u[2], 100.0);
+  EXPECT_THROW(model.SetStimulation(s, {1, 2}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace fesim::sim
