@@ -1,0 +1,62 @@
+// Scenario files (YAML) → validated parameter structs (PRODUCT.md "Scenario and trial files").
+//
+// A scenario describes one virtual participant on one rig and the trial to run. Every key is
+// optional unless marked; unknown keys, wrong types and out-of-range values are errors whose
+// one-line message names the file, the key path and the allowed range, e.g.
+//   scenarios/x.yaml: coordinates.elbow_flexion.initial_deg: 200 is outside [0, 150]
+// Angles are written in degrees at this edge (keys ending in _deg) and stored in rad.
+//
+//   name: text                                   (required)
+//   participant: {height_m: 1.2–2.2, mass_kg: 30–150}
+//   gravity_m_s2: [x, y, z]
+//   coordinates:
+//     <coordinate>: {mode: free|locked|prescribed, initial_deg, initial_speed_deg_s,
+//                    rest_deg, min_deg, max_deg, stiffness_nm_per_rad, damping_nms_per_rad,
+//                    limit_stiffness_nm_per_rad, limit_sharpness_per_rad, coulomb_friction_nm,
+//                    prescription: {offset_deg, amplitude_deg, frequency_hz, phase_deg}}
+//   muscles:
+//     <muscle>: {max_isometric_force_n, optimal_fibre_length_m, tendon_slack_length_m,
+//                pennation_deg, omega_rad_s, alpha, beta_per_us, gamma}
+//   electrodes:
+//     array: {rows, cols, pitch_m, origin_m: [along, around], spread_m,
+//             motor_points: {<muscle>: [along_m, around_m]}}
+//     channels: [{name, pads: [int…], muscles: {<muscle>: weight}}]   (replaces the default)
+//   support:
+//     bands: [{segment, cuff_m: [x,y,z], anchor_m: [x,y,z], stiffness_n_per_m, slack_length_m}]
+//     weight_compensation: [{segment, cuff_m: [x,y,z], force_n}]
+//   stimulation:
+//     duration_s: > 0                            (required)
+//     type: constant | steps | csv               (required)
+//     values_us: {<channel>: 0–300}              (constant)
+//     steps: [{time_s, values_us: {<channel>: µs}}]   (steps; channels not named are 0)
+//     file: path relative to the scenario, u.<channel> columns held until the next row (csv)
+//   sensors:
+//     angles:     {rate_hz, noise_std_deg, coordinates: [<coordinate>…]}
+//     velocities: {rate_hz, noise_std_deg_s, coordinates: […]}
+//     torques:    {rate_hz, noise_std_nm, coordinates: […]}   (locked/prescribed coordinates)
+//     truth_rate_hz
+//   integrator: {method: cvodes|cvodes-adams|simbody-rkm, tolerance: 1e-12–1e-2}
+#pragma once
+
+#include <string>
+
+#include "sim/model_params.h"
+#include "sim/trial_runner.h"
+
+namespace fesim {
+
+struct Scenario {
+  std::string name;
+  std::string path;            ///< file it was loaded from.
+  std::string source_text;     ///< the file's bytes (hashed into the manifest).
+  sim::ModelParams model;      ///< the participant and rig.
+  sim::TrialRequest trial;     ///< stimulation, duration, sensors, integrator.
+};
+
+/// Loads and validates a scenario. Throws std::runtime_error with the one-line message above.
+Scenario LoadScenario(const std::string& path);
+
+/// Parses scenario text; `path` names it in messages and anchors relative file names.
+Scenario ParseScenario(const std::string& text, const std::string& path);
+
+}  // namespace fesim
