@@ -13,6 +13,7 @@ void PrintUsage() {
   std::printf(
       "fesim %s — upper-limb FES simulator and identification bench\n\n"
       "usage:\n"
+      "  fesim simulate  SCENARIO.yaml [--out DIR] [--seed N]\n"
       "  fesim identify  --method NAME --train A.csv[,B.csv...] [--test C.csv] [--out DIR]\n"
       "  fesim --version\n\n"
       "Run 'fesim SUBCOMMAND --help' for details.\n",
@@ -32,6 +33,7 @@ int main(int argc, char** argv) {
     return 0;
   }
   try {
+    if (cmd == "simulate") return fesim::RunSimulate(argc, argv);
     if (cmd == "identify") return fesim::RunIdentify(argc, argv);
     std::fprintf(stderr, "fesim: unknown subcommand '%s' (see fesim --help)\n", cmd.c_str());
     return 2;

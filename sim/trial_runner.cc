@@ -17,7 +17,8 @@ struct SensorColumns {
 
 }  // namespace
 
-TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req) {
+TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
+                     const std::function<void(double)>& progress) {
   if (!(req.duration_s > 0.0)) throw std::invalid_argument("trial duration must be > 0");
   const SensorSuite& sens = req.sensors;
   const auto& names = CoordinateNames();
@@ -53,6 +54,9 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req) {
   SimTK::State state = model.MakeInitialState();
   const auto observer = [&](const SimTK::State& s) {
     const std::size_t i = row++;
+    if (progress && (i % 256 == 0 || i + 1 == report.size())) {
+      progress(s.getTime() / req.duration_s);
+    }
     const std::vector<double> u = model.GetStimulation(s);
     const std::vector<double> q = model.GetQs(s);
     const std::vector<double> qd = model.GetUs(s);

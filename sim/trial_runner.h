@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include "scenarios/trial.h"
@@ -36,6 +37,8 @@ struct TrialResult {
 
 /// Runs one trial from the model's initial state. Throws std::runtime_error on integration
 /// failure (message names the time and coordinate).
-TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& request);
+/// `progress`, when given, is called with the fraction of simulated time done (0–1).
+TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& request,
+                     const std::function<void(double)>& progress = nullptr);
 
 }  // namespace fesim::sim

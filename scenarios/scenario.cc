@@ -1,0 +1,532 @@
+#include "scenarios/scenario.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <functional>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "scenarios/trial.h"
+#include "sim/default_model.h"
+
+namespace fesim {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+std::string Fmt(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+/// A YAML mapping with its key path, which checks types, ranges and unknown keys.
+class Node {
+ public:
+  Node(YAML::Node node, std::string path, const std::string* file)
+      : node_(std::move(node)), path_(std::move(path)), file_(file) {}
+
+  [[noreturn]] void Fail(const std::string& what) const {
+    throw std::runtime_error(*file_ + ": " + (path_.empty() ? "" : path_ + ": ") + what);
+  }
+  [[noreturn]] void FailKey(const std::string& key, const std::string& what) const {
+    throw std::runtime_error(*file_ + ": " + Join(key) + ": " + what);
+  }
+  std::string Join(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+
+  /// Requires a mapping whose keys are all in `allowed`.
+  void Keys(const std::set<std::string>& allowed) const {
+    if (!node_.IsMap()) Fail("expected a mapping");
+    for (const auto& kv : node_) {
+      const std::string k = kv.first.as<std::string>();
+      if (!allowed.count(k)) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        FailKey(k, "unknown key (allowed: " + list + ")");
+      }
+    }
+  }
+  bool Has(const std::string& key) const { return node_.IsMap() && node_[key]; }
+  Node Child(const std::string& key) const {
+    if (!Has(key)) FailKey(key, "missing required key");
+    return Node(node_[key], Join(key), file_);
+  }
+  Node Item(std::size_t i) const {
+    return Node(node_[i], path_ + "[" + std::to_string(i) + "]", file_);
+  }
+  std::size_t Size() const {
+    if (!node_.IsSequence()) Fail("expected a list");
+    return node_.size();
+  }
+  bool IsMap() const { return node_.IsMap(); }
+
+  double Number(const std::string& key, double lo, double hi) const {
+    const Node c = Child(key);
+    double v = 0.0;
+    try {
+      if (!c.node_.IsScalar()) throw YAML::Exception(YAML::Mark(), "");
+      v = c.node_.as<double>();
+    } catch (const YAML::Exception&) {
+      FailKey(key, "expected a number in [" + Fmt(lo) + ", " + Fmt(hi) + "]");
+    }
+    if (!std::isfinite(v) || v < lo || v > hi) {
+      FailKey(key, Fmt(v) + " is outside [" + Fmt(lo) + ", " + Fmt(hi) + "]");
+    }
+    return v;
+  }
+  /// Optional number: keeps `*out` when the key is absent.
+  void Number(const std::string& key, double lo, double hi, double* out, double scale = 1.0) const {
+    if (Has(key)) *out = Number(key, lo, hi) * scale;
+  }
+  int Integer(const std::string& key, int lo, int hi) const {
+    const double v = Number(key, lo, hi);
+    if (v != std::floor(v))
+      FailKey(key, Fmt(v) + " is not an integer in [" + Fmt(lo) + ", " + Fmt(hi) + "]");
+    return static_cast<int>(v);
+  }
+  std::string Text(const std::string& key) const {
+    const Node c = Child(key);
+    if (!c.node_.IsScalar()) FailKey(key, "expected text");
+    return c.node_.as<std::string>();
+  }
+  std::string Choice(const std::string& key, const std::set<std::string>& allowed) const {
+    const std::string v = Text(key);
+    if (!allowed.count(v)) {
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : "|") + a;
+      FailKey(key, "'" + v + "' is not one of " + list);
+    }
+    return v;
+  }
+  std::vector<double> Vector(const std::string& key, std::size_t n, double lo, double hi) const {
+    const Node c = Child(key);
+    if (!c.node_.IsSequence() || c.node_.size() != n) {
+      FailKey(key, "expected a list of " + std::to_string(n) + " numbers");
+    }
+    std::vector<double> v;
+    for (std::size_t i = 0; i < n; ++i) {
+      double x = 0.0;
+      try {
+        x = c.node_[i].as<double>();
+      } catch (const YAML::Exception&) {
+        FailKey(key, "element " + std::to_string(i) + " is not a number");
+      }
+      if (!std::isfinite(x) || x < lo || x > hi) {
+        FailKey(key, "element " + std::to_string(i) + " = " + Fmt(x) + " is outside [" + Fmt(lo) +
+                         ", " + Fmt(hi) + "]");
+      }
+      v.push_back(x);
+    }
+    return v;
+  }
+  std::vector<int> IntList(const std::string& key, int lo, int hi) const {
+    const Node c = Child(key);
+    std::vector<int> out;
+    for (std::size_t i = 0; i < c.Size(); ++i) {
+      double x = 0.0;
+      try {
+        x = c.node_[i].as<double>();
+      } catch (const YAML::Exception&) {
+        FailKey(key, "element " + std::to_string(i) + " is not an integer");
+      }
+      if (x != std::floor(x) || x < lo || x > hi) {
+        FailKey(key, "element " + std::to_string(i) + " = " + Fmt(x) + " is not an integer in [" +
+                         Fmt(lo) + ", " + Fmt(hi) + "]");
+      }
+      out.push_back(static_cast<int>(x));
+    }
+    return out;
+  }
+  std::vector<std::string> TextList() const {
+    std::vector<std::string> out;
+    for (std::size_t i = 0; i < Size(); ++i) {
+      if (!node_[i].IsScalar()) Fail("element " + std::to_string(i) + " is not text");
+      out.push_back(node_[i].as<std::string>());
+    }
+    return out;
+  }
+  /// Keys of a mapping, in file order.
+  std::vector<std::string> MapKeys() const {
+    if (!node_.IsMap()) Fail("expected a mapping");
+    std::vector<std::string> k;
+    for (const auto& kv : node_) k.push_back(kv.first.as<std::string>());
+    return k;
+  }
+
+ private:
+  YAML::Node node_;
+  std::string path_;
+  const std::string* file_;
+};
+
+int MuscleIndex(const sim::ModelParams& m, const std::string& name) {
+  for (std::size_t j = 0; j < m.muscles.size(); ++j) {
+    if (m.muscles[j].name == name) return static_cast<int>(j);
+  }
+  return -1;
+}
+
+std::string MuscleList(const sim::ModelParams& m) {
+  std::string s;
+  for (const auto& x : m.muscles) s += (s.empty() ? "" : ", ") + x.name;
+  return s;
+}
+
+std::string CoordinateList() {
+  std::string s;
+  for (const auto& n : sim::CoordinateNames()) s += (s.empty() ? "" : ", ") + n;
+  return s;
+}
+
+int Coordinate(const Node& parent, const std::string& key, const std::string& name) {
+  const int i = sim::CoordinateIndex(name);
+  if (i < 0)
+    parent.FailKey(key, "unknown coordinate '" + name + "' (allowed: " + CoordinateList() + ")");
+  return i;
+}
+
+void LoadCoordinates(const Node& n, sim::ModelParams* m) {
+  for (const auto& name : n.MapKeys()) {
+    const int i = Coordinate(n, name, name);
+    const Node c = n.Child(name);
+    c.Keys({"mode", "initial_deg", "initial_speed_deg_s", "rest_deg", "min_deg", "max_deg",
+            "stiffness_nm_per_rad", "damping_nms_per_rad", "limit_stiffness_nm_per_rad",
+            "limit_sharpness_per_rad", "coulomb_friction_nm", "prescription"});
+    auto& p = m->coordinates[i];
+    auto& pj = p.passive;
+    c.Number("min_deg", -180, 180, &pj.min_angle_rad, kDeg);
+    c.Number("max_deg", -180, 180, &pj.max_angle_rad, kDeg);
+    if (!(pj.max_angle_rad > pj.min_angle_rad)) c.Fail("max_deg must be greater than min_deg");
+    const double lo = pj.min_angle_rad / kDeg, hi = pj.max_angle_rad / kDeg;
+    c.Number("rest_deg", lo, hi, &pj.rest_angle_rad, kDeg);
+    p.initial_rad = pj.rest_angle_rad;
+    c.Number("initial_deg", lo, hi, &p.initial_rad, kDeg);
+    c.Number("initial_speed_deg_s", -2000, 2000, &p.initial_speed_rad_s, kDeg);
+    c.Number("stiffness_nm_per_rad", 0, 1e3, &pj.stiffness_nm_per_rad);
+    c.Number("damping_nms_per_rad", 0, 1e2, &pj.damping_nms_per_rad);
+    c.Number("limit_stiffness_nm_per_rad", 0, 1e4, &pj.limit_stiffness_nm_per_rad);
+    c.Number("limit_sharpness_per_rad", 1, 200, &pj.limit_sharpness_per_rad);
+    c.Number("coulomb_friction_nm", 0, 100, &pj.coulomb_friction_nm);
+    if (c.Has("mode")) {
+      const std::string mode = c.Choice("mode", {"free", "locked", "prescribed"});
+      p.mode = mode == "free"     ? sim::CoordinateMode::kFree
+               : mode == "locked" ? sim::CoordinateMode::kLocked
+                                  : sim::CoordinateMode::kPrescribed;
+    }
+    if (c.Has("prescription")) {
+      if (p.mode != sim::CoordinateMode::kPrescribed) {
+        c.FailKey("prescription", "only allowed with mode: prescribed");
+      }
+      const Node pr = c.Child("prescription");
+      pr.Keys({"offset_deg", "amplitude_deg", "frequency_hz", "phase_deg"});
+      pr.Number("offset_deg", -180, 180, &p.prescription.offset_rad, kDeg);
+      pr.Number("amplitude_deg", 0, 180, &p.prescription.amplitude_rad, kDeg);
+      pr.Number("frequency_hz", 0, 50, &p.prescription.frequency_hz);
+      pr.Number("phase_deg", -360, 360, &p.prescription.phase_rad, kDeg);
+      p.initial_rad = p.prescription.offset_rad +
+                      p.prescription.amplitude_rad * std::sin(p.prescription.phase_rad);
+    } else if (p.mode == sim::CoordinateMode::kPrescribed) {
+      c.FailKey("prescription", "missing required key (mode: prescribed)");
+    }
+  }
+}
+
+void LoadMuscles(const Node& n, sim::ModelParams* m) {
+  for (const auto& name : n.MapKeys()) {
+    const int j = MuscleIndex(*m, name);
+    if (j < 0) n.FailKey(name, "unknown muscle (allowed: " + MuscleList(*m) + ")");
+    const Node c = n.Child(name);
+    c.Keys({"max_isometric_force_n", "optimal_fibre_length_m", "tendon_slack_length_m",
+            "pennation_deg", "omega_rad_s", "alpha", "beta_per_us", "gamma"});
+    auto& mu = m->muscles[j];
+    c.Number("max_isometric_force_n", 0.1, 1e4, &mu.hill.max_isometric_force_n);
+    c.Number("optimal_fibre_length_m", 0.005, 0.5, &mu.hill.optimal_fibre_length_m);
+    c.Number("tendon_slack_length_m", 0.0, 0.6, &mu.hill.tendon_slack_length_m);
+    c.Number("pennation_deg", 0, 60, &mu.hill.pennation_at_optimal_rad, kDeg);
+    c.Number("omega_rad_s", 0.1, 100, &mu.activation_omega_rad_s);
+    c.Number("alpha", 1e-3, 1, &mu.recruitment.alpha);
+    c.Number("beta_per_us", 1e-4, 1, &mu.recruitment.beta_per_us);
+    c.Number("gamma", 1e-3, 1e6, &mu.recruitment.gamma);
+  }
+}
+
+void LoadElectrodes(const Node& n, sim::ModelParams* m) {
+  n.Keys({"array", "channels"});
+  if (n.Has("array")) {
+    const Node a = n.Child("array");
+    a.Keys({"rows", "cols", "pitch_m", "origin_m", "spread_m", "motor_points"});
+    if (a.Has("rows")) m->array.rows = a.Integer("rows", 1, 16);
+    if (a.Has("cols")) m->array.cols = a.Integer("cols", 1, 16);
+    a.Number("pitch_m", 1e-3, 0.1, &m->array.pitch_m);
+    a.Number("spread_m", 1e-4, 0.1, &m->array.spread_m);
+    if (a.Has("origin_m")) {
+      const auto o = a.Vector("origin_m", 2, -0.5, 0.5);
+      m->array.origin = {o[0], o[1]};
+    }
+    if (a.Has("motor_points")) {
+      const Node mp = a.Child("motor_points");
+      m->array.motor_points.clear();
+      for (const auto& name : mp.MapKeys()) {
+        if (MuscleIndex(*m, name) < 0)
+          mp.FailKey(name, "unknown muscle (allowed: " + MuscleList(*m) + ")");
+        const auto p = mp.Vector(name, 2, -0.5, 0.5);
+        m->array.motor_points.push_back({name, {p[0], p[1]}});
+      }
+    }
+  }
+  if (n.Has("channels")) {
+    const Node ch = n.Child("channels");
+    m->channels.clear();
+    const int pads = m->array.rows * m->array.cols;
+    std::set<std::string> names;
+    for (std::size_t k = 0; k < ch.Size(); ++k) {
+      const Node c = ch.Item(k);
+      c.Keys({"name", "pads", "muscles"});
+      sim::ChannelParams p;
+      p.name = c.Text("name");
+      if (!names.insert(p.name).second) c.FailKey("name", "duplicate channel '" + p.name + "'");
+      if (c.Has("pads")) p.pads = c.IntList("pads", 0, pads - 1);
+      if (c.Has("muscles")) {
+        const Node mw = c.Child("muscles");
+        for (const auto& name : mw.MapKeys()) {
+          if (MuscleIndex(*m, name) < 0)
+            mw.FailKey(name, "unknown muscle (allowed: " + MuscleList(*m) + ")");
+          p.muscle_weights.push_back({name, mw.Number(name, 0, 10)});
+        }
+      }
+      if (p.pads.empty() && p.muscle_weights.empty()) c.Fail("a channel needs pads or muscles");
+      m->channels.push_back(p);
+    }
+  }
+}
+
+void LoadSupport(const Node& n, sim::ModelParams* m) {
+  n.Keys({"bands", "weight_compensation"});
+  const auto segment = [](const Node& c) {
+    const std::string s = c.Text("segment");
+    const int i = sim::SegmentIndex(s);
+    if (i < 0) {
+      std::string list;
+      for (const auto& x : sim::SegmentNames()) list += (list.empty() ? "" : ", ") + x;
+      c.FailKey("segment", "unknown segment '" + s + "' (allowed: " + list + ")");
+    }
+    return i;
+  };
+  const auto vec3 = [](const std::vector<double>& v) { return sim::Vec3d{v[0], v[1], v[2]}; };
+  if (n.Has("bands")) {
+    const Node b = n.Child("bands");
+    for (std::size_t k = 0; k < b.Size(); ++k) {
+      const Node c = b.Item(k);
+      c.Keys({"segment", "cuff_m", "anchor_m", "stiffness_n_per_m", "slack_length_m"});
+      sim::BandParams band;
+      band.segment = segment(c);
+      band.cuff_in_segment_m = vec3(c.Vector("cuff_m", 3, -1, 1));
+      band.anchor_in_ground_m = vec3(c.Vector("anchor_m", 3, -5, 5));
+      band.stiffness_n_per_m = c.Number("stiffness_n_per_m", 0, 1e5);
+      band.slack_length_m = c.Number("slack_length_m", 0, 5);
+      m->bands.push_back(band);
+    }
+  }
+  if (n.Has("weight_compensation")) {
+    const Node w = n.Child("weight_compensation");
+    for (std::size_t k = 0; k < w.Size(); ++k) {
+      const Node c = w.Item(k);
+      c.Keys({"segment", "cuff_m", "force_n"});
+      m->weight_compensation.push_back(
+          {segment(c), vec3(c.Vector("cuff_m", 3, -1, 1)), c.Number("force_n", 0, 500)});
+    }
+  }
+}
+
+std::vector<double> ChannelValues(const Node& n, const sim::ModelParams& m) {
+  std::vector<double> u(m.channels.size(), 0.0);
+  for (const auto& name : n.MapKeys()) {
+    int k = -1;
+    for (std::size_t i = 0; i < m.channels.size(); ++i) {
+      if (m.channels[i].name == name) k = static_cast<int>(i);
+    }
+    if (k < 0) {
+      std::string list;
+      for (const auto& c : m.channels) list += (list.empty() ? "" : ", ") + c.name;
+      n.FailKey(name, "unknown channel (allowed: " + list + ")");
+    }
+    u[k] = n.Number(name, 0, 300);
+  }
+  return u;
+}
+
+std::string Directory(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  return slash == std::string::npos ? "" : path.substr(0, slash + 1);
+}
+
+void LoadStimulation(const Node& n, const std::string& path, const sim::ModelParams& m,
+                     sim::TrialRequest* t) {
+  n.Keys({"duration_s", "type", "values_us", "steps", "file"});
+  t->duration_s = n.Number("duration_s", 1e-3, 3600);
+  const std::string type = n.Choice("type", {"constant", "steps", "csv"});
+  auto& sched = t->stimulation;
+  if (type == "constant") {
+    sched.times = {0.0};
+    sched.values = {ChannelValues(n.Child("values_us"), m)};
+  } else if (type == "steps") {
+    const Node steps = n.Child("steps");
+    for (std::size_t k = 0; k < steps.Size(); ++k) {
+      const Node s = steps.Item(k);
+      s.Keys({"time_s", "values_us"});
+      const double time = s.Number("time_s", 0, t->duration_s);
+      if (!sched.times.empty() && !(time > sched.times.back())) {
+        s.FailKey("time_s", Fmt(time) + " is not after the previous step's time");
+      }
+      sched.times.push_back(time);
+      sched.values.push_back(ChannelValues(s.Child("values_us"), m));
+    }
+    if (sched.times.empty()) n.FailKey("steps", "needs at least one step");
+  } else {
+    const std::string file = n.Text("file");
+    const std::string full = file.size() && file[0] == '/' ? file : Directory(path) + file;
+    Trial input;
+    try {
+      input = ReadTrialCsv(full);
+    } catch (const std::exception& e) {
+      n.FailKey("file", e.what());
+    }
+    std::vector<const std::vector<double>*> cols;
+    for (const auto& c : m.channels) {
+      if (!input.Has("u." + c.name)) {
+        n.FailKey("file", full + " has no column u." + c.name + " (one per channel)");
+      }
+      cols.push_back(&input.Column("u." + c.name));
+    }
+    for (std::size_t i = 0; i < input.size(); ++i) {
+      std::vector<double> u;
+      for (std::size_t k = 0; k < cols.size(); ++k) {
+        const double v = (*cols[k])[i];
+        if (!(v >= 0.0 && v <= 300.0)) {
+          n.FailKey("file", full + ": row " + std::to_string(i + 1) + " column u." +
+                                m.channels[k].name + " = " + Fmt(v) + " is outside [0, 300]");
+        }
+        u.push_back(v);
+      }
+      sched.times.push_back(input.time[i]);
+      sched.values.push_back(u);
+    }
+  }
+}
+
+void LoadSensor(const Node& n, const std::string& noise_key, double noise_scale,
+                sim::SensorParams* s) {
+  n.Keys({"rate_hz", "coordinates", noise_key});
+  n.Number("rate_hz", 0.1, 20000, &s->rate_hz);
+  n.Number(noise_key, 0, 1e3, &s->noise_std, noise_scale);
+  if (n.Has("coordinates")) {
+    const Node c = n.Child("coordinates");
+    s->coordinates.clear();
+    for (const auto& name : c.TextList()) {
+      s->coordinates.push_back(Coordinate(n, "coordinates", name));
+    }
+  }
+}
+
+}  // namespace
+
+Scenario ParseScenario(const std::string& text, const std::string& path) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(path + ":" + std::to_string(e.mark.line + 1) +
+                             ": YAML syntax: " + e.msg);
+  }
+  Scenario sc;
+  sc.path = path;
+  sc.source_text = text;
+  const Node top(root, "", &sc.path);
+  top.Keys({"name", "participant", "gravity_m_s2", "coordinates", "muscles", "electrodes",
+            "support", "stimulation", "sensors", "integrator"});
+  sc.name = top.Text("name");
+  double height = 1.75, mass = 75.0;
+  if (top.Has("participant")) {
+    const Node p = top.Child("participant");
+    p.Keys({"height_m", "mass_kg"});
+    p.Number("height_m", 1.2, 2.2, &height);
+    p.Number("mass_kg", 30, 150, &mass);
+  }
+  sc.model = sim::DefaultModelParams(height, mass);
+  sim::ModelParams& m = sc.model;
+  if (top.Has("gravity_m_s2")) {
+    const auto g = top.Vector("gravity_m_s2", 3, -100, 100);
+    m.gravity_m_s2 = {g[0], g[1], g[2]};
+  }
+  if (top.Has("coordinates")) LoadCoordinates(top.Child("coordinates"), &m);
+  if (top.Has("muscles")) LoadMuscles(top.Child("muscles"), &m);
+  if (top.Has("electrodes")) LoadElectrodes(top.Child("electrodes"), &m);
+  if (top.Has("support")) LoadSupport(top.Child("support"), &m);
+  sim::CalibrateReferenceLengths(&m);
+
+  sim::TrialRequest& t = sc.trial;
+  t.name = sc.name;
+  // Default sensors: every free coordinate's angle at 60 Hz with 1° noise; torques on every
+  // locked or prescribed coordinate at 100 Hz.
+  t.sensors.angles.rate_hz = 60.0;
+  t.sensors.angles.noise_std = 1.0 * kDeg;
+  t.sensors.torques.rate_hz = 100.0;
+  t.sensors.torques.noise_std = 0.01;
+  t.sensors.velocities.rate_hz = 100.0;
+  for (int i = 0; i < sim::kNumCoordinates; ++i) {
+    (m.coordinates[i].mode == sim::CoordinateMode::kFree ? t.sensors.angles : t.sensors.torques)
+        .coordinates.push_back(i);
+  }
+  LoadStimulation(top.Child("stimulation"), path, m, &t);
+  if (top.Has("sensors")) {
+    const Node s = top.Child("sensors");
+    s.Keys({"angles", "velocities", "torques", "truth_rate_hz"});
+    if (s.Has("angles")) LoadSensor(s.Child("angles"), "noise_std_deg", kDeg, &t.sensors.angles);
+    if (s.Has("velocities")) {
+      LoadSensor(s.Child("velocities"), "noise_std_deg_s", kDeg, &t.sensors.velocities);
+    }
+    if (s.Has("torques")) LoadSensor(s.Child("torques"), "noise_std_nm", 1.0, &t.sensors.torques);
+    s.Number("truth_rate_hz", 0.1, 20000, &t.sensors.truth_rate_hz);
+    if (s.Has("torques")) {
+      for (int i : t.sensors.torques.coordinates) {
+        if (m.coordinates[i].mode == sim::CoordinateMode::kFree) {
+          s.Child("torques").FailKey("coordinates", "torque sensor on free coordinate " +
+                                                        sim::CoordinateNames()[i] +
+                                                        " (allowed: locked or prescribed ones)");
+        }
+      }
+    }
+  }
+  if (top.Has("integrator")) {
+    const Node in = top.Child("integrator");
+    in.Keys({"method", "tolerance"});
+    if (in.Has("method")) {
+      const std::string method = in.Choice("method", {"cvodes", "cvodes-adams", "simbody-rkm"});
+      t.integrator.method = method == "cvodes" ? sim::IntegratorParams::Method::kCvodes
+                            : method == "cvodes-adams"
+                                ? sim::IntegratorParams::Method::kCvodesAdams
+                                : sim::IntegratorParams::Method::kSimbodyRkMerson;
+    }
+    in.Number("tolerance", 1e-12, 1e-2, &t.integrator.tolerance);
+  }
+  try {
+    sim::BuildElectrodeMatrix(m);
+  } catch (const std::exception& e) {
+    top.FailKey("electrodes", e.what());
+  }
+  return sc;
+}
+
+Scenario LoadScenario(const std::string& path) {
+  std::string text;
+  try {
+    text = ReadFile(path);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(e.what());
+  }
+  return ParseScenario(text, path);
+}
+
+}  // namespace fesim

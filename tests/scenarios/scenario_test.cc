@@ -1,0 +1,134 @@
+#include "scenarios/scenario.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <stdexcept>
+
+namespace fesim {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+const char* kMinimal = R"(name: t
+stimulation: {duration_s: 2, type: constant, values_us: {ext: 100}}
+)";
+
+std::string ErrorOf(const std::string& yaml) {
+  try {
+    ParseScenario(yaml, "s.yaml");
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+TEST(Scenario, MinimalScenarioUsesDefaults) {
+  const Scenario s = ParseScenario(kMinimal, "s.yaml");
+  EXPECT_EQ(s.name, "t");
+  EXPECT_EQ(s.model.muscles.size(), 14u);
+  EXPECT_EQ(s.trial.duration_s, 2.0);
+  ASSERT_EQ(s.trial.stimulation.values.size(), 1u);
+  EXPECT_EQ(s.trial.stimulation.values[0][0], 100.0);
+  EXPECT_EQ(s.trial.stimulation.values[0][1], 0.0);
+  EXPECT_EQ(s.trial.sensors.angles.coordinates.size(), 10u);  // all free by default
+}
+
+TEST(Scenario, OverridesAreApplied) {
+  const Scenario s = ParseScenario(R"(name: iso
+participant: {height_m: 1.6, mass_kg: 60}
+gravity_m_s2: [0, 0, -9.81]
+coordinates:
+  elbow_flexion: {mode: locked, initial_deg: 90, stiffness_nm_per_rad: 3}
+  wrist_flexion: {mode: prescribed, prescription: {offset_deg: 10, amplitude_deg: 20, frequency_hz: 1}}
+muscles:
+  BIC: {max_isometric_force_n: 500, omega_rad_s: 7}
+electrodes:
+  channels: [{name: bic, muscles: {BIC: 1.0}}, {name: arr, pads: [0, 23]}]
+support:
+  bands: [{segment: forearm, cuff_m: [0, -0.1, 0], anchor_m: [0, 2, 0], stiffness_n_per_m: 50, slack_length_m: 0.5}]
+stimulation:
+  duration_s: 3
+  type: steps
+  steps: [{time_s: 0, values_us: {bic: 50}}, {time_s: 1, values_us: {arr: 200}}]
+sensors:
+  torques: {rate_hz: 500, noise_std_nm: 0.02, coordinates: [elbow_flexion]}
+integrator: {method: simbody-rkm, tolerance: 1e-7}
+)",
+                                   "s.yaml");
+  EXPECT_NEAR(s.model.segments[sim::kForearm].length_m, 0.146 * 1.6, 1e-12);
+  EXPECT_EQ(s.model.gravity_m_s2[2], -9.81);
+  const auto& elbow = s.model.coordinates[sim::kElbowFlexion];
+  EXPECT_EQ(elbow.mode, sim::CoordinateMode::kLocked);
+  EXPECT_NEAR(elbow.initial_rad, 90 * kDeg, 1e-12);
+  EXPECT_EQ(elbow.passive.stiffness_nm_per_rad, 3.0);
+  const auto& wrist = s.model.coordinates[sim::kWristFlexion];
+  EXPECT_EQ(wrist.mode, sim::CoordinateMode::kPrescribed);
+  EXPECT_NEAR(wrist.prescription.amplitude_rad, 20 * kDeg, 1e-12);
+  EXPECT_EQ(s.model.muscles[8].hill.max_isometric_force_n, 500.0);
+  ASSERT_EQ(s.model.channels.size(), 2u);
+  EXPECT_EQ(s.model.channels[1].pads, (std::vector<int>{0, 23}));
+  EXPECT_EQ(s.model.bands.size(), 1u);
+  EXPECT_EQ(s.trial.stimulation.values[1], (std::vector<double>{0, 200}));
+  EXPECT_EQ(s.trial.sensors.torques.rate_hz, 500.0);
+  EXPECT_EQ(s.trial.integrator.method, sim::IntegratorParams::Method::kSimbodyRkMerson);
+}
+
+TEST(Scenario, EveryBadInputClassNamesFileKeyAndRange) {
+  // Unknown key.
+  EXPECT_EQ(ErrorOf(std::string(kMinimal) + "colour: red\n"),
+            "s.yaml: colour: unknown key (allowed: coordinates, electrodes, gravity_m_s2, "
+            "integrator, muscles, name, participant, sensors, stimulation, support)");
+  // Missing required key.
+  EXPECT_EQ(ErrorOf("name: t\n"), "s.yaml: stimulation: missing required key");
+  EXPECT_EQ(ErrorOf("stimulation: {duration_s: 2, type: constant, values_us: {}}\n"),
+            "s.yaml: name: missing required key");
+  // Wrong type.
+  EXPECT_EQ(ErrorOf("name: t\nparticipant: {height_m: tall}\nstimulation: {duration_s: 2, type: "
+                    "constant, values_us: {}}\n"),
+            "s.yaml: participant.height_m: expected a number in [1.2, 2.2]");
+  // Out of range.
+  EXPECT_EQ(ErrorOf(std::string(kMinimal) + "coordinates: {elbow_flexion: {initial_deg: 200}}\n"),
+            "s.yaml: coordinates.elbow_flexion.initial_deg: 200 is outside [0, 150]");
+  EXPECT_EQ(
+      ErrorOf("name: t\nstimulation: {duration_s: 2, type: constant, values_us: {ext: 400}}\n"),
+      "s.yaml: stimulation.values_us.ext: 400 is outside [0, 300]");
+  // Unknown names.
+  EXPECT_EQ(ErrorOf(std::string(kMinimal) + "muscles: {XYZ: {alpha: 0.5}}\n"),
+            "s.yaml: muscles.XYZ: unknown muscle (allowed: ECRL, ECRB, ECU, FCR, FCU, EDC, FDS, "
+            "FDP, BIC, BRA, BRD, TRI, DELT1, DELT3)");
+  EXPECT_NE(ErrorOf(std::string(kMinimal) + "coordinates: {knee: {}}\n")
+                .find("unknown coordinate 'knee'"),
+            std::string::npos);
+  EXPECT_EQ(ErrorOf("name: t\nstimulation: {duration_s: 2, type: ramp}\n"),
+            "s.yaml: stimulation.type: 'ramp' is not one of constant|csv|steps");
+  EXPECT_EQ(ErrorOf(std::string(kMinimal) + "electrodes: {channels: [{name: a, pads: [24]}]}\n"),
+            "s.yaml: electrodes.channels[0].pads: element 0 = 24 is not an integer in [0, 23]");
+  EXPECT_NE(ErrorOf("name: [\n").find("s.yaml:"), std::string::npos);  // YAML syntax
+  EXPECT_EQ(ErrorOf(std::string(kMinimal) + "sensors: {torques: {coordinates: [elbow_flexion]}}\n"),
+            "s.yaml: sensors.torques.coordinates: torque sensor on free coordinate elbow_flexion "
+            "(allowed: locked or prescribed ones)");
+}
+
+TEST(Scenario, CsvStimulationFileIsReadRelativeToScenario) {
+  const std::string dir = ::testing::TempDir();
+  WriteFileAtomic(dir + "u.csv",
+                  "time,u.ext,u.flex,u.bic,u.tri,u.delt_ant,u.delt_post\n0,0,0,0,0,0,0\n"
+                  "0.5,100,50,0,0,0,0\n");
+  const Scenario s = ParseScenario(
+      "name: c\nstimulation: {duration_s: 1, type: csv, file: u.csv}\n", dir + "c.yaml");
+  ASSERT_EQ(s.trial.stimulation.times.size(), 2u);
+  EXPECT_EQ(s.trial.stimulation.values[1][1], 50.0);
+  WriteFileAtomic(dir + "bad.csv", "time,u.ext\n0,0\n");
+  try {
+    ParseScenario("name: c\nstimulation: {duration_s: 1, type: csv, file: bad.csv}\n",
+                  dir + "c.yaml");
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("has no column u.flex"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace fesim
