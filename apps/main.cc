@@ -15,6 +15,9 @@ void PrintUsage() {
       "usage:\n"
       "  fesim simulate  SCENARIO.yaml [--out DIR] [--seed N]\n"
       "  fesim identify  --method NAME --train A.csv[,B.csv...] [--test C.csv] [--out DIR]\n"
+      "  fesim render    TRIAL.csv --scenario SCENARIO.yaml --out MOVIE.mp4 | --frames DIR\n"
+      "                  [--width W --height H --fps F --camera front|side|top|orbit]\n"
+      "                  [--compare OTHER.csv]\n"
       "  fesim --version\n\n"
       "Run 'fesim SUBCOMMAND --help' for details.\n",
       FESIM_VERSION);
@@ -34,6 +37,7 @@ int main(int argc, char** argv) {
   }
   try {
     if (cmd == "simulate") return fesim::RunSimulate(argc, argv);
+    if (cmd == "render") return fesim::RunRender(argc, argv);
     if (cmd == "identify") return fesim::RunIdentify(argc, argv);
     std::fprintf(stderr, "fesim: unknown subcommand '%s' (see fesim --help)\n", cmd.c_str());
     return 2;
