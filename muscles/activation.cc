@@ -15,4 +15,13 @@ ActivationState ActivationStepResponse(double omega_rad_s, double w, double t_s)
   return {w * (1.0 - (1.0 + omega_rad_s * t_s) * e), w * omega_rad_s * omega_rad_s * t_s * e};
 }
 
+ActivationState ActivationFreeResponse(double omega_rad_s, double w, const ActivationState& initial,
+                                       double t_s) {
+  const double om = omega_rad_s;
+  const double e0 = initial.a - w;
+  const double c = initial.a_dot + om * e0;
+  const double decay = std::exp(-om * t_s);
+  return {w + (e0 + c * t_s) * decay, (initial.a_dot - om * c * t_s) * decay};
+}
+
 }  // namespace fesim::muscles

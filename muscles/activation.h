@@ -23,4 +23,12 @@ ActivationState ActivationDerivative(double omega_rad_s, double w, const Activat
 ///   a(t) = w (1 − (1 + Ωt) e^{−Ωt}),  ȧ(t) = w Ω² t e^{−Ωt}.   t in s (≥ 0).
 ActivationState ActivationStepResponse(double omega_rad_s, double w, double t_s);
 
+/// Exact state after t_s seconds of constant input w from the state `initial` (the general
+/// solution of eq. (6)): with e = a − w,
+///   e(t) = (e₀ + (ė₀ + Ω e₀) t) e^{−Ωt},   ė(t) = (ė₀ − Ω (ė₀ + Ω e₀) t) e^{−Ωt}.
+/// Stimulation is piecewise constant, so the integrator uses this instead of integrating
+/// the activation states numerically (an exponential integrator for this linear block).
+ActivationState ActivationFreeResponse(double omega_rad_s, double w, const ActivationState& initial,
+                                       double t_s);
+
 }  // namespace fesim::muscles

@@ -12,6 +12,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "muscles/activation.h"
+
 namespace fesim::sim {
 
 std::vector<double> StimulationSchedule::At(double t, int channels) const {
@@ -59,19 +61,56 @@ std::string DescribeState(const UpperLimbModel& model, const SimTK::State& s) {
          ".." + std::to_string(model.params().coordinates[worst].passive.max_angle_rad) + ")";
 }
 
+/// CVODES integrates y = the Simbody state Y without the muscle activation states: between
+/// breakpoints the stimulation, hence w, is constant and eq. (6) is solved in closed form
+/// (muscles::ActivationFreeResponse), exactly and at no cost to the implicit solver.
 struct CvodesContext {
   const UpperLimbModel* model;
   SimTK::State* state;
   bool prescribe;
   long rhs = 0;
+  std::vector<int> y_index;                  // Y index of each CVODES component
+  int activation_index = 0;                  // Y index of muscle 0's a
+  std::vector<double> omega;                 // Ω_j, rad/s
+  std::vector<double> w;                     // recruited fraction in the current interval
+  std::vector<muscles::ActivationState> a0;  // activation state at the interval start
+  double t0 = 0.0;                           // interval start, s
+
+  CvodesContext(const UpperLimbModel* m, SimTK::State* s, bool p)
+      : model(m), state(s), prescribe(p) {
+    const int ny = s->getNY();
+    const int nm = m->num_muscles();
+    activation_index = m->ActivationYIndex(*s);
+    for (int i = 0; i < ny; ++i) {
+      if (i < activation_index || i >= activation_index + 2 * nm) y_index.push_back(i);
+    }
+    for (const auto& mu : m->params().muscles) omega.push_back(mu.activation_omega_rad_s);
+  }
+  /// Records the activation state and input at the start of an interval.
+  void BeginInterval(double t) {
+    t0 = t;
+    w = model->RecruitedFractions(*state);
+    const SimTK::Vector& Y = state->getY();
+    a0.resize(omega.size());
+    for (std::size_t j = 0; j < omega.size(); ++j) {
+      a0[j] = {Y[activation_index + 2 * static_cast<int>(j)],
+               Y[activation_index + 2 * static_cast<int>(j) + 1]};
+    }
+  }
 };
 
-void LoadState(CvodesContext* c, double t, const double* y) {
+void LoadState(CvodesContext* c, double t, const double* y,
+               SimTK::Stage stage = SimTK::Stage::Acceleration) {
   SimTK::Vector& Y = c->state->updY();
-  for (int i = 0; i < Y.size(); ++i) Y[i] = y[i];
+  for (std::size_t i = 0; i < c->y_index.size(); ++i) Y[c->y_index[i]] = y[i];
+  for (std::size_t j = 0; j < c->omega.size(); ++j) {
+    const auto a = muscles::ActivationFreeResponse(c->omega[j], c->w[j], c->a0[j], t - c->t0);
+    Y[c->activation_index + 2 * static_cast<int>(j)] = a.a;
+    Y[c->activation_index + 2 * static_cast<int>(j) + 1] = a.a_dot;
+  }
   c->state->setTime(t);
   if (c->prescribe) c->model->system().prescribe(*c->state);
-  c->model->system().realize(*c->state, SimTK::Stage::Acceleration);
+  c->model->system().realize(*c->state, stage);
 }
 
 int Rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user) {
@@ -84,8 +123,8 @@ int Rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user) {
   }
   const SimTK::Vector& yd = c->state->getYDot();
   double* out = N_VGetArrayPointer(ydot);
-  for (int i = 0; i < yd.size(); ++i) {
-    out[i] = yd[i];
+  for (std::size_t i = 0; i < c->y_index.size(); ++i) {
+    out[i] = yd[c->y_index[i]];
     if (!std::isfinite(out[i])) return 1;
   }
   return 0;
@@ -113,9 +152,11 @@ class Cvodes {
   Cvodes(const Cvodes&) = delete;
   Cvodes& operator=(const Cvodes&) = delete;
 
-  void Start(double t0, const SimTK::Vector& y0) {
+  void Start(double t0) {
+    ctx_->BeginInterval(t0);
+    const SimTK::Vector& y0 = ctx_->state->getY();
     double* y = N_VGetArrayPointer(y_);
-    for (int i = 0; i < y0.size(); ++i) y[i] = y0[i];
+    for (std::size_t i = 0; i < ctx_->y_index.size(); ++i) y[i] = y0[ctx_->y_index[i]];
     if (!initialised_) {
       Check(CVodeInit(mem_, Rhs, t0, y_), "CVodeInit", t0);
       Check(CVodeSStolerances(mem_, tol_, tol_), "CVodeSStolerances", t0);
@@ -140,7 +181,7 @@ class Cvodes {
                                ". Hint: check stimulation, stiffness and range limits, or "
                                "tighten integrator.tolerance");
     }
-    LoadState(ctx_, t_out, N_VGetArrayPointer(y_));
+    LoadState(ctx_, t_out, N_VGetArrayPointer(y_), SimTK::Stage::Velocity);
   }
   void AddStats(IntegrationStats* s) const {
     if (!initialised_) return;
@@ -174,12 +215,13 @@ bool HasPrescribed(const ModelParams& p) {
   return false;
 }
 
-/// Calls segment(t_from, t_to_event) for each interval between breakpoints and
-/// report(t) at report times, applying stimulation at breakpoints. Shared by both integrators.
+/// Walks the report times: advance(t, stop) integrates to t without passing the next
+/// breakpoint `stop`; at each breakpoint the stimulation changes and restart(t) reinitialises
+/// the integrator; observer sees each report time. Shared by both integrators.
 template <typename Advance, typename Restart>
 void Drive(const UpperLimbModel& model, const StimulationSchedule& schedule,
            const std::vector<double>& report_times, SimTK::State* state, const Observer& observer,
-           Advance advance, Restart restart, IntegrationStats* stats) {
+           SimTK::Stage observe_stage, Advance advance, Restart restart, IntegrationStats* stats) {
   const int nc = model.num_channels();
   const double t0 = state->getTime();
   model.SetStimulation(*state, schedule.At(t0, nc));
@@ -199,7 +241,7 @@ void Drive(const UpperLimbModel& model, const StimulationSchedule& schedule,
     }
     const double stop = next_break < breaks.size() ? breaks[next_break] : kInf;
     if (t_r > state->getTime() + kMinInterval) advance(t_r, stop);
-    model.system().realize(*state, SimTK::Stage::Acceleration);
+    model.system().realize(*state, observe_stage);
     observer(*state);
   }
 }
@@ -209,19 +251,19 @@ void Drive(const UpperLimbModel& model, const StimulationSchedule& schedule,
 IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorParams& params,
                                 const StimulationSchedule& schedule,
                                 const std::vector<double>& report_times, SimTK::State* state,
-                                const Observer& observer) {
+                                const Observer& observer, SimTK::Stage observe_stage) {
   IntegrationStats stats;
   if (params.method != IntegratorParams::Method::kSimbodyRkMerson) {
-    CvodesContext ctx{&model, state, HasPrescribed(model.params())};
-    Cvodes cv(state->getNY(), params.tolerance,
+    CvodesContext ctx(&model, state, HasPrescribed(model.params()));
+    Cvodes cv(static_cast<int>(ctx.y_index.size()), params.tolerance,
               params.method == IntegratorParams::Method::kCvodesAdams, &ctx);
     Drive(
-        model, schedule, report_times, state, observer,
+        model, schedule, report_times, state, observer, observe_stage,
         [&](double t, double stop) { cv.AdvanceTo(t, stop); },
         [&](double t) {
           cv.AddStats(&stats);
           state->setTime(t);
-          cv.Start(t, state->getY());
+          cv.Start(t);
         },
         &stats);
     cv.AddStats(&stats);
@@ -232,7 +274,7 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
   // Simbody's Runge–Kutta–Merson, restarted at each breakpoint like CVODES.
   std::unique_ptr<SimTK::RungeKuttaMersonIntegrator> integ;
   Drive(
-      model, schedule, report_times, state, observer,
+      model, schedule, report_times, state, observer, observe_stage,
       [&](double t, double stop) {
         while (integ->getTime() < t) integ->stepTo(t, stop);
         *state = integ->getState();

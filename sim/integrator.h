@@ -35,15 +35,18 @@ struct IntegrationStats {
   long restarts = 0;  ///< breakpoints at which the integrator restarted.
 };
 
-/// Called at each report time with the state realised to Stage::Acceleration.
+/// Called at each report time with the state realised to the requested stage.
 using Observer = std::function<void(const SimTK::State&)>;
 
 /// Advances `state` (at its current time) through `report_times` (sorted, ≥ state time),
-/// applying the schedule's stimulation changes, and calls `observer` at each report time.
-/// Throws std::runtime_error naming the simulated time and the integrator's reason on failure.
+/// applying the schedule's stimulation changes, and calls `observer` at each report time with
+/// the state realised to `observe_stage` (Velocity suffices for kinematics and muscle forces;
+/// Acceleration is needed for sensor torques). Throws std::runtime_error naming the simulated
+/// time and the integrator's reason on failure.
 IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorParams& params,
                                 const StimulationSchedule& schedule,
                                 const std::vector<double>& report_times, SimTK::State* state,
-                                const Observer& observer);
+                                const Observer& observer,
+                                SimTK::Stage observe_stage = SimTK::Stage::Acceleration);
 
 }  // namespace fesim::sim

@@ -101,7 +101,9 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
                                          : kNaN);
     }
   };
-  result.stats = IntegrateTrial(model, req.integrator, req.stimulation, report, &state, observer);
+  result.stats = IntegrateTrial(
+      model, req.integrator, req.stimulation, report, &state, observer,
+      sens.torques.coordinates.empty() ? SimTK::Stage::Velocity : SimTK::Stage::Acceleration);
 
   const auto& params = model.params();
   Trial& m = result.measured;

@@ -18,6 +18,13 @@ using SimTK::State;
 using SimTK::Vec3;
 using SimTK::Vector;
 
+/// Position of each coordinate's q and u in the state vectors. Filled once after the topology
+/// is realised (the layout is fixed from then on) and shared read-only with the force elements,
+/// which read q, u and add mobility forces by index instead of through MobilizedBody handles.
+struct CoordinateSlots {
+  std::vector<int> q, u;
+};
+
 namespace {
 
 constexpr double kMaxPulseWidthUs = 300.0;
@@ -36,51 +43,47 @@ SimTK::Body::Rigid RigidBody(const SegmentParams& s) {
       SimTK::MassProperties(s.mass_kg, com, about_com.shiftFromMassCenter(com, s.mass_kg)));
 }
 
-std::vector<double> QsOf(const SimTK::SimbodyMatterSubsystem& matter,
-                         const std::vector<SimTK::MobilizedBodyIndex>& bodies, const State& s) {
-  std::vector<double> q(bodies.size());
-  for (std::size_t i = 0; i < bodies.size(); ++i)
-    q[i] = matter.getMobilizedBody(bodies[i]).getOneQ(s, 0);
-  return q;
+std::vector<double> QsOf(const CoordinateSlots& slots, const State& s) {
+  const Vector& q = s.getQ();
+  std::vector<double> out(slots.q.size());
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = q[slots.q[i]];
+  return out;
 }
 
-std::vector<double> UsOf(const SimTK::SimbodyMatterSubsystem& matter,
-                         const std::vector<SimTK::MobilizedBodyIndex>& bodies, const State& s) {
-  std::vector<double> u(bodies.size());
-  for (std::size_t i = 0; i < bodies.size(); ++i)
-    u[i] = matter.getMobilizedBody(bodies[i]).getOneU(s, 0);
-  return u;
+std::vector<double> UsOf(const CoordinateSlots& slots, const State& s) {
+  const Vector& u = s.getU();
+  std::vector<double> out(slots.u.size());
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = u[slots.u[i]];
+  return out;
 }
 
 /// Passive joint moments on every coordinate (thin adapter over passive_joint.h).
 class PassiveJointForce : public SimTK::Force::Custom::Implementation {
  public:
-  PassiveJointForce(const SimTK::SimbodyMatterSubsystem& matter,
-                    std::vector<SimTK::MobilizedBodyIndex> bodies,
+  PassiveJointForce(std::shared_ptr<const CoordinateSlots> slots,
                     std::shared_ptr<const ModelParams> params)
-      : matter_(matter), bodies_(std::move(bodies)), params_(std::move(params)) {}
+      : slots_(std::move(slots)), params_(std::move(params)) {}
 
   void calcForce(const State& s, SimTK::Vector_<SimTK::SpatialVec>&, SimTK::Vector_<Vec3>&,
                  Vector& mobility_forces) const override {
+    const Vector& q = s.getQ();
+    const Vector& u = s.getU();
     for (int i = 0; i < kNumCoordinates; ++i) {
-      const auto& mobod = matter_.getMobilizedBody(bodies_[i]);
-      const double tau = PassiveJointTorque(params_->coordinates[i].passive, mobod.getOneQ(s, 0),
-                                            mobod.getOneU(s, 0));
-      mobod.applyOneMobilityForce(s, 0, tau, mobility_forces);
+      mobility_forces[slots_->u[i]] +=
+          PassiveJointTorque(params_->coordinates[i].passive, q[slots_->q[i]], u[slots_->u[i]]);
     }
   }
   Real calcPotentialEnergy(const State& s) const override {
+    const Vector& q = s.getQ();
     double v = 0.0;
     for (int i = 0; i < kNumCoordinates; ++i) {
-      v += PassiveJointPotential(params_->coordinates[i].passive,
-                                 matter_.getMobilizedBody(bodies_[i]).getOneQ(s, 0));
+      v += PassiveJointPotential(params_->coordinates[i].passive, q[slots_->q[i]]);
     }
     return v;
   }
 
  private:
-  const SimTK::SimbodyMatterSubsystem& matter_;
-  std::vector<SimTK::MobilizedBodyIndex> bodies_;
+  std::shared_ptr<const CoordinateSlots> slots_;
   std::shared_ptr<const ModelParams> params_;
 };
 
@@ -157,14 +160,12 @@ class SineMotion : public SimTK::Motion::Custom::Implementation {
 /// → Hill force → τ = R(q) f. Thin adapter over muscles/ and tendons/.
 class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation {
  public:
-  MuscleForce(const SimTK::SimbodyMatterSubsystem& matter,
-              const SimTK::GeneralForceSubsystem& forces,
-              std::vector<SimTK::MobilizedBodyIndex> bodies,
+  MuscleForce(const SimTK::GeneralForceSubsystem& forces,
+              std::shared_ptr<const CoordinateSlots> slots,
               std::shared_ptr<const ModelParams> params,
               std::shared_ptr<const muscles::ArrayMatrix> array)
-      : matter_(matter),
-        forces_(forces),
-        bodies_(std::move(bodies)),
+      : forces_(forces),
+        slots_(std::move(slots)),
         params_(std::move(params)),
         array_(std::move(array)) {
     for (const auto& m : params_->muscles) paths_.push_back(m.path);
@@ -178,18 +179,24 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
         new SimTK::Value<Vector>(Vector(static_cast<int>(params_->channels.size()), 0.0)));
   }
 
+  /// w = H_IRC(A u) of muscle j for stimulation u (µs).
+  double Recruited(const Vector& u, int j) const {
+    double v = 0.0;
+    for (int k = 0; k < array_->channels; ++k) v += (*array_)(j, k) * u[k];
+    return muscles::Recruitment(params_->muscles[j].recruitment, v);
+  }
+
+  int ZStart() const { return z_start_; }
+
   void realizeDynamics(const State& s) const override {
     // ż for every muscle: ȧ, ä of eq. (6) driven by w = H_IRC(A u).
     const Vector& u = Stimulation(s);
     const Vector& z = forces_.getZ(s);
     Vector& zdot = forces_.updZDot(s);
     const int nm = static_cast<int>(params_->muscles.size());
-    const int nc = array_->channels;
     for (int j = 0; j < nm; ++j) {
-      double v = 0.0;
-      for (int k = 0; k < nc; ++k) v += (*array_)(j, k) * u[k];
       const auto& m = params_->muscles[j];
-      const double w = muscles::Recruitment(m.recruitment, v);
+      const double w = Recruited(u, j);
       const auto d = muscles::ActivationDerivative(m.activation_omega_rad_s, w,
                                                    {z[z_start_ + 2 * j], z[z_start_ + 2 * j + 1]});
       zdot[z_start_ + 2 * j] = d.a;
@@ -201,16 +208,14 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
                  Vector& mobility_forces) const override {
     const MuscleSnapshot snap = Compute(s);
     for (int i = 0; i < kNumCoordinates; ++i) {
-      if (snap.joint_torque_nm[i] == 0.0) continue;
-      matter_.getMobilizedBody(bodies_[i])
-          .applyOneMobilityForce(s, 0, snap.joint_torque_nm[i], mobility_forces);
+      mobility_forces[slots_->u[i]] += snap.joint_torque_nm[i];
     }
   }
   Real calcPotentialEnergy(const State&) const override { return 0.0; }
 
   MuscleSnapshot Compute(const State& s) const {
-    const std::vector<double> q = QsOf(matter_, bodies_, s);
-    const std::vector<double> qd = UsOf(matter_, bodies_, s);
+    const std::vector<double> q = QsOf(*slots_, s);
+    const std::vector<double> qd = UsOf(*slots_, s);
     const Vector& z = forces_.getZ(s);
     const int nm = static_cast<int>(params_->muscles.size());
     MuscleSnapshot out;
@@ -241,9 +246,8 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   }
 
  private:
-  const SimTK::SimbodyMatterSubsystem& matter_;
   const SimTK::GeneralForceSubsystem& forces_;
-  std::vector<SimTK::MobilizedBodyIndex> bodies_;
+  std::shared_ptr<const CoordinateSlots> slots_;
   std::shared_ptr<const ModelParams> params_;
   std::shared_ptr<const muscles::ArrayMatrix> array_;
   std::vector<tendons::MusclePath> paths_;
@@ -307,14 +311,21 @@ UpperLimbModel::UpperLimbModel(ModelParams params)
   }
 
   SimTK::Force::UniformGravity(*forces_, *matter_, ToVec3(p.gravity_m_s2));
-  SimTK::Force::Custom(*forces_, new PassiveJointForce(*matter_, coordinate_bodies_, params_));
+  auto slots = std::make_shared<CoordinateSlots>();
+  SimTK::Force::Custom(*forces_, new PassiveJointForce(slots, params_));
   if (!p.bands.empty() || !p.weight_compensation.empty()) {
     SimTK::Force::Custom(*forces_, new ArmSupportForce(*matter_, segment_bodies_, params_));
   }
-  auto* muscle = new MuscleForce(*matter_, *forces_, coordinate_bodies_, params_, array_);
+  auto* muscle = new MuscleForce(*forces_, slots, params_, array_);
   muscle_force_ = muscle;
   muscle_force_index_ = SimTK::Force::Custom(*forces_, muscle).getForceIndex();
   system_->realizeTopology();
+  const State& s = system_->getDefaultState();
+  for (int i = 0; i < kNumCoordinates; ++i) {
+    slots->q.push_back(CoordinateBody(i).getFirstQIndex(s));
+    slots->u.push_back(CoordinateBody(i).getFirstUIndex(s));
+  }
+  slots_ = slots;
 }
 
 UpperLimbModel::~UpperLimbModel() = default;
@@ -353,11 +364,19 @@ std::vector<double> UpperLimbModel::GetStimulation(const State& state) const {
 
 double UpperLimbModel::GetQ(const State& s, int i) const { return CoordinateBody(i).getOneQ(s, 0); }
 double UpperLimbModel::GetU(const State& s, int i) const { return CoordinateBody(i).getOneU(s, 0); }
-std::vector<double> UpperLimbModel::GetQs(const State& s) const {
-  return QsOf(*matter_, coordinate_bodies_, s);
+std::vector<double> UpperLimbModel::GetQs(const State& s) const { return QsOf(*slots_, s); }
+std::vector<double> UpperLimbModel::GetUs(const State& s) const { return UsOf(*slots_, s); }
+
+std::vector<double> UpperLimbModel::RecruitedFractions(const State& s) const {
+  const Vector& u = muscle_force_->Stimulation(s);
+  std::vector<double> w(num_muscles());
+  for (int j = 0; j < num_muscles(); ++j) w[j] = muscle_force_->Recruited(u, j);
+  return w;
 }
-std::vector<double> UpperLimbModel::GetUs(const State& s) const {
-  return UsOf(*matter_, coordinate_bodies_, s);
+
+int UpperLimbModel::ActivationYIndex(const State& s) const {
+  return s.getNQ() + s.getNU() + s.getZStart(forces_->getMySubsystemIndex()) +
+         muscle_force_->ZStart();
 }
 
 MuscleSnapshot UpperLimbModel::ComputeMuscles(const State& s) const {

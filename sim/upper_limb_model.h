@@ -38,6 +38,8 @@ struct MuscleSnapshot {
   bool any_clamped = false;             ///< a fibre hit its minimum length.
 };
 
+struct CoordinateSlots;  // where each coordinate's q and u sit in the state (upper_limb_model.cc)
+
 class UpperLimbModel {
  public:
   /// Builds and realises the topology. Throws std::invalid_argument on inconsistent params.
@@ -66,6 +68,12 @@ class UpperLimbModel {
   double GetU(const SimTK::State& state, int coordinate) const;
   std::vector<double> GetQs(const SimTK::State& state) const;
   std::vector<double> GetUs(const SimTK::State& state) const;
+
+  /// Recruited fraction w_j = H_IRC(A u) of every muscle for the state's stimulation (eq. 1, 3).
+  std::vector<double> RecruitedFractions(const SimTK::State& state) const;
+  /// Index in the state vector Y = [q, u, z] of muscle 0's activation a; muscle j's a and ȧ are
+  /// at +2j and +2j+1. Integrators that solve eq. (6) in closed form use it.
+  int ActivationYIndex(const SimTK::State& state) const;
 
   /// Muscle quantities (state realised to Stage::Velocity at least).
   MuscleSnapshot ComputeMuscles(const SimTK::State& state) const;
@@ -97,6 +105,7 @@ class UpperLimbModel {
   std::vector<SimTK::MobilizedBodyIndex> coordinate_bodies_;  // index = Coordinate
   std::vector<SimTK::MobilizedBodyIndex> segment_bodies_;     // index = Segment
   class MuscleForce;
+  std::shared_ptr<const CoordinateSlots> slots_;
   const MuscleForce* muscle_force_ = nullptr;  // owned by forces_
   SimTK::ForceIndex muscle_force_index_;
 };

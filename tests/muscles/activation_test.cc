@@ -32,6 +32,35 @@ TEST(Activation, Rk4IntegrationMatchesAnalyticStepResponse) {
   }
 }
 
+TEST(Activation, FreeResponseSolvesTheOdeFromAnyState) {
+  // RK4 from a non-rest state with a new input equals the closed form; from rest it is the
+  // step response.
+  const double omega = 7.0, w = 0.3;
+  const ActivationState start{0.6, -1.5};
+  ActivationState s = start;
+  for (int i = 1; i <= 10000; ++i) {
+    const auto f = [&](const ActivationState& x) { return ActivationDerivative(omega, w, x); };
+    const auto add = [](ActivationState x, ActivationState d, double h) {
+      return ActivationState{x.a + h * d.a, x.a_dot + h * d.a_dot};
+    };
+    const auto k1 = f(s);
+    const auto k2 = f(add(s, k1, kRk4Step / 2));
+    const auto k3 = f(add(s, k2, kRk4Step / 2));
+    const auto k4 = f(add(s, k3, kRk4Step));
+    s.a += kRk4Step / 6 * (k1.a + 2 * k2.a + 2 * k3.a + k4.a);
+    s.a_dot += kRk4Step / 6 * (k1.a_dot + 2 * k2.a_dot + 2 * k3.a_dot + k4.a_dot);
+    if (i % 1000 == 0) {
+      const auto exact = ActivationFreeResponse(omega, w, start, i * kRk4Step);
+      EXPECT_NEAR(s.a, exact.a, kTol);
+      EXPECT_NEAR(s.a_dot, exact.a_dot, kTol * omega * omega);
+    }
+  }
+  const auto step = ActivationStepResponse(omega, w, 0.4);
+  const auto free = ActivationFreeResponse(omega, w, {}, 0.4);
+  EXPECT_NEAR(step.a, free.a, 1e-15);
+  EXPECT_NEAR(step.a_dot, free.a_dot, 1e-14);
+}
+
 TEST(Activation, CriticallyDampedNoOvershootUnitGain) {
   const double omega = 5.0, w = 0.5;
   double prev = 0.0;

@@ -1,0 +1,67 @@
+// Real-time factor of the default model (issue 2): the default scenario's participant and arm
+// support, every coordinate as the scenario says (all free), every channel stimulated with steps
+// that change every 2 s, a 60 s trial, CVODES BDF at tolerance 1e-6, one core.
+#include <benchmark/benchmark.h>
+
+#include "scenarios/scenario.h"
+#include "sim/trial_runner.h"
+#include "sim/upper_limb_model.h"
+
+namespace {
+
+fesim::Scenario DefaultScenario() {
+  fesim::Scenario sc =
+      fesim::LoadScenario(std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/default.yaml");
+  sc.trial.duration_s = 60.0;
+  sc.trial.integrator.tolerance = 1e-6;
+  auto& stim = sc.trial.stimulation;
+  stim.times.clear();
+  stim.values.clear();
+  // Every channel active; levels cycle through a fixed pseudo-random pattern (all muscles on).
+  const double levels[] = {120, 200, 90, 260, 150, 60, 230, 180};
+  for (int k = 0; k < 30; ++k) {
+    stim.times.push_back(2.0 * k);
+    std::vector<double> u;
+    for (int c = 0; c < 6; ++c) u.push_back(levels[(k + 3 * c) % 8]);
+    stim.values.push_back(u);
+  }
+  return sc;
+}
+
+void BM_DefaultModel60s(benchmark::State& state) {
+  const fesim::Scenario sc = DefaultScenario();
+  const fesim::sim::UpperLimbModel model(sc.model);
+  fesim::sim::IntegrationStats stats;
+  for (auto _ : state) {
+    const auto r = fesim::sim::RunTrial(model, sc.trial);
+    stats = r.stats;
+    benchmark::DoNotOptimize(r.truth.time.data());
+  }
+  state.counters["real_time_factor"] = benchmark::Counter(
+      sc.trial.duration_s * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["steps"] = static_cast<double>(stats.steps);
+  state.counters["rhs_evals"] = static_cast<double>(stats.rhs_evaluations);
+  state.counters["jacobians"] = static_cast<double>(stats.jacobian_evaluations);
+}
+BENCHMARK(BM_DefaultModel60s)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// One right-hand-side evaluation: set y, realise Simbody to Acceleration.
+void BM_RightHandSide(benchmark::State& state) {
+  const fesim::Scenario sc = DefaultScenario();
+  const fesim::sim::UpperLimbModel model(sc.model);
+  SimTK::State s = model.MakeInitialState();
+  model.SetStimulation(s, {150, 100, 120, 80, 60, 40});
+  const SimTK::Vector y = s.getY();
+  double t = 0.0;
+  for (auto _ : state) {
+    s.updY() = y;
+    s.setTime(t += 1e-6);
+    model.system().realize(s, SimTK::Stage::Acceleration);
+    benchmark::DoNotOptimize(s.getYDot()[0]);
+  }
+}
+BENCHMARK(BM_RightHandSide)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
