@@ -48,7 +48,8 @@ void PrintHelp() {
       "  --width, --height image size, pixels, 1-%d (default %dx%d)\n"
       "  --fps F           frames per second of trial time, (0, %g] (default %g)\n"
       "  --camera NAME     front (default), side, top or orbit\n"
-      "  --compare B.csv   a second trial drawn as a translucent ghost arm\n"
+      "  --compare B.csv   a second trial drawn as a translucent ghost arm (same frame times;\n"
+      "                    its first/last pose is held outside its time range)\n"
       "Frames are at t0 + k/F up to the trial's last time; the trial is interpolated linearly\n"
       "(NaN gaps hold the last valid value). Nothing is written when an input is invalid.\n",
       render::kMaxImageSidePx, kDefaultWidthPx, kDefaultHeightPx, kMaxFps, kDefaultFps);
