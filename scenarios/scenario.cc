@@ -3,11 +3,13 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 
+#include "scenarios/protocols.h"
 #include "scenarios/trial.h"
 #include "sim/default_model.h"
 
@@ -362,12 +364,179 @@ std::string Directory(const std::string& path) {
   return slash == std::string::npos ? "" : path.substr(0, slash + 1);
 }
 
+/// The protocol generators of scenarios/protocols.h, by name, with their parameters.
+protocols::StimulationProgram LoadProtocol(const Node& n, const sim::ModelParams& m) {
+  n.Keys({"name",
+          "channel",
+          "channels",
+          "u_min_us",
+          "u_max_us",
+          "u_sum_max_us",
+          "seed",
+          "spacing_us",
+          "step_duration_s",
+          "order",
+          "duration_s",
+          "rest_s",
+          "num_triangles",
+          "settling_time_s",
+          "cutoff_hz",
+          "filter_order",
+          "num_levels",
+          "register_length",
+          "symbol_duration_s",
+          "f_min_hz",
+          "f_max_hz",
+          "frequency_step_hz",
+          "amplitude_us",
+          "coact_agonist_us",
+          "coact_antagonist_us",
+          "level_min_us",
+          "level_max_us",
+          "step_min_s",
+          "step_max_s",
+          "gap_min_s",
+          "gap_max_s"});
+  const std::string name = n.Choice("name", {"step_grid", "ramp", "staircase", "filtered_noise",
+                                             "prms", "multisine", "shoulder_steps"});
+  const auto channel_ok = [&](const std::string& key, const std::string& c) {
+    for (const auto& ch : m.channels) {
+      if (ch.name == c) return c;
+    }
+    n.FailKey(key, "unknown channel '" + c + "'");
+  };
+  protocols::StimulationLimit limit;
+  n.Number("u_sum_max_us", 0, 1800, &limit.sum_max_us);
+  std::uint64_t seed = 1;
+  if (n.Has("seed")) seed = static_cast<std::uint64_t>(n.Integer("seed", 0, 1 << 30));
+  protocols::IsometricTestTiming timing;
+  n.Number("duration_s", 0.1, 36000, &timing.duration_s);
+  n.Number("rest_s", 0, 3600, &timing.rest_s);
+  const auto channels = [&](std::vector<std::string> fallback) {
+    if (!n.Has("channels")) return fallback;
+    std::vector<std::string> out;
+    for (const auto& c : n.Child("channels").TextList()) out.push_back(channel_ok("channels", c));
+    return out;
+  };
+  const std::string channel =
+      n.Has("channel") ? channel_ok("channel", n.Text("channel")) : std::string("bic");
+  try {
+    if (name == "step_grid") {
+      protocols::StepGridParams p;
+      p.channels = channels(p.channels);
+      n.Number("u_max_us", 0, 1800, &p.u_max_us);
+      n.Number("spacing_us", 1, 300, &p.spacing_us);
+      n.Number("step_duration_s", 0.01, 600, &p.step_duration_s);
+      if (n.Has("order")) {
+        p.order = n.Choice("order", {"first_fastest", "last_fastest"}) == "first_fastest"
+                      ? protocols::GridOrder::kFirstChannelFastest
+                      : protocols::GridOrder::kLastChannelFastest;
+      }
+      return protocols::StepGrid(p);
+    }
+    if (name == "ramp") {
+      protocols::TriangularRampParams p;
+      p.channel = channel;
+      n.Number("u_min_us", 0, 300, &p.u_min_us);
+      n.Number("u_max_us", 0, 300, &p.u_peak_us);
+      if (n.Has("num_triangles")) p.num_triangles = n.Integer("num_triangles", 1, 1000);
+      p.timing = timing;
+      p.limit = limit;
+      return protocols::TriangularRamp(p);
+    }
+    if (name == "staircase") {
+      protocols::StaircaseParams p;
+      p.channel = channel;
+      n.Number("u_min_us", 0, 300, &p.u_min_us);
+      n.Number("u_max_us", 0, 300, &p.u_max_us);
+      n.Number("settling_time_s", 0.01, 3600, &p.settling_time_s);
+      p.timing = timing;
+      p.limit = limit;
+      p.seed = seed;
+      return protocols::Staircase(p);
+    }
+    if (name == "filtered_noise") {
+      protocols::FilteredRandomNoiseParams p;
+      p.channel = channel;
+      n.Number("u_min_us", 0, 300, &p.u_min_us);
+      n.Number("u_max_us", 0, 300, &p.u_max_us);
+      n.Number("cutoff_hz", 1e-3, 500, &p.cutoff_hz);
+      if (n.Has("filter_order")) p.filter_order = n.Integer("filter_order", 1, 10);
+      p.timing = timing;
+      p.limit = limit;
+      p.seed = seed;
+      return protocols::FilteredRandomNoise(p);
+    }
+    if (name == "prms") {
+      protocols::PrmsParams p;
+      p.channel = channel;
+      n.Number("u_min_us", 0, 300, &p.u_min_us);
+      n.Number("u_max_us", 0, 300, &p.u_max_us);
+      if (n.Has("num_levels")) p.num_levels = n.Integer("num_levels", 2, 31);
+      if (n.Has("register_length")) p.register_length = n.Integer("register_length", 1, 20);
+      n.Number("symbol_duration_s", 1e-3, 3600, &p.symbol_duration_s);
+      p.timing = timing;
+      p.limit = limit;
+      p.seed = seed;
+      return protocols::Prms(p);
+    }
+    if (name == "multisine") {
+      protocols::MultisineParams p;
+      p.channels = channels(p.channels);
+      n.Number("f_min_hz", 1e-3, 500, &p.f_min_hz);
+      n.Number("f_max_hz", 1e-3, 500, &p.f_max_hz);
+      n.Number("frequency_step_hz", 1e-3, 500, &p.frequency_step_hz);
+      n.Number("amplitude_us", 0, 300, &p.amplitude_us);
+      n.Number("coact_agonist_us", 0, 300, &p.coact_agonist_us);
+      n.Number("coact_antagonist_us", 0, 300, &p.coact_antagonist_us);
+      n.Number("duration_s", 0.1, 36000, &p.duration_s);
+      p.limit = limit;
+      p.seed = seed;
+      return protocols::Multisine(p);
+    }
+    protocols::ShoulderStepsParams p;
+    p.channels = channels(p.channels);
+    n.Number("level_min_us", 0, 300, &p.level_min_us);
+    n.Number("level_max_us", 0, 300, &p.level_max_us);
+    n.Number("step_min_s", 1e-3, 3600, &p.step_min_s);
+    n.Number("step_max_s", 1e-3, 3600, &p.step_max_s);
+    n.Number("gap_min_s", 0, 3600, &p.gap_min_s);
+    n.Number("gap_max_s", 0, 3600, &p.gap_max_s);
+    n.Number("duration_s", 0.1, 36000, &p.duration_s);
+    n.Number("rest_s", 0, 3600, &p.rest_s);
+    p.limit = limit;
+    p.seed = seed;
+    return protocols::ShoulderPseudoRandomSteps(p);
+  } catch (const std::invalid_argument& e) {
+    n.Fail(e.what());
+  }
+}
+
 void LoadStimulation(const Node& n, const std::string& path, const sim::ModelParams& m,
                      sim::TrialRequest* t) {
-  n.Keys({"duration_s", "type", "values_us", "steps", "file"});
-  t->duration_s = n.Number("duration_s", 1e-3, 3600);
-  const std::string type = n.Choice("type", {"constant", "steps", "csv"});
+  n.Keys({"duration_s", "type", "values_us", "steps", "file", "protocol"});
+  const std::string type = n.Choice("type", {"constant", "steps", "csv", "protocol"});
   auto& sched = t->stimulation;
+  if (type == "protocol") {
+    const protocols::StimulationProgram prog = LoadProtocol(n.Child("protocol"), m);
+    t->duration_s = prog.duration_s;
+    n.Number("duration_s", 1e-3, 36000, &t->duration_s);
+    std::vector<int> column;  // model channel of each program channel
+    for (const auto& c : prog.channels) {
+      for (std::size_t k = 0; k < m.channels.size(); ++k) {
+        if (m.channels[k].name == c) column.push_back(static_cast<int>(k));
+      }
+    }
+    for (std::size_t i = 0; i < prog.times_s.size(); ++i) {
+      std::vector<double> u(m.channels.size(), 0.0);
+      for (std::size_t c = 0; c < column.size(); ++c) u[column[c]] = prog.values_us[i][c];
+      sched.times.push_back(prog.times_s[i]);
+      sched.values.push_back(u);
+    }
+    t->steady_state_times_s = prog.steady_state_times_s;
+    return;
+  }
+  t->duration_s = n.Number("duration_s", 1e-3, 3600);
   if (type == "constant") {
     sched.times = {0.0};
     sched.values = {ChannelValues(n.Child("values_us"), m)};

@@ -134,6 +134,14 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
     trial->metadata["seed"] = std::to_string(req.seed);
     trial->metadata["duration_s"] = std::to_string(req.duration_s);
   }
+  if (!req.steady_state_times_s.empty()) {
+    std::string list;
+    for (double x : req.steady_state_times_s) {
+      list += (list.empty() ? "" : " ") + std::to_string(x);
+    }
+    m.metadata["steady_state_times_s"] = list;
+    t.metadata["steady_state_times_s"] = list;
+  }
   m.metadata["record"] = "measured";
   m.metadata["angle_rate_hz"] = std::to_string(sens.angles.rate_hz);
   m.metadata["velocity_rate_hz"] = std::to_string(sens.velocities.rate_hz);

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "scenarios/trial.h"
 #include "sim/integrator.h"
@@ -20,6 +21,9 @@ struct TrialRequest {
   SensorSuite sensors;
   IntegratorParams integrator;
   std::uint64_t seed = 1;  ///< sensor noise seed.
+  /// Instants (s) at which the protocol takes steady-state samples (step grid); written to the
+  /// trial metadata as `steady_state_times_s` so identifiers can find them.
+  std::vector<double> steady_state_times_s;
 };
 
 struct TrialResult {

@@ -1,10 +1,14 @@
 #include "scenarios/scenario.h"
 
+#include <dirent.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <stdexcept>
+
+#include "sim/upper_limb_model.h"
 
 namespace fesim {
 namespace {
@@ -102,13 +106,70 @@ TEST(Scenario, EveryBadInputClassNamesFileKeyAndRange) {
                 .find("unknown coordinate 'knee'"),
             std::string::npos);
   EXPECT_EQ(ErrorOf("name: t\nstimulation: {duration_s: 2, type: ramp}\n"),
-            "s.yaml: stimulation.type: 'ramp' is not one of constant|csv|steps");
+            "s.yaml: stimulation.type: 'ramp' is not one of constant|csv|protocol|steps");
   EXPECT_EQ(ErrorOf(std::string(kMinimal) + "electrodes: {channels: [{name: a, pads: [24]}]}\n"),
             "s.yaml: electrodes.channels[0].pads: element 0 = 24 is not an integer in [0, 23]");
   EXPECT_NE(ErrorOf("name: [\n").find("s.yaml:"), std::string::npos);  // YAML syntax
   EXPECT_EQ(ErrorOf(std::string(kMinimal) + "sensors: {torques: {coordinates: [elbow_flexion]}}\n"),
             "s.yaml: sensors.torques.coordinates: torque sensor on free coordinate elbow_flexion "
             "(allowed: locked or prescribed ones)");
+}
+
+TEST(Scenario, ProtocolStimulation) {
+  const Scenario grid = ParseScenario(R"(name: g
+stimulation:
+  type: protocol
+  protocol: {name: step_grid, channels: [ext, flex], u_max_us: 100, step_duration_s: 2}
+)",
+                                      "s.yaml");
+  // Points (u_ext, u_flex) on a 50 µs grid with u_ext + u_flex ≤ 100: 6 points of 2 s.
+  EXPECT_EQ(grid.trial.stimulation.times.size(), 6u);
+  EXPECT_NEAR(grid.trial.duration_s, 12.0, 1e-12);
+  EXPECT_EQ(grid.trial.steady_state_times_s.size(), 6u);
+  for (const auto& u : grid.trial.stimulation.values) {
+    EXPECT_LE(u[0] + u[1], 100.0);
+    EXPECT_EQ(u[2], 0.0);  // bic untouched
+  }
+  const Scenario ramp = ParseScenario(R"(name: r
+coordinates: {elbow_flexion: {mode: locked, initial_deg: 90}}
+stimulation: {type: protocol, protocol: {name: ramp, channel: bic, u_max_us: 200}}
+)",
+                                      "s.yaml");
+  EXPECT_NEAR(ramp.trial.duration_s, 30.0, 1e-12);
+  double peak = 0.0;
+  for (const auto& u : ramp.trial.stimulation.values) peak = std::max(peak, u[2]);
+  EXPECT_NEAR(peak, 200.0, 1e-9);
+  EXPECT_EQ(ErrorOf("name: p\nstimulation: {type: protocol, protocol: {name: chirp}}\n"),
+            "s.yaml: stimulation.protocol.name: 'chirp' is not one of filtered_noise|multisine|"
+            "prms|ramp|shoulder_steps|staircase|step_grid");
+  EXPECT_EQ(ErrorOf("name: p\nstimulation: {type: protocol, protocol: {name: ramp, channel: x}}\n"),
+            "s.yaml: stimulation.protocol.channel: unknown channel 'x'");
+  EXPECT_NE(ErrorOf("name: p\nstimulation: {type: protocol, protocol: {name: prms, channel: bic, "
+                    "num_levels: 4}}\n")
+                .find("s.yaml: stimulation.protocol: "),
+            std::string::npos);
+}
+
+TEST(Scenario, EveryShippedScenarioLoadsAndSimulates) {
+  const std::string dir = std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios";
+  DIR* d = opendir(dir.c_str());
+  ASSERT_NE(d, nullptr);
+  int count = 0;
+  while (dirent* e = readdir(d)) {
+    const std::string f = e->d_name;
+    if (f.size() < 5 || f.substr(f.size() - 5) != ".yaml") continue;
+    Scenario sc = LoadScenario(dir + "/" + f);
+    sc.trial.duration_s = std::min(sc.trial.duration_s, 1.0);
+    const sim::UpperLimbModel model(sc.model);
+    const auto r = sim::RunTrial(model, sc.trial);
+    ASSERT_GT(r.truth.size(), 10u) << f;
+    for (const auto& col : r.truth.columns) {
+      for (double v : col) ASSERT_TRUE(std::isfinite(v)) << f;
+    }
+    ++count;
+  }
+  closedir(d);
+  EXPECT_GE(count, 3);
 }
 
 TEST(Scenario, CsvStimulationFileIsReadRelativeToScenario) {
