@@ -1,0 +1,797 @@
+#include "identification/fullmodel/full_model_fit.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <functional>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <random>
+#include <set>
+#include <stdexcept>
+#include <thread>
+
+#include "identification/levenberg_marquardt.h"
+#include "identification/method_support.h"
+#include "identification/metrics.h"
+#include "scenarios/scenario.h"
+#include "sim/default_model.h"
+#include "sim/trial_runner.h"
+#include "sim/upper_limb_model.h"
+#include "tendons/tendon_network.h"
+
+namespace fesim::identification::fullmodel {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Seconds(Clock::time_point since) {
+  return std::chrono::duration<double>(Clock::now() - since).count();
+}
+
+/// The forearm muscles whose A entries, β and γ are candidates (paper 000 §5.1).
+const std::vector<std::string>& ForearmMuscles() {
+  static const std::vector<std::string> names = {"ECRL", "ECRB", "ECU", "FCR",
+                                                 "FCU",  "EDC",  "FDS", "FDP"};
+  return names;
+}
+
+/// Residual value for a sample whose simulation failed, rad (makes the cost large so LM rejects
+/// the step).
+constexpr double kFailedResidualRad = 10.0;
+/// Smallest effective stimulation change that starts a new schedule breakpoint, µs.
+constexpr double kScheduleChangeUs = 1e-9;
+
+int ChannelIndex(const sim::ModelParams& m, const std::string& name) {
+  for (std::size_t k = 0; k < m.channels.size(); ++k) {
+    if (m.channels[k].name == name) return static_cast<int>(k);
+  }
+  return -1;
+}
+
+int MuscleIndex(const sim::ModelParams& m, const std::string& name) {
+  for (std::size_t j = 0; j < m.muscles.size(); ++j) {
+    if (m.muscles[j].name == name) return static_cast<int>(j);
+  }
+  return -1;
+}
+
+std::string ChannelList(const sim::ModelParams& m) {
+  std::string s;
+  for (const auto& c : m.channels) s += (s.empty() ? "" : ", ") + c.name;
+  return s;
+}
+
+/// Runs `task(i)` for i in [0, count) on `threads` workers; rethrows the first exception.
+void ParallelFor(int count, int threads, const std::function<void(int)>& task) {
+  const int workers = std::max(1, std::min(threads, count));
+  if (workers == 1) {
+    for (int i = 0; i < count; ++i) task(i);
+    return;
+  }
+  std::atomic<int> next{0};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  std::vector<std::thread> pool;
+  for (int w = 0; w < workers; ++w) {
+    pool.emplace_back([&] {
+      for (int i = next++; i < count; i = next++) {
+        try {
+          task(i);
+        } catch (...) {
+          std::lock_guard<std::mutex> lock(error_mutex);
+          if (!error) error = std::current_exception();
+        }
+      }
+    });
+  }
+  for (auto& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+}
+
+/// Training data in a form the residual needs: per trial, the q columns and where they are
+/// valid.
+struct TrainingData {
+  std::vector<std::string> joints;                  // q.<joint> names (same in every trial)
+  std::vector<std::vector<std::vector<double>>> y;  // [trial][joint][sample]
+  long residuals = 0;
+};
+
+void CheckTrials(const sim::ModelParams& rig, const std::vector<Trial>& trials,
+                 const std::string& what, const std::vector<std::string>& joints) {
+  for (std::size_t t = 0; t < trials.size(); ++t) {
+    const std::string label = what + " trial " + std::to_string(t);
+    const Trial& tr = trials[t];
+    RequireSamples(tr, 10, label, "a simulated fit");
+    const auto inputs = tr.NamesWithPrefix("u.");
+    if (inputs.empty()) throw std::runtime_error(label + ": no u.* input column");
+    for (const auto& name : inputs) {
+      if (ChannelIndex(rig, name.substr(2)) < 0) {
+        throw std::runtime_error(label + ": column " + name + ": no such channel in the rig (" +
+                                 ChannelList(rig) + ")");
+      }
+    }
+    RequireColumns(tr, inputs, label);  // NaN / inf in the input are an error
+    for (const auto& name : inputs) {
+      for (double v : tr.Column(name)) {
+        if (v < 0.0 || v > 300.0) {
+          throw std::runtime_error(label + ": column " + name + ": pulse width " + Num(v) +
+                                   " us outside [0, 300]");
+        }
+      }
+    }
+    if (tr.time.front() < 0.0) throw std::runtime_error(label + ": time must start at >= 0 s");
+    for (const auto& j : joints) {
+      if (!tr.Has(j)) throw std::runtime_error(label + ": missing column " + j);
+      int valid = 0;
+      for (double v : tr.Column(j)) {
+        if (std::isinf(v)) throw std::runtime_error(label + ": column " + j + ": inf value");
+        valid += std::isnan(v) ? 0 : 1;
+      }
+      if (valid < 2) throw std::runtime_error(label + ": column " + j + ": fewer than 2 samples");
+    }
+  }
+}
+
+TrainingData ReadTraining(const sim::ModelParams& rig, const std::vector<Trial>& train) {
+  if (train.empty()) throw std::runtime_error("--train: no trials");
+  TrainingData d;
+  d.joints = train[0].NamesWithPrefix("q.");
+  if (d.joints.empty()) throw std::runtime_error("train trial 0: no q.* output column");
+  for (const auto& j : d.joints) {
+    const int c = sim::CoordinateIndex(j.substr(2));
+    if (c < 0) throw std::runtime_error("train trial 0: column " + j + ": unknown joint");
+    if (rig.coordinates[c].mode != sim::CoordinateMode::kFree) {
+      throw std::runtime_error("train trial 0: column " + j +
+                               ": joint is not free in the rig (locked or prescribed)");
+    }
+  }
+  CheckTrials(rig, train, "train", d.joints);
+  for (const auto& tr : train) {
+    std::vector<std::vector<double>> cols;
+    for (const auto& j : d.joints) {
+      cols.push_back(tr.Column(j));
+      for (double v : cols.back()) d.residuals += std::isnan(v) ? 0 : 1;
+    }
+    d.y.push_back(std::move(cols));
+  }
+  return d;
+}
+
+/// Linear interpolation of (t, v) at x (clamped at the ends); t increasing.
+double Interpolate(const std::vector<double>& t, const std::vector<double>& v, double x) {
+  if (x <= t.front()) return v.front();
+  if (x >= t.back()) return v.back();
+  const auto it = std::upper_bound(t.begin(), t.end(), x);
+  const std::size_t i = static_cast<std::size_t>(it - t.begin());
+  const double w = (x - t[i - 1]) / (t[i] - t[i - 1]);
+  return v[i - 1] + w * (v[i] - v[i - 1]);
+}
+
+/// Residuals y − ŷ of all training trials for one parameter vector (NaN samples skipped).
+/// `threads` workers share the trials.
+Eigen::VectorXd Residuals(const sim::ModelParams& base, const std::vector<FitParameter>& params,
+                          const Eigen::VectorXd& x, const std::vector<Trial>& train,
+                          const TrainingData& data, double tolerance, int threads,
+                          bool throw_on_failure) {
+  const sim::ModelParams model = ApplyParameters(base, params, x);
+  std::vector<Trial> sims(train.size());
+  std::vector<char> ok(train.size(), 1);
+  ParallelFor(static_cast<int>(train.size()), threads, [&](int t) {
+    try {
+      sims[t] = SimulateLike(model, train[t], tolerance);
+    } catch (const std::exception&) {
+      if (throw_on_failure) throw;
+      ok[t] = 0;
+    }
+  });
+  Eigen::VectorXd r(data.residuals);
+  Eigen::Index k = 0;
+  for (std::size_t t = 0; t < train.size(); ++t) {
+    for (std::size_t j = 0; j < data.joints.size(); ++j) {
+      const auto& y = data.y[t][j];
+      const std::vector<double>* yh = ok[t] ? &sims[t].Column(data.joints[j]) : nullptr;
+      for (std::size_t i = 0; i < y.size(); ++i) {
+        if (std::isnan(y[i])) continue;
+        r(k++) = yh ? y[i] - (*yh)[i] : kFailedResidualRad;
+      }
+    }
+  }
+  return r;
+}
+
+/// Forward-difference Jacobian ∂r/∂x = −∂ŷ/∂x, one model + simulation per (column, trial),
+/// all on `threads` workers. A column whose perturbed simulation fails is zero.
+Eigen::MatrixXd ParallelJacobian(const sim::ModelParams& base,
+                                 const std::vector<FitParameter>& params, const Eigen::VectorXd& x,
+                                 const Eigen::VectorXd& r0, const Eigen::VectorXd& upper,
+                                 const std::vector<Trial>& train, const TrainingData& data,
+                                 double tolerance, double rel_step, int threads) {
+  const int p = static_cast<int>(x.size());
+  const int nt = static_cast<int>(train.size());
+  std::vector<double> h(p);
+  std::vector<sim::ModelParams> models;
+  models.reserve(p);
+  for (int c = 0; c < p; ++c) {
+    double step = rel_step * std::max(std::abs(x(c)), 1e-3);
+    if (x(c) + step > upper(c)) step = -step;  // stay inside the bounds
+    h[c] = step;
+    Eigen::VectorXd xp = x;
+    xp(c) += step;
+    models.push_back(ApplyParameters(base, params, xp));
+  }
+  std::vector<Trial> sims(static_cast<std::size_t>(p) * nt);
+  std::vector<char> ok(sims.size(), 1);
+  ParallelFor(p * nt, threads, [&](int task) {
+    const int c = task / nt, t = task % nt;
+    try {
+      sims[task] = SimulateLike(models[c], train[t], tolerance);
+    } catch (const std::exception&) {
+      ok[task] = 0;
+    }
+  });
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(r0.size(), p);
+  for (int c = 0; c < p; ++c) {
+    bool column_ok = true;
+    for (int t = 0; t < nt; ++t) column_ok = column_ok && ok[c * nt + t];
+    if (!column_ok) continue;
+    Eigen::Index k = 0;
+    for (int t = 0; t < nt; ++t) {
+      for (std::size_t j = 0; j < data.joints.size(); ++j) {
+        const auto& y = data.y[t][j];
+        const auto& yh = sims[c * nt + t].Column(data.joints[j]);
+        for (std::size_t i = 0; i < y.size(); ++i) {
+          if (std::isnan(y[i])) continue;
+          J(k, c) = ((y[i] - yh[i]) - r0(k)) / h[c];
+          ++k;
+        }
+      }
+    }
+  }
+  return J;
+}
+
+int ResolveThreads(int threads) {
+  if (threads > 0) return threads;
+  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
+double ScaleOf(const FitParameter& p) {
+  return p.nominal != 0.0 ? std::abs(p.nominal) : 0.5 * (p.upper - p.lower);
+}
+
+}  // namespace
+
+sim::ModelParams WithExplicitArrayWeights(const sim::ModelParams& base) {
+  sim::ModelParams m = base;
+  const muscles::ArrayMatrix a = sim::BuildElectrodeMatrix(base);
+  for (std::size_t k = 0; k < m.channels.size(); ++k) {
+    auto& ch = m.channels[k];
+    if (ch.pads.empty()) continue;
+    ch.pads.clear();
+    ch.muscle_weights.clear();
+    for (std::size_t j = 0; j < m.muscles.size(); ++j) {
+      const double w = a(static_cast<int>(j), static_cast<int>(k));
+      if (w != 0.0) ch.muscle_weights.emplace_back(m.muscles[j].name, w);
+    }
+  }
+  return m;
+}
+
+std::vector<FitParameter> CandidateParameters(const sim::ModelParams& base,
+                                              const std::vector<std::string>& channels) {
+  std::vector<FitParameter> out;
+  const muscles::ArrayMatrix a = sim::BuildElectrodeMatrix(base);
+  std::vector<int> forearm;
+  for (const auto& name : ForearmMuscles()) {
+    const int j = MuscleIndex(base, name);
+    if (j >= 0) forearm.push_back(j);
+  }
+  for (const auto& ch : channels) {
+    const int k = ChannelIndex(base, ch);
+    if (k < 0) {
+      throw std::invalid_argument("channel '" + ch + "' is not in the rig (" + ChannelList(base) +
+                                  ")");
+    }
+    for (int j : forearm) {
+      FitParameter p;
+      p.name = "A." + ch + "." + base.muscles[j].name;
+      p.unit = "1";
+      p.kind = FitParameterKind::kArrayWeight;
+      p.channel = k;
+      p.muscle = j;
+      p.nominal = a(j, k);
+      p.lower = 0.0;
+      p.upper = 1.0;
+      out.push_back(p);
+    }
+  }
+  for (int c = 0; c < sim::kNumCoordinates; ++c) {
+    const auto& coord = base.coordinates[c];
+    if (coord.mode != sim::CoordinateMode::kFree) continue;
+    FitParameter p;
+    p.name = "k." + sim::CoordinateNames()[c];
+    p.unit = "N*m/rad";
+    p.kind = FitParameterKind::kJointStiffness;
+    p.coordinate = c;
+    p.nominal = coord.passive.stiffness_nm_per_rad;
+    if (!(p.nominal > 0.0)) continue;  // a joint without a spring stays without one
+    p.lower = 0.2 * p.nominal;
+    p.upper = 5.0 * p.nominal;
+    out.push_back(p);
+  }
+  for (int j : forearm) {
+    const auto& rec = base.muscles[j].recruitment;
+    FitParameter b;
+    b.name = "beta." + base.muscles[j].name;
+    b.unit = "1/us";
+    b.kind = FitParameterKind::kRecruitmentBeta;
+    b.muscle = j;
+    b.nominal = rec.beta_per_us;
+    b.lower = 0.3 * b.nominal;
+    b.upper = 3.0 * b.nominal;
+    out.push_back(b);
+    FitParameter g = b;
+    g.name = "gamma." + base.muscles[j].name;
+    g.unit = "1";
+    g.kind = FitParameterKind::kRecruitmentGamma;
+    g.nominal = rec.gamma;
+    g.lower = 0.2 * g.nominal;
+    g.upper = 5.0 * g.nominal;
+    out.push_back(g);
+  }
+  if (base.coordinates[sim::kWristFlexion].mode == sim::CoordinateMode::kFree) {
+    for (bool ext : {true, false}) {
+      FitParameter p;
+      p.name = ext ? "R.wrist_extensor_scale" : "R.wrist_flexor_scale";
+      p.unit = "1";
+      p.kind = FitParameterKind::kMomentArmScale;
+      p.extensors = ext;
+      p.nominal = 1.0;
+      p.lower = 0.5;
+      p.upper = 2.0;
+      out.push_back(p);
+    }
+  }
+  return out;
+}
+
+sim::ModelParams ApplyParameters(const sim::ModelParams& base,
+                                 const std::vector<FitParameter>& parameters,
+                                 const Eigen::VectorXd& values) {
+  if (static_cast<std::size_t>(values.size()) != parameters.size()) {
+    throw std::invalid_argument("ApplyParameters: " + std::to_string(values.size()) +
+                                " values for " + std::to_string(parameters.size()) + " parameters");
+  }
+  sim::ModelParams m = base;
+  std::vector<double> rest(sim::kNumCoordinates);
+  for (int c = 0; c < sim::kNumCoordinates; ++c) {
+    rest[c] = base.coordinates[c].passive.rest_angle_rad;
+  }
+  for (std::size_t i = 0; i < parameters.size(); ++i) {
+    const FitParameter& p = parameters[i];
+    const double v = values(static_cast<Eigen::Index>(i));
+    switch (p.kind) {
+      case FitParameterKind::kArrayWeight: {
+        auto& ch = m.channels[p.channel];
+        if (!ch.pads.empty()) {
+          throw std::invalid_argument("ApplyParameters: channel '" + ch.name +
+                                      "' uses pads; call WithExplicitArrayWeights first");
+        }
+        const std::string& muscle = m.muscles[p.muscle].name;
+        bool found = false;
+        for (auto& w : ch.muscle_weights) {
+          if (w.first == muscle) {
+            w.second = v;
+            found = true;
+          }
+        }
+        if (!found) ch.muscle_weights.emplace_back(muscle, v);
+        break;
+      }
+      case FitParameterKind::kJointStiffness:
+        m.coordinates[p.coordinate].passive.stiffness_nm_per_rad = v;
+        break;
+      case FitParameterKind::kRecruitmentBeta:
+        m.muscles[p.muscle].recruitment.beta_per_us = v;
+        break;
+      case FitParameterKind::kRecruitmentGamma:
+        m.muscles[p.muscle].recruitment.gamma = v;
+        break;
+      case FitParameterKind::kMomentArmScale:
+        for (auto& muscle : m.muscles) {
+          bool scaled = false;
+          for (auto& cr : muscle.path.crossings) {
+            if (cr.joint != sim::kWristFlexion) continue;
+            if ((cr.arm.d_m < 0.0) != p.extensors || cr.arm.d_m == 0.0) continue;
+            cr.arm.d_m *= v;
+            cr.arm.d_tilde_m *= v;
+            scaled = true;
+          }
+          if (!scaled) continue;
+          // Keep l_MT at the rest posture (eq. 8: l_MT = l_ref + Σ Δl): move l_ref by the change
+          // of the wrist term.
+          const sim::MuscleParams* original = nullptr;
+          for (const auto& b : base.muscles) {
+            if (b.name == muscle.name) original = &b;
+          }
+          const double before = tendons::MusculotendonLength(original->path, rest);
+          const double after = tendons::MusculotendonLength(muscle.path, rest);
+          muscle.path.length_at_ref_m += before - after;
+        }
+        break;
+    }
+  }
+  return m;
+}
+
+sim::ModelParams DefaultHandRig() {
+  sim::ModelParams m = sim::DefaultModelParams();
+  for (int c : {sim::kShoulderElvPlane, sim::kShoulderElevation, sim::kShoulderRotation,
+                sim::kElbowFlexion, sim::kProSup}) {
+    m.coordinates[c].mode = sim::CoordinateMode::kLocked;
+    m.coordinates[c].initial_speed_rad_s = 0.0;
+  }
+  return m;
+}
+
+Trial SimulateLike(const sim::ModelParams& model, const Trial& trial, double integrator_tolerance) {
+  const sim::UpperLimbModel limb(model);
+  const int nc = limb.num_channels();
+  std::vector<int> channel_of_column;
+  const auto inputs = trial.NamesWithPrefix("u.");
+  for (const auto& name : inputs) {
+    const int k = ChannelIndex(model, name.substr(2));
+    if (k < 0) {
+      throw std::runtime_error("column " + name + ": no such channel in the rig (" +
+                               ChannelList(model) + ")");
+    }
+    channel_of_column.push_back(k);
+  }
+  std::vector<int> coords;
+  for (const auto& name : trial.NamesWithPrefix("q.")) {
+    const int c = sim::CoordinateIndex(name.substr(2));
+    if (c < 0) throw std::runtime_error("column " + name + ": unknown joint");
+    coords.push_back(c);
+  }
+  if (trial.size() < 2) throw std::runtime_error("trial needs at least 2 samples");
+  sim::TrialRequest req;
+  req.name = "full-model-fit";
+  req.integrator.tolerance = integrator_tolerance;
+  // Zero-order hold of the recorded stimulation: a breakpoint wherever some channel changes.
+  std::vector<double> previous;
+  for (std::size_t i = 0; i < trial.size(); ++i) {
+    std::vector<double> u(nc, 0.0);
+    for (std::size_t c = 0; c < inputs.size(); ++c) {
+      u[channel_of_column[c]] = trial.Column(inputs[c])[i];
+    }
+    bool changed = previous.empty();
+    for (int k = 0; k < nc && !changed; ++k) {
+      changed = std::abs(u[k] - previous[k]) > kScheduleChangeUs;
+    }
+    if (!changed) continue;
+    req.stimulation.times.push_back(i == 0 ? 0.0 : trial.time[i]);
+    req.stimulation.values.push_back(u);
+    previous = u;
+  }
+  const double dt =
+      (trial.time.back() - trial.time.front()) / static_cast<double>(trial.size() - 1);
+  req.duration_s = trial.time.back() + 0.5 * dt;
+  req.sensors.angles.rate_hz = 1.0 / dt;
+  req.sensors.angles.noise_std = 0.0;
+  req.sensors.angles.coordinates = coords;
+  req.sensors.truth_rate_hz = 1.0 / req.duration_s;  // two truth rows: not needed here
+  const sim::TrialResult res = sim::RunTrial(limb, req);
+  Trial out;
+  out.time = trial.time;
+  for (const auto& name : inputs) out.AddColumn(name, trial.Column(name));
+  for (std::size_t k = 0; k < coords.size(); ++k) {
+    const std::string name = "q." + sim::CoordinateNames()[coords[k]];
+    const auto& v = res.measured.Column(name);
+    std::vector<double> y(trial.size());
+    for (std::size_t i = 0; i < trial.size(); ++i) {
+      y[i] = Interpolate(res.measured.time, v, trial.time[i]);
+    }
+    out.AddColumn(name, std::move(y));
+  }
+  return out;
+}
+
+FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>& train,
+                          const FullModelFitOptions& options, const ProgressFn& progress) {
+  const auto t_total = Clock::now();
+  if (options.keep_parameters < 1) throw std::invalid_argument("keep_parameters must be >= 1");
+  if (options.starts < 1) throw std::invalid_argument("starts must be >= 1");
+  const TrainingData data = ReadTraining(rig, train);
+  const int threads = ResolveThreads(options.threads);
+  const double tol = options.integrator_tolerance;
+
+  std::set<std::string> stimulated;
+  for (const auto& tr : train) {
+    for (const auto& name : tr.NamesWithPrefix("u.")) stimulated.insert(name.substr(2));
+  }
+  // Channels in the model's order.
+  std::vector<std::string> channels;
+  for (const auto& ch : rig.channels) {
+    if (stimulated.count(ch.name)) channels.push_back(ch.name);
+  }
+  FullModelFit fit;
+  const sim::ModelParams base = WithExplicitArrayWeights(rig);
+  fit.candidates = CandidateParameters(base, channels);
+  const int nc = static_cast<int>(fit.candidates.size());
+  if (nc == 0) throw std::runtime_error("full-model: the rig offers no candidate parameter");
+  fit.residuals = data.residuals;
+
+  // 1. Sensitivity ranking at the nominal point (one forward difference per candidate, parallel).
+  if (progress) progress(0.0, "sensitivity ranking of " + std::to_string(nc) + " parameters");
+  const auto t_sens = Clock::now();
+  Eigen::VectorXd x_nom(nc), upper_all(nc);
+  for (int i = 0; i < nc; ++i) {
+    x_nom(i) = fit.candidates[i].nominal;
+    upper_all(i) = fit.candidates[i].upper;
+  }
+  const Eigen::VectorXd r_nom =
+      Residuals(base, fit.candidates, x_nom, train, data, tol, threads, true);
+  const Eigen::MatrixXd J_nom =
+      ParallelJacobian(base, fit.candidates, x_nom, r_nom, upper_all, train, data, tol,
+                       options.fd_relative_step, threads);
+  const double sqrt_n = std::sqrt(static_cast<double>(std::max<long>(1, data.residuals)));
+  std::vector<int> order(nc);
+  std::vector<double> s(nc);
+  for (int i = 0; i < nc; ++i) {
+    order[i] = i;
+    s[i] = J_nom.col(i).norm() * ScaleOf(fit.candidates[i]) / sqrt_n;
+  }
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return s[a] > s[b]; });
+  for (int i : order) fit.ranking.push_back({fit.candidates[i].name, s[i]});
+  fit.sensitivity_wall_s = Seconds(t_sens);
+
+  // 2. The kept subset.
+  std::vector<int> kept_index;
+  if (!options.fit_names.empty()) {
+    for (const auto& name : options.fit_names) {
+      int found = -1;
+      for (int i = 0; i < nc; ++i) {
+        if (fit.candidates[i].name == name) found = i;
+      }
+      if (found < 0) throw std::invalid_argument("full-model: unknown parameter '" + name + "'");
+      kept_index.push_back(found);
+    }
+  } else {
+    const int keep = std::min(options.keep_parameters, nc);
+    for (int r = 0; r < keep; ++r) {
+      if (s[order[r]] > 0.0) kept_index.push_back(order[r]);
+    }
+    if (kept_index.empty()) {
+      throw std::runtime_error(
+          "full-model: the outputs do not depend on any candidate parameter "
+          "(no stimulation in the data?)");
+    }
+  }
+  // Parameters not kept are frozen at nominal in the base the local runs use.
+  std::vector<char> is_kept(nc, 0);
+  for (int i : kept_index) is_kept[i] = 1;
+  const int p = static_cast<int>(kept_index.size());
+  for (int i : kept_index) fit.kept.push_back(fit.candidates[i]);
+  Eigen::VectorXd lower(p), upper(p), nominal(p);
+  for (int k = 0; k < p; ++k) {
+    lower(k) = fit.kept[k].lower;
+    upper(k) = fit.kept[k].upper;
+    nominal(k) = fit.kept[k].nominal;
+  }
+  if (data.residuals <= p) {
+    throw std::runtime_error("train: " + std::to_string(data.residuals) +
+                             " output samples, need more than " + std::to_string(p) +
+                             " for the kept parameters (too-short data)");
+  }
+
+  // 3. Multi-start local optimisation.
+  std::mt19937_64 rng(options.seed);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const ResidualFn residual = [&](const Eigen::VectorXd& x) {
+    return Residuals(base, fit.kept, x, train, data, tol, threads, false);
+  };
+  const JacobianFn jacobian = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& r,
+                                  int* evaluations) {
+    *evaluations += p;
+    return ParallelJacobian(base, fit.kept, x, r, upper, train, data, tol, options.fd_relative_step,
+                            threads);
+  };
+  LmOptions lm;
+  lm.max_iterations = options.max_iterations;
+  lm.relative_tolerance = options.relative_tolerance;
+  lm.step_tolerance = 1e-9;
+  lm.fd_relative_step = options.fd_relative_step;
+  double best_cost = std::numeric_limits<double>::infinity();
+  LmResult best;
+  for (int sidx = 0; sidx < options.starts; ++sidx) {
+    Eigen::VectorXd x0 = nominal;
+    if (sidx > 0) {
+      for (int k = 0; k < p; ++k) {
+        const double e = unit(rng) * options.start_spread;
+        x0(k) = fit.kept[k].kind == FitParameterKind::kArrayWeight
+                    ? nominal(k) + e * std::max(nominal(k), 0.05)
+                    : nominal(k) * std::exp(e);
+        x0(k) = std::clamp(x0(k), lower(k), upper(k));
+      }
+    }
+    if (progress) {
+      progress(0.1 + 0.85 * sidx / options.starts,
+               "local optimisation " + std::to_string(sidx + 1) + "/" +
+                   std::to_string(options.starts) + " of " + std::to_string(p) + " parameters");
+    }
+    const auto t_run = Clock::now();
+    LmResult res = LevenbergMarquardt(residual, x0, lower, upper, lm, {}, jacobian);
+    LocalRun run;
+    run.start = x0;
+    run.x = res.x;
+    run.cost = res.cost;
+    run.iterations = res.iterations;
+    run.evaluations = res.evaluations;
+    run.wall_s = Seconds(t_run);
+    fit.runs.push_back(run);
+    if (res.cost < best_cost) {
+      best_cost = res.cost;
+      best = std::move(res);
+    }
+  }
+  fit.values = best.x;
+  fit.cost = best.cost;
+  fit.ci95_half_width = ConfidenceHalfWidths95(best.jtj, best.cost, data.residuals);
+  fit.model = ApplyParameters(base, fit.kept, fit.values);
+  fit.total_wall_s = Seconds(t_total);
+  if (progress) progress(0.95, "done fitting");
+  return fit;
+}
+
+// ---------------------------------------------------------------------------------------------
+// CLI adapter.
+namespace {
+
+Json MeanSd(const std::vector<double>& v) {
+  Json j = Json::Object();
+  double m = 0, s = 0;
+  for (double x : v) m += x;
+  m /= static_cast<double>(std::max<std::size_t>(1, v.size()));
+  for (double x : v) s += (x - m) * (x - m);
+  j.Set("mean", m);
+  j.Set("std", v.size() > 1 ? std::sqrt(s / static_cast<double>(v.size() - 1)) : 0.0);
+  j.Set("count", static_cast<int>(v.size()));
+  j.Set("all", v);
+  return j;
+}
+
+/// Simulated predictions of `trials` with per-joint Best Fit / normalised error.
+Json Evaluate(const sim::ModelParams& model, const std::vector<Trial>& trials,
+              const std::vector<std::string>& joints, double tol, int threads,
+              std::vector<Trial>* predictions) {
+  std::vector<Trial> sims(trials.size());
+  ParallelFor(static_cast<int>(trials.size()), threads,
+              [&](int t) { sims[t] = SimulateLike(model, trials[t], tol); });
+  Json fits = Json::Array();
+  std::map<std::string, double> ne_sum;
+  for (std::size_t t = 0; t < trials.size(); ++t) {
+    Json f = Json::Object();
+    f.Set("trial", static_cast<int>(t));
+    Json js = Json::Object();
+    for (const auto& j : joints) {
+      const auto& y = trials[t].Column(j);
+      const auto& yh = sims[t].Column(j);
+      Json jf = Json::Object();
+      jf.Set("best_fit_percent", BestFitPercent(y, yh));
+      const double ne = NormalisedError(y, yh);
+      ne_sum[j] += ne;
+      jf.Set("normalised_error", ne);
+      jf.Set("rms_rad", Rms(y, yh));
+      js.Set(j, jf);
+    }
+    f.Set("joints", js);
+    fits.Push(f);
+    sims[t].metadata["source"] = "fesim identify --method full-model";
+    if (predictions) predictions->push_back(std::move(sims[t]));
+  }
+  Json mean = Json::Object();
+  for (const auto& j : joints) mean.Set(j, ne_sum[j] / static_cast<double>(trials.size()));
+  Json out = Json::Object();
+  out.Set("trials", fits);
+  out.Set("mean_normalised_error", mean);
+  return out;
+}
+
+MethodResult RunFullModel(const std::string& default_scenario, const std::vector<Trial>& train,
+                          const std::vector<Trial>& test, const ProgressFn& progress) {
+  if (train.empty()) throw std::runtime_error("--train: no trials");
+  std::string scenario = default_scenario;
+  const auto it = train[0].metadata.find("scenario_path");
+  if (it != train[0].metadata.end() && !it->second.empty()) scenario = it->second;
+  const sim::ModelParams rig = scenario.empty() ? DefaultHandRig() : LoadScenario(scenario).model;
+  MetadataOptions md(train[0].metadata, "fullmodel");
+  FullModelFitOptions o;
+  o.keep_parameters = md.Int("keep", o.keep_parameters, 1, 1000);
+  o.starts = md.Int("starts", o.starts, 1, 1000);
+  o.seed = static_cast<unsigned>(md.Int("seed", 1, 0, 2147483647));
+  o.start_spread = md.Real("spread", o.start_spread, 0.0, 3.0);
+  o.max_iterations = md.Int("max_iterations", o.max_iterations, 1, 10000);
+  o.relative_tolerance = md.Real("tolerance", o.relative_tolerance, 0.0, 1.0);
+  o.integrator_tolerance = md.Real("integrator_tolerance", o.integrator_tolerance, 1e-12, 1e-2);
+  o.threads = md.Int("threads", 0, 0, 256);
+  md.RejectUnknown();
+
+  const FullModelFit fit = FitFullModel(rig, train, o, progress);
+  const std::vector<std::string> joints = train[0].NamesWithPrefix("q.");
+  CheckTrials(rig, test, "test", joints);
+  const int threads = ResolveThreads(o.threads);
+
+  std::string y =
+      "# fesim identify: full-model (paper 000_0a6c0de9fc69df7c eq. 12, sensitivity ranking + "
+      "multi-start local optimisation of section 5.1)\nmethod: full-model\n";
+  y +=
+      "rig: " + (scenario.empty() ? std::string("default hand rig (arm locked)") : scenario) + "\n";
+  y += "outputs: [";
+  for (std::size_t i = 0; i < joints.size(); ++i) y += (i ? ", " : "") + joints[i];
+  y += "]\n# fitted parameters (95 % intervals from J^T J at the optimum)\nfitted:\n";
+  std::set<std::string> kept_names;
+  for (std::size_t k = 0; k < fit.kept.size(); ++k) {
+    kept_names.insert(fit.kept[k].name);
+    y += YamlParam(fit.kept[k].name, fit.values(static_cast<Eigen::Index>(k)), fit.kept[k].unit,
+                   fit.ci95_half_width(static_cast<Eigen::Index>(k)), 2);
+  }
+  y += "# candidates not fitted, held at the rig's nominal values\nfixed:\n";
+  for (const auto& c : fit.candidates) {
+    if (!kept_names.count(c.name)) y += YamlParam(c.name, c.nominal, c.unit, NAN, 2);
+  }
+  y += "# normalised output sensitivity S_j at the start point, rad, most influential first\n"
+       "sensitivity:\n";
+  for (const auto& e : fit.ranking) y += "  " + e.name + ": " + Num(e.sensitivity) + "\n";
+
+  MethodResult result;
+  result.model_yaml = y;
+  if (progress) progress(0.97, "evaluation");
+  Json m = Json::Object();
+  m.Set("method", "full-model");
+  m.Set("prediction", "simulation of the full model from its initial state (not one-step-ahead)");
+  m.Set("candidates", static_cast<int>(fit.candidates.size()));
+  m.Set("fitted_parameters", static_cast<int>(fit.kept.size()));
+  m.Set("residuals", fit.residuals);
+  m.Set("cost_rad2", fit.cost);
+  std::vector<double> walls, iters, evals, costs;
+  for (const auto& r : fit.runs) {
+    walls.push_back(r.wall_s);
+    iters.push_back(r.iterations);
+    evals.push_back(r.evaluations);
+    costs.push_back(r.cost);
+  }
+  m.Set("local_step_wall_s", MeanSd(walls));
+  m.Set("local_step_iterations", iters);
+  m.Set("local_step_evaluations", evals);
+  m.Set("local_step_cost_rad2", costs);
+  m.Set("sensitivity_wall_s", fit.sensitivity_wall_s);
+  m.Set("total_wall_s", fit.total_wall_s);
+  m.Set("threads", threads);
+  m.Set("train", Evaluate(fit.model, train, joints, o.integrator_tolerance, threads,
+                          test.empty() ? &result.predictions : nullptr));
+  if (!test.empty()) {
+    m.Set("test",
+          Evaluate(fit.model, test, joints, o.integrator_tolerance, threads, &result.predictions));
+  }
+  result.metrics = m;
+  if (progress) progress(1.0, "done");
+  return result;
+}
+
+}  // namespace
+
+MethodEntry FullModelMethod(const std::string& scenario_path) {
+  return {"full-model",
+          "full model (12) through the simulator: sensitivity ranking, multi-start LM of the "
+          "top 29 (paper 000 5.1); rig from --scenario, else the default hand rig (arm locked)",
+          [scenario_path](const std::vector<Trial>& train, const std::vector<Trial>& test,
+                          const ProgressFn& progress) {
+            return RunFullModel(scenario_path, train, test, progress);
+          }};
+}
+
+}  // namespace fesim::identification::fullmodel
