@@ -84,7 +84,7 @@ int RunSimulate(int argc, char** argv) {
   stats.Set("steps", static_cast<double>(r.stats.steps))
       .Set("rhs_evaluations", static_cast<double>(r.stats.rhs_evaluations))
       .Set("jacobian_evaluations", static_cast<double>(r.stats.jacobian_evaluations))
-      .Set("restarts", static_cast<double>(r.stats.restarts))
+      .Set("breakpoints", static_cast<double>(r.stats.breakpoints))
       .Set("fibre_length_clamped", r.fibre_clamped);
   manifest.Set("integration", stats);
 

@@ -44,12 +44,14 @@ FibreKinematics FibreFromMusculotendon(const HillParams& p, double l_mt_m, doubl
   return f;
 }
 
-double HillTendonForce(const HillParams& p, double activation, const FibreKinematics& fibre) {
+double HillTendonForce(const HillParams& p, double activation, const FibreKinematics& fibre,
+                       double active_gain) {
   const double l = fibre.length_m / p.optimal_fibre_length_m;
   const double v = fibre.velocity_m_s / (p.max_contraction_velocity * p.optimal_fibre_length_m);
   const double a = std::clamp(activation, 0.0, 1.0);
-  const double fibre_force = p.max_isometric_force_n *
-                             (a * ActiveForceLength(l) * ForceVelocity(v) + PassiveForceLength(l));
+  const double fibre_force =
+      p.max_isometric_force_n *
+      (active_gain * a * ActiveForceLength(l) * ForceVelocity(v) + PassiveForceLength(l));
   return fibre_force * fibre.cos_pennation;
 }
 

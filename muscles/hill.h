@@ -43,8 +43,10 @@ double ForceVelocity(double norm_fibre_velocity);
 /// with `clamped`) so the geometry stays defined.
 FibreKinematics FibreFromMusculotendon(const HillParams& p, double l_mt_m, double v_mt_m_s);
 
-/// Tendon force F (N, ≥ 0) at activation a (0–1) and the given fibre kinematics.
-double HillTendonForce(const HillParams& p, double activation, const FibreKinematics& fibre);
+/// Tendon force F (N, ≥ 0) at activation a (0–1) and the given fibre kinematics. `active_gain`
+/// (≥ 0) scales the active part only: fatigue (fitness φ) and potentiation (1 + g p).
+double HillTendonForce(const HillParams& p, double activation, const FibreKinematics& fibre,
+                       double active_gain = 1.0);
 
 /// Musculotendon length (m) at which the fibre is at optimal length: l_ts + l_opt cos φ₀.
 double OptimalMusculotendonLength(const HillParams& p);

@@ -195,7 +195,9 @@ void LoadCoordinates(const Node& n, sim::ModelParams* m) {
     const Node c = n.Child(name);
     c.Keys({"mode", "initial_deg", "initial_speed_deg_s", "rest_deg", "min_deg", "max_deg",
             "stiffness_nm_per_rad", "damping_nms_per_rad", "limit_stiffness_nm_per_rad",
-            "limit_sharpness_per_rad", "coulomb_friction_nm", "prescription"});
+            "limit_sharpness_per_rad", "coulomb_friction_nm", "static_friction_nm",
+            "stribeck_velocity_rad_s", "reflex_gain_nms_per_rad", "reflex_threshold_deg_s",
+            "prescription"});
     auto& p = m->coordinates[i];
     auto& pj = p.passive;
     c.Number("min_deg", -180, 180, &pj.min_angle_rad, kDeg);
@@ -211,6 +213,10 @@ void LoadCoordinates(const Node& n, sim::ModelParams* m) {
     c.Number("limit_stiffness_nm_per_rad", 0, 1e4, &pj.limit_stiffness_nm_per_rad);
     c.Number("limit_sharpness_per_rad", 1, 200, &pj.limit_sharpness_per_rad);
     c.Number("coulomb_friction_nm", 0, 100, &pj.coulomb_friction_nm);
+    c.Number("static_friction_nm", 0, 100, &pj.static_friction_nm);
+    c.Number("stribeck_velocity_rad_s", 1e-4, 10, &pj.stribeck_velocity_rad_s);
+    c.Number("reflex_gain_nms_per_rad", 0, 100, &pj.reflex_gain_nms_per_rad);
+    c.Number("reflex_threshold_deg_s", 0, 2000, &pj.reflex_threshold_rad_s, kDeg);
     if (c.Has("mode")) {
       const std::string mode = c.Choice("mode", {"free", "locked", "prescribed"});
       p.mode = mode == "free"     ? sim::CoordinateMode::kFree
@@ -585,11 +591,61 @@ void LoadStimulation(const Node& n, const std::string& path, const sim::ModelPar
   }
 }
 
-void LoadSensor(const Node& n, const std::string& noise_key, double noise_scale,
-                sim::SensorParams* s) {
-  n.Keys({"rate_hz", "coordinates", noise_key});
+void LoadMechanisms(const Node& n, sim::ModelParams* m) {
+  n.Keys({"fatigue", "potentiation", "electromechanical_delay_s", "tremor", "crosstalk"});
+  auto& mech = m->mechanisms;
+  if (n.Has("fatigue")) {
+    const Node f = n.Child("fatigue");
+    f.Keys({"fatigue_time_s", "recovery_time_s", "min_fitness"});
+    mech.fatigue.enabled = true;
+    f.Number("fatigue_time_s", 0.1, 1e5, &mech.fatigue.fatigue_time_s);
+    f.Number("recovery_time_s", 0.1, 1e5, &mech.fatigue.recovery_time_s);
+    f.Number("min_fitness", 0, 1, &mech.fatigue.min_fitness);
+  }
+  if (n.Has("potentiation")) {
+    const Node p = n.Child("potentiation");
+    p.Keys({"gain", "rise_time_s", "decay_time_s"});
+    mech.potentiation.enabled = true;
+    p.Number("gain", 0, 5, &mech.potentiation.gain);
+    p.Number("rise_time_s", 0.01, 1e4, &mech.potentiation.rise_time_s);
+    p.Number("decay_time_s", 0.01, 1e5, &mech.potentiation.decay_time_s);
+  }
+  n.Number("electromechanical_delay_s", 0, 1, &mech.electromechanical_delay_s);
+  if (n.Has("tremor")) {
+    const Node t = n.Child("tremor");
+    t.Keys({"coordinate", "frequency_hz", "amplitude_nm", "amplitude_modulation", "modulation_hz",
+            "frequency_drift_hz_per_s", "phase_deg"});
+    auto& tr = mech.tremor;
+    tr.enabled = true;
+    if (t.Has("coordinate")) tr.coordinate = Coordinate(t, "coordinate", t.Text("coordinate"));
+    t.Number("frequency_hz", 3, 12, &tr.frequency_hz);
+    t.Number("amplitude_nm", 0, 50, &tr.amplitude_nm);
+    t.Number("amplitude_modulation", 0, 1, &tr.amplitude_modulation);
+    t.Number("modulation_hz", 0, 10, &tr.modulation_hz);
+    t.Number("frequency_drift_hz_per_s", -1, 1, &tr.frequency_drift_hz_per_s);
+    t.Number("phase_deg", -360, 360, &tr.phase_rad, kDeg);
+  }
+  if (n.Has("crosstalk")) {
+    const Node c = n.Child("crosstalk");
+    c.Keys({"fraction", "spread_m"});
+    c.Number("fraction", 0, 1, &mech.crosstalk.fraction);
+    c.Number("spread_m", 1e-4, 0.2, &mech.crosstalk.spread_m);
+  }
+}
+
+/// A sensor block; `unit` is the suffix of its noise/drift/outlier keys (deg, deg_s or nm) and
+/// `scale` converts that unit to SI.
+void LoadSensor(const Node& n, const std::string& unit, double scale, sim::SensorParams* s) {
+  n.Keys({"rate_hz", "coordinates", "noise_std_" + unit, "offset_drift_" + unit + "_per_s",
+          "dropout_probability", "dropout_mean_samples", "outlier_probability",
+          "outlier_std_" + unit});
   n.Number("rate_hz", 0.1, 20000, &s->rate_hz);
-  n.Number(noise_key, 0, 1e3, &s->noise_std, noise_scale);
+  n.Number("noise_std_" + unit, 0, 1e3, &s->noise_std, scale);
+  n.Number("offset_drift_" + unit + "_per_s", -100, 100, &s->offset_drift_per_s, scale);
+  n.Number("dropout_probability", 0, 0.9, &s->dropout_probability);
+  n.Number("dropout_mean_samples", 1, 1e4, &s->dropout_mean_samples);
+  n.Number("outlier_probability", 0, 0.5, &s->outlier_probability);
+  n.Number("outlier_std_" + unit, 0, 1e4, &s->outlier_std, scale);
   if (n.Has("coordinates")) {
     const Node c = n.Child("coordinates");
     s->coordinates.clear();
@@ -614,7 +670,7 @@ Scenario ParseScenario(const std::string& text, const std::string& path) {
   sc.source_text = text;
   const Node top(root, "", &sc.path);
   top.Keys({"name", "participant", "gravity_m_s2", "coordinates", "muscles", "electrodes",
-            "support", "stimulation", "sensors", "integrator"});
+            "support", "mechanisms", "stimulation", "sensors", "integrator"});
   sc.name = top.Text("name");
   double height = 1.75, mass = 75.0;
   if (top.Has("participant")) {
@@ -633,6 +689,7 @@ Scenario ParseScenario(const std::string& text, const std::string& path) {
   if (top.Has("muscles")) LoadMuscles(top.Child("muscles"), &m);
   if (top.Has("electrodes")) LoadElectrodes(top.Child("electrodes"), &m);
   if (top.Has("support")) LoadSupport(top.Child("support"), &m);
+  if (top.Has("mechanisms")) LoadMechanisms(top.Child("mechanisms"), &m);
   sim::CalibrateReferenceLengths(&m);
 
   sim::TrialRequest& t = sc.trial;
@@ -652,11 +709,10 @@ Scenario ParseScenario(const std::string& text, const std::string& path) {
   if (top.Has("sensors")) {
     const Node s = top.Child("sensors");
     s.Keys({"angles", "velocities", "torques", "truth_rate_hz"});
-    if (s.Has("angles")) LoadSensor(s.Child("angles"), "noise_std_deg", kDeg, &t.sensors.angles);
-    if (s.Has("velocities")) {
-      LoadSensor(s.Child("velocities"), "noise_std_deg_s", kDeg, &t.sensors.velocities);
-    }
-    if (s.Has("torques")) LoadSensor(s.Child("torques"), "noise_std_nm", 1.0, &t.sensors.torques);
+    if (s.Has("angles")) LoadSensor(s.Child("angles"), "deg", kDeg, &t.sensors.angles);
+    if (s.Has("velocities"))
+      LoadSensor(s.Child("velocities"), "deg_s", kDeg, &t.sensors.velocities);
+    if (s.Has("torques")) LoadSensor(s.Child("torques"), "nm", 1.0, &t.sensors.torques);
     s.Number("truth_rate_hz", 0.1, 20000, &t.sensors.truth_rate_hz);
     if (s.Has("torques")) {
       for (int i : t.sensors.torques.coordinates) {

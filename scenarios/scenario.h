@@ -13,6 +13,8 @@
 //     <coordinate>: {mode: free|locked|prescribed, initial_deg, initial_speed_deg_s,
 //                    rest_deg, min_deg, max_deg, stiffness_nm_per_rad, damping_nms_per_rad,
 //                    limit_stiffness_nm_per_rad, limit_sharpness_per_rad, coulomb_friction_nm,
+//                    static_friction_nm, stribeck_velocity_rad_s (stiction),
+//                    reflex_gain_nms_per_rad, reflex_threshold_deg_s (spasticity),
 //                    prescription: {offset_deg, amplitude_deg, frequency_hz, phase_deg}}
 //   muscles:
 //     <muscle>: {max_isometric_force_n, optimal_fibre_length_m, tendon_slack_length_m,
@@ -24,16 +26,27 @@
 //   support:
 //     bands: [{segment, cuff_m: [x,y,z], anchor_m: [x,y,z], stiffness_n_per_m, slack_length_m}]
 //     weight_compensation: [{segment, cuff_m: [x,y,z], force_n}]
+//   mechanisms:                                  (each block present = switched on;
+//   sim/mechanisms.h)
+//     fatigue: {fatigue_time_s, recovery_time_s, min_fitness}
+//     potentiation: {gain, rise_time_s, decay_time_s}
+//     electromechanical_delay_s: 0–1
+//     tremor: {coordinate, frequency_hz: 3–12, amplitude_nm, amplitude_modulation,
+//              modulation_hz, frequency_drift_hz_per_s, phase_deg}
+//     crosstalk: {fraction: 0–1, spread_m}
 //   stimulation:
 //     duration_s: > 0                            (required)
-//     type: constant | steps | csv               (required)
+//     type: constant | steps | csv | protocol    (required)
 //     values_us: {<channel>: 0–300}              (constant)
 //     steps: [{time_s, values_us: {<channel>: µs}}]   (steps; channels not named are 0)
 //     file: path relative to the scenario, u.<channel> columns held until the next row (csv)
+//     protocol: {name: step_grid|ramp|staircase|filtered_noise|prms|multisine|shoulder_steps,
+//                channel(s), u_min_us, u_max_us, u_sum_max_us, seed, …} (scenarios/protocols.h)
 //   sensors:
-//     angles:     {rate_hz, noise_std_deg, coordinates: [<coordinate>…]}
-//     velocities: {rate_hz, noise_std_deg_s, coordinates: […]}
-//     torques:    {rate_hz, noise_std_nm, coordinates: […]}   (locked/prescribed coordinates)
+//     angles:     {rate_hz, noise_std_deg, coordinates: [<coordinate>…], offset_drift_deg_per_s,
+//                  dropout_probability, dropout_mean_samples, outlier_probability, outlier_std_deg}
+//     velocities: {rate_hz, noise_std_deg_s, coordinates: […], … the same with _deg_s}
+//     torques:    {rate_hz, noise_std_nm, coordinates: […], … with _nm}  (locked/prescribed)
 //     truth_rate_hz
 //   integrator: {method: cvodes|cvodes-adams|simbody-rkm, tolerance: 1e-12–1e-2}
 #pragma once
@@ -47,10 +60,10 @@ namespace fesim {
 
 struct Scenario {
   std::string name;
-  std::string path;            ///< file it was loaded from.
-  std::string source_text;     ///< the file's bytes (hashed into the manifest).
-  sim::ModelParams model;      ///< the participant and rig.
-  sim::TrialRequest trial;     ///< stimulation, duration, sensors, integrator.
+  std::string path;         ///< file it was loaded from.
+  std::string source_text;  ///< the file's bytes (hashed into the manifest).
+  sim::ModelParams model;   ///< the participant and rig.
+  sim::TrialRequest trial;  ///< stimulation, duration, sensors, integrator.
 };
 
 /// Loads and validates a scenario. Throws std::runtime_error with the one-line message above.

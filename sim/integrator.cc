@@ -152,8 +152,13 @@ class Cvodes {
   Cvodes(const Cvodes&) = delete;
   Cvodes& operator=(const Cvodes&) = delete;
 
+  /// Starts, or continues after a stimulation breakpoint. Only the closed-form activation
+  /// changes its input there; a and ȧ, hence the right-hand side of q, u (and of any other z), are
+  /// continuous, so CVODES continues with its history (step stopped exactly at the breakpoint by
+  /// CVodeSetStopTime) instead of restarting at first order.
   void Start(double t0) {
     ctx_->BeginInterval(t0);
+    if (initialised_) return;
     const SimTK::Vector& y0 = ctx_->state->getY();
     double* y = N_VGetArrayPointer(y_);
     for (std::size_t i = 0; i < ctx_->y_index.size(); ++i) y[i] = y0[ctx_->y_index[i]];
@@ -164,8 +169,6 @@ class Cvodes {
       Check(CVodeSetLinearSolver(mem_, ls_, a_), "CVodeSetLinearSolver", t0);
       Check(CVodeSetMaxNumSteps(mem_, kMaxSteps), "CVodeSetMaxNumSteps", t0);
       initialised_ = true;
-    } else {
-      Check(CVodeReInit(mem_, t0, y_), "CVodeReInit", t0);
     }
   }
   /// Advances to exactly t_out (≤ stop) and leaves the solution in the context's state.
@@ -236,7 +239,7 @@ void Drive(const UpperLimbModel& model, const StimulationSchedule& schedule,
       if (tb > state->getTime() + kMinInterval) advance(tb, tb);
       model.SetStimulation(*state, schedule.At(tb, nc));
       restart(tb);
-      ++stats->restarts;
+      ++stats->breakpoints;
       ++next_break;
     }
     const double stop = next_break < breaks.size() ? breaks[next_break] : kInf;
@@ -261,13 +264,11 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
         model, schedule, report_times, state, observer, observe_stage,
         [&](double t, double stop) { cv.AdvanceTo(t, stop); },
         [&](double t) {
-          cv.AddStats(&stats);
           state->setTime(t);
           cv.Start(t);
         },
         &stats);
     cv.AddStats(&stats);
-    // AddStats accumulates the counters of each restart interval; CVodeReInit resets them.
     stats.rhs_evaluations = ctx.rhs;
     return stats;
   }

@@ -1,5 +1,6 @@
 #include "sim/model_params.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace fesim::sim {
@@ -61,6 +62,11 @@ muscles::ArrayMatrix BuildElectrodeMatrix(const ModelParams& model) {
     g.motor_points.push_back(point);
   }
   const muscles::ArrayMatrix geometric = muscles::ArrayFromGeometry(g);
+  // Crosstalk (mechanisms.h): a wider second spread on the array.
+  const CrosstalkParams& xt = model.mechanisms.crosstalk;
+  muscles::ArrayGeometry gx = g;
+  gx.spread_m = xt.spread_m;
+  const muscles::ArrayMatrix wide = muscles::ArrayFromGeometry(gx);
   muscles::ArrayMatrix a;
   a.muscles = nm;
   a.channels = nc;
@@ -68,11 +74,30 @@ muscles::ArrayMatrix BuildElectrodeMatrix(const ModelParams& model) {
   for (int k = 0; k < nc; ++k) {
     const double share = model.channels[k].pads.empty() ? 0.0 : 1.0 / model.channels[k].pads.size();
     for (std::size_t p = 0; p < reached.size(); ++p) {
+      const int ip = static_cast<int>(p);
       a.a[static_cast<std::size_t>(reached[p]) * nc + k] +=
-          share * geometric(static_cast<int>(p), k);
+          share * (geometric(ip, k) + xt.fraction * wide(ip, k));
     }
+    std::vector<int> driven;
     for (const auto& [name, w] : model.channels[k].muscle_weights) {
       a.a[static_cast<std::size_t>(muscle_index(name)) * nc + k] += w;
+      driven.push_back(muscle_index(name));
+    }
+    // Crosstalk of an electrode pair: fraction c of its largest weight to every other muscle
+    // that crosses a joint the driven muscles cross.
+    if (xt.fraction > 0.0 && !driven.empty()) {
+      double w_max = 0.0;
+      for (const auto& mw : model.channels[k].muscle_weights) w_max = std::max(w_max, mw.second);
+      for (int j = 0; j < nm; ++j) {
+        if (std::find(driven.begin(), driven.end(), j) != driven.end()) continue;
+        bool shares = false;
+        for (int d : driven) {
+          for (const auto& cj : model.muscles[j].path.crossings) {
+            for (const auto& cd : model.muscles[d].path.crossings) shares |= cj.joint == cd.joint;
+          }
+        }
+        if (shares) a.a[static_cast<std::size_t>(j) * nc + k] += xt.fraction * w_max;
+      }
     }
   }
   return a;

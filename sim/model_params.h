@@ -15,6 +15,7 @@
 #include "muscles/hill.h"
 #include "muscles/recruitment.h"
 #include "sim/arm_support.h"
+#include "sim/mechanisms.h"
 #include "sim/passive_joint.h"
 #include "tendons/tendon_network.h"
 
@@ -121,6 +122,12 @@ struct SensorParams {
   double rate_hz = 100.0;        ///< > 0.
   double noise_std = 0.0;        ///< in the measured unit (rad, rad/s or N·m), ≥ 0.
   std::vector<int> coordinates;  ///< Coordinate indices.
+  // Artefacts (issue 3): offset drift, tracker dropouts (NaN bursts) and outliers.
+  double offset_drift_per_s = 0.0;    ///< measured unit per s, added as drift · t.
+  double dropout_probability = 0.0;   ///< long-run fraction of samples lost, [0, 0.9].
+  double dropout_mean_samples = 5.0;  ///< mean length of a dropout burst, samples, ≥ 1.
+  double outlier_probability = 0.0;   ///< fraction of samples replaced by outliers, [0, 0.5].
+  double outlier_std = 0.0;           ///< outlier deviation, measured unit, ≥ 0.
 };
 
 struct SensorSuite {
@@ -150,6 +157,7 @@ struct ModelParams {
   std::vector<ChannelParams> channels;
   std::vector<BandParams> bands;
   std::vector<WeightCompensationParams> weight_compensation;
+  MechanismParams mechanisms;  ///< optional mechanisms, all off by default.
 };
 
 /// The electrode matrix A (muscles × channels) implied by the array geometry and explicit

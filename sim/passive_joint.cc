@@ -1,6 +1,9 @@
 #include "sim/passive_joint.h"
 
+#include <algorithm>
 #include <cmath>
+
+#include "sim/mechanisms.h"
 
 namespace fesim::sim {
 
@@ -16,10 +19,13 @@ double PassiveElasticTorque(const PassiveJointParams& p, double q) {
 
 double PassiveDissipativeTorque(const PassiveJointParams& p, double qdot) {
   double tau = -p.damping_nms_per_rad * qdot;
-  if (p.coulomb_friction_nm > 0.0) {
-    tau -= p.coulomb_friction_nm * std::tanh(qdot / p.coulomb_velocity_rad_s);
+  const double fs = std::max(p.static_friction_nm, p.coulomb_friction_nm);
+  if (fs > 0.0) {
+    const double vs = qdot / p.stribeck_velocity_rad_s;
+    const double level = p.coulomb_friction_nm + (fs - p.coulomb_friction_nm) * std::exp(-vs * vs);
+    tau -= level * std::tanh(qdot / p.coulomb_velocity_rad_s);
   }
-  return tau;
+  return tau + ReflexTorque(p.reflex_gain_nms_per_rad, p.reflex_threshold_rad_s, qdot);
 }
 
 double PassiveJointTorque(const PassiveJointParams& p, double q, double qdot) {

@@ -4,7 +4,9 @@
 //   τ_lim(q)  = (K_L/κ) (e^{−κ (q − q_min)} − e^{−κ (q_max − q)})       (exponential range limits,
 //               Riener & Edrich 1999 form; K_L = stiffness at the limit, κ = sharpness)
 //   V(q)      = ½ k (q − q₀)² + (K_L/κ²)(e^{−κ (q − q_min)} + e^{−κ (q_max − q)}),  τ = −∂V/∂q
-//   τ_c(q̇)   = F_c tanh(q̇ / v_c)   (optional Coulomb friction, papers/003_*, smoothed over v_c)
+//   τ_c(q̇)   = (F_c + (F_s − F_c) e^{−(q̇/v_s)²}) tanh(q̇ / v_c)   (optional Coulomb friction with
+//               Stribeck stiction, papers/003_*, smoothed over v_c; F_s = 0 means F_s = F_c)
+//   plus the stretch reflex of mechanisms.h (velocity-dependent resistance above v_th).
 // Units: q rad, q̇ rad/s, τ N·m, V J. Sign: positive τ accelerates q positively.
 #pragma once
 
@@ -21,6 +23,10 @@ struct PassiveJointParams {
   double limit_sharpness_per_rad = 20.0;    ///< κ, 1/rad, > 0.
   double coulomb_friction_nm = 0.0;         ///< F_c, N·m, ≥ 0.
   double coulomb_velocity_rad_s = 0.01;     ///< v_c, rad/s, > 0 (smoothing width).
+  double static_friction_nm = 0.0;          ///< F_s, N·m; stiction when F_s > F_c (0 = none).
+  double stribeck_velocity_rad_s = 0.05;    ///< v_s, rad/s, > 0.
+  double reflex_gain_nms_per_rad = 0.0;     ///< G of the stretch reflex, N·m·s/rad, ≥ 0.
+  double reflex_threshold_rad_s = 0.5;      ///< v_th, rad/s, ≥ 0.
 };
 
 /// Conservative part: −∂V/∂q (spring + limits), N·m.

@@ -1,6 +1,8 @@
 #include "sim/trial_runner.h"
 
+#include <algorithm>
 #include <cmath>
+#include <random>
 #include <stdexcept>
 
 #include "sim/sensors.h"
@@ -10,9 +12,32 @@ namespace {
 
 const double kNaN = std::nan("");
 
-struct SensorColumns {
-  std::vector<bool> on;                     // per merged row
-  std::vector<std::vector<double>> values;  // per listed coordinate
+/// Measurement artefacts of one sensor channel (SensorParams): offset drift, tracker dropouts
+/// in bursts (a two-state Markov chain whose long-run lost fraction is p and mean burst length
+/// L: enter with p / (L (1 − p)), leave with 1 / L) and outliers.
+class Artefacts {
+ public:
+  Artefacts(const SensorParams& p, std::uint64_t seed) : p_(p), rng_(seed), noise_(seed ^ 0xA5A5) {}
+  double Apply(double t, double value) {
+    value += p_.offset_drift_per_s * t;
+    if (p_.dropout_probability > 0.0) {
+      const double l = std::max(1.0, p_.dropout_mean_samples);
+      const double enter = p_.dropout_probability / (l * (1.0 - p_.dropout_probability));
+      in_dropout_ = in_dropout_ ? Uniform() >= 1.0 / l : Uniform() < enter;
+      if (in_dropout_) return kNaN;
+    }
+    if (p_.outlier_probability > 0.0 && Uniform() < p_.outlier_probability) {
+      value += noise_.Sample(p_.outlier_std);
+    }
+    return value;
+  }
+
+ private:
+  double Uniform() { return (static_cast<double>(rng_() >> 11) + 0.5) / 9007199254740992.0; }
+  SensorParams p_;
+  std::mt19937_64 rng_;
+  GaussianNoise noise_;
+  bool in_dropout_ = false;
 };
 
 }  // namespace
@@ -49,6 +74,26 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
       tr_a(nm), tr_f(nm), tr_tm(kNumCoordinates), tr_tau(sens.torques.coordinates.size());
   GaussianNoise angle_noise(DeriveSeed(req.seed, 1)), vel_noise(DeriveSeed(req.seed, 2)),
       torque_noise(DeriveSeed(req.seed, 3));
+  std::vector<Artefacts> angle_art, vel_art, torque_art;
+  std::uint64_t stream = 100;
+  for (std::size_t k = 0; k < meas_q.size(); ++k) {
+    angle_art.emplace_back(sens.angles, DeriveSeed(req.seed, stream++));
+  }
+  for (std::size_t k = 0; k < meas_qd.size(); ++k) {
+    vel_art.emplace_back(sens.velocities, DeriveSeed(req.seed, stream++));
+  }
+  for (std::size_t k = 0; k < meas_tau.size(); ++k) {
+    torque_art.emplace_back(sens.torques, DeriveSeed(req.seed, stream++));
+  }
+  // Electromechanical delay: the muscles see the stimulation δ late; the trial records what was
+  // commanded (clipped to the stimulator's 0–300 µs, as the model clips it).
+  StimulationSchedule effective = req.stimulation;
+  for (double& t : effective.times) t += model.params().mechanisms.electromechanical_delay_s;
+  const auto commanded = [&](double t) {
+    std::vector<double> u = req.stimulation.At(t, nc);
+    for (double& x : u) x = std::clamp(x, 0.0, 300.0);
+    return u;
+  };
 
   std::size_t row = 0;
   SimTK::State state = model.MakeInitialState();
@@ -57,7 +102,7 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
     if (progress && (i % 256 == 0 || i + 1 == report.size())) {
       progress(s.getTime() / req.duration_s);
     }
-    const std::vector<double> u = model.GetStimulation(s);
+    const std::vector<double> u = commanded(s.getTime());
     const std::vector<double> q = model.GetQs(s);
     const std::vector<double> qd = model.GetUs(s);
     const bool need_torque = !sens.torques.coordinates.empty() && (on_torque[i] || on_truth[i]);
@@ -85,24 +130,28 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
     if (!measured_row) return;
     meas_t.push_back(s.getTime());
     for (int k = 0; k < nc; ++k) meas_u[k].push_back(u[k]);
+    const double t = s.getTime();
     for (std::size_t k = 0; k < meas_q.size(); ++k) {
-      meas_q[k].push_back(on_angle[i] ? q[sens.angles.coordinates[k]] +
-                                            angle_noise.Sample(sens.angles.noise_std)
-                                      : kNaN);
+      meas_q[k].push_back(on_angle[i]
+                              ? angle_art[k].Apply(t, q[sens.angles.coordinates[k]] +
+                                                          angle_noise.Sample(sens.angles.noise_std))
+                              : kNaN);
     }
     for (std::size_t k = 0; k < meas_qd.size(); ++k) {
-      meas_qd[k].push_back(on_vel[i] ? qd[sens.velocities.coordinates[k]] +
-                                           vel_noise.Sample(sens.velocities.noise_std)
-                                     : kNaN);
+      meas_qd[k].push_back(
+          on_vel[i] ? vel_art[k].Apply(t, qd[sens.velocities.coordinates[k]] +
+                                              vel_noise.Sample(sens.velocities.noise_std))
+                    : kNaN);
     }
     for (std::size_t k = 0; k < meas_tau.size(); ++k) {
-      meas_tau[k].push_back(on_torque[i] ? tau[sens.torques.coordinates[k]] +
-                                               torque_noise.Sample(sens.torques.noise_std)
-                                         : kNaN);
+      meas_tau[k].push_back(
+          on_torque[i] ? torque_art[k].Apply(t, tau[sens.torques.coordinates[k]] +
+                                                    torque_noise.Sample(sens.torques.noise_std))
+                       : kNaN);
     }
   };
   result.stats = IntegrateTrial(
-      model, req.integrator, req.stimulation, report, &state, observer,
+      model, req.integrator, effective, report, &state, observer,
       sens.torques.coordinates.empty() ? SimTK::Stage::Velocity : SimTK::Stage::Acceleration);
 
   const auto& params = model.params();

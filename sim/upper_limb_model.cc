@@ -8,6 +8,7 @@
 #include "muscles/hill.h"
 #include "muscles/recruitment.h"
 #include "sim/arm_support.h"
+#include "sim/mechanisms.h"
 #include "sim/passive_joint.h"
 #include "tendons/tendon_network.h"
 
@@ -57,7 +58,8 @@ std::vector<double> UsOf(const CoordinateSlots& slots, const State& s) {
   return out;
 }
 
-/// Passive joint moments on every coordinate (thin adapter over passive_joint.h).
+/// Passive joint moments on every coordinate and the tremor torque (thin adapter over
+/// passive_joint.h and mechanisms.h).
 class PassiveJointForce : public SimTK::Force::Custom::Implementation {
  public:
   PassiveJointForce(std::shared_ptr<const CoordinateSlots> slots,
@@ -71,6 +73,10 @@ class PassiveJointForce : public SimTK::Force::Custom::Implementation {
     for (int i = 0; i < kNumCoordinates; ++i) {
       mobility_forces[slots_->u[i]] +=
           PassiveJointTorque(params_->coordinates[i].passive, q[slots_->q[i]], u[slots_->u[i]]);
+    }
+    const TremorParams& tremor = params_->mechanisms.tremor;
+    if (tremor.enabled) {
+      mobility_forces[slots_->u[tremor.coordinate]] += TremorTorque(tremor, s.getTime());
     }
   }
   Real calcPotentialEnergy(const State& s) const override {
@@ -173,7 +179,17 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
 
   void realizeTopology(State& s) const override {
     const int nm = static_cast<int>(params_->muscles.size());
-    z_start_ = forces_.allocateZ(s, Vector(2 * nm, 0.0));
+    // z = [a_0, ȧ_0, …, a_{n−1}, ȧ_{n−1}, φ_0…φ_{n−1} (fatigue), p_0…p_{n−1} (potentiation)].
+    const auto& mech = params_->mechanisms;
+    const int n_extra = (mech.fatigue.enabled ? nm : 0) + (mech.potentiation.enabled ? nm : 0);
+    Vector z0(2 * nm + n_extra, 0.0);
+    if (mech.fatigue.enabled) {
+      for (int j = 0; j < nm; ++j) z0[2 * nm + j] = 1.0;  // fully fit at t = 0
+    }
+    z_start_ = forces_.allocateZ(s, z0);
+    fitness_offset_ = mech.fatigue.enabled ? 2 * nm : -1;
+    potentiation_offset_ =
+        mech.potentiation.enabled ? 2 * nm + (mech.fatigue.enabled ? nm : 0) : -1;
     stim_index_ = forces_.allocateDiscreteVariable(
         s, SimTK::Stage::Dynamics,
         new SimTK::Value<Vector>(Vector(static_cast<int>(params_->channels.size()), 0.0)));
@@ -201,6 +217,15 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
                                                    {z[z_start_ + 2 * j], z[z_start_ + 2 * j + 1]});
       zdot[z_start_ + 2 * j] = d.a;
       zdot[z_start_ + 2 * j + 1] = d.a_dot;
+      const double a = std::clamp(z[z_start_ + 2 * j], 0.0, 1.0);
+      if (fitness_offset_ >= 0) {
+        const int k = z_start_ + fitness_offset_ + j;
+        zdot[k] = FitnessDerivative(params_->mechanisms.fatigue, a, z[k]);
+      }
+      if (potentiation_offset_ >= 0) {
+        const int k = z_start_ + potentiation_offset_ + j;
+        zdot[k] = PotentiationDerivative(params_->mechanisms.potentiation, a, z[k]);
+      }
     }
   }
 
@@ -230,7 +255,13 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
       const auto fibre = muscles::FibreFromMusculotendon(m.hill, l, v);
       out.any_clamped = out.any_clamped || fibre.clamped;
       out.activation[j] = z[z_start_ + 2 * j];
-      out.force_n[j] = muscles::HillTendonForce(m.hill, out.activation[j], fibre);
+      double gain = 1.0;
+      if (fitness_offset_ >= 0) gain *= z[z_start_ + fitness_offset_ + j];
+      if (potentiation_offset_ >= 0) {
+        gain *=
+            1.0 + params_->mechanisms.potentiation.gain * z[z_start_ + potentiation_offset_ + j];
+      }
+      out.force_n[j] = muscles::HillTendonForce(m.hill, out.activation[j], fibre, gain);
       out.length_m[j] = l;
       out.velocity_m_s[j] = v;
     }
@@ -253,6 +284,8 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   std::vector<tendons::MusclePath> paths_;
   // Topology-stage indices, written once by realizeTopology (Simbody's own pattern).
   mutable SimTK::ZIndex z_start_;
+  mutable int fitness_offset_ = -1;       // from z_start_, −1 when fatigue is off
+  mutable int potentiation_offset_ = -1;  // from z_start_, −1 when potentiation is off
   mutable SimTK::DiscreteVariableIndex stim_index_;
 };
 
@@ -268,6 +301,9 @@ UpperLimbModel::UpperLimbModel(ModelParams params)
   }
   for (const auto& w : p.weight_compensation) {
     if (w.segment < 0 || w.segment >= kNumSegments) throw std::invalid_argument("cuff segment");
+  }
+  if (p.mechanisms.tremor.coordinate < 0 || p.mechanisms.tremor.coordinate >= kNumCoordinates) {
+    throw std::invalid_argument("tremor coordinate");
   }
   const Vec3 X(1, 0, 0), Y(0, 1, 0), Z(0, 0, 1), O(0, 0, 0);
   const auto& seg = p.segments;

@@ -83,7 +83,7 @@ TEST(Scenario, EveryBadInputClassNamesFileKeyAndRange) {
   // Unknown key.
   EXPECT_EQ(ErrorOf(std::string(kMinimal) + "colour: red\n"),
             "s.yaml: colour: unknown key (allowed: coordinates, electrodes, gravity_m_s2, "
-            "integrator, muscles, name, participant, sensors, stimulation, support)");
+            "integrator, mechanisms, muscles, name, participant, sensors, stimulation, support)");
   // Missing required key.
   EXPECT_EQ(ErrorOf("name: t\n"), "s.yaml: stimulation: missing required key");
   EXPECT_EQ(ErrorOf("stimulation: {duration_s: 2, type: constant, values_us: {}}\n"),
@@ -113,6 +113,38 @@ TEST(Scenario, EveryBadInputClassNamesFileKeyAndRange) {
   EXPECT_EQ(ErrorOf(std::string(kMinimal) + "sensors: {torques: {coordinates: [elbow_flexion]}}\n"),
             "s.yaml: sensors.torques.coordinates: torque sensor on free coordinate elbow_flexion "
             "(allowed: locked or prescribed ones)");
+}
+
+TEST(Scenario, MechanismsAndArtefacts) {
+  const Scenario s = ParseScenario(std::string(kMinimal) + R"(mechanisms:
+  fatigue: {fatigue_time_s: 20, recovery_time_s: 200, min_fitness: 0.2}
+  potentiation: {gain: 0.3}
+  electromechanical_delay_s: 0.04
+  tremor: {coordinate: elbow_flexion, frequency_hz: 5, amplitude_nm: 0.1}
+  crosstalk: {fraction: 0.1, spread_m: 0.04}
+coordinates:
+  elbow_flexion: {static_friction_nm: 0.4, coulomb_friction_nm: 0.2, reflex_gain_nms_per_rad: 1,
+                  reflex_threshold_deg_s: 60}
+sensors:
+  angles: {offset_drift_deg_per_s: 0.1, dropout_probability: 0.1, outlier_probability: 0.02,
+           outlier_std_deg: 10}
+)",
+                                   "s.yaml");
+  const auto& m = s.model.mechanisms;
+  EXPECT_TRUE(m.fatigue.enabled);
+  EXPECT_EQ(m.fatigue.min_fitness, 0.2);
+  EXPECT_TRUE(m.potentiation.enabled);
+  EXPECT_EQ(m.electromechanical_delay_s, 0.04);
+  EXPECT_TRUE(m.tremor.enabled);
+  EXPECT_EQ(m.tremor.coordinate, sim::kElbowFlexion);
+  EXPECT_EQ(m.crosstalk.fraction, 0.1);
+  const auto& elbow = s.model.coordinates[sim::kElbowFlexion].passive;
+  EXPECT_EQ(elbow.static_friction_nm, 0.4);
+  EXPECT_NEAR(elbow.reflex_threshold_rad_s, 60 * kDeg, 1e-12);
+  EXPECT_NEAR(s.trial.sensors.angles.offset_drift_per_s, 0.1 * kDeg, 1e-15);
+  EXPECT_NEAR(s.trial.sensors.angles.outlier_std, 10 * kDeg, 1e-12);
+  EXPECT_EQ(ErrorOf(std::string(kMinimal) + "mechanisms: {tremor: {frequency_hz: 20}}\n"),
+            "s.yaml: mechanisms.tremor.frequency_hz: 20 is outside [3, 12]");
 }
 
 TEST(Scenario, ProtocolStimulation) {

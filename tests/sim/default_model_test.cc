@@ -65,8 +65,12 @@ TEST(DefaultModel, FibresOptimalAtRestAndSignsAnatomical) {
                 muscles::OptimalMusculotendonLength(p.muscles[m].hill), 1e-12);
     const std::string& n = p.muscles[m].name;
     const double wrist = r[kWristFlexion * nm + m];
-    if (n[0] == 'E') EXPECT_LT(wrist, 0.0) << n;  // extensors extend (paper 000 sign pattern)
-    if (n == "FCR" || n == "FCU" || n == "FDS" || n == "FDP") EXPECT_GT(wrist, 0.0) << n;
+    if (n[0] == 'E') {
+      EXPECT_LT(wrist, 0.0) << n;  // extensors extend (paper 000 sign pattern)
+    }
+    if (n == "FCR" || n == "FCU" || n == "FDS" || n == "FDP") {
+      EXPECT_GT(wrist, 0.0) << n;
+    }
   }
 }
 
