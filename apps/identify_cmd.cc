@@ -15,8 +15,10 @@ namespace {
 void PrintHelp(const std::vector<identification::MethodEntry>& methods) {
   std::printf(
       "usage: fesim identify --method NAME --train A.csv[,B.csv...] [--test C.csv[,...]] "
-      "[--out DIR]\n\nFits an identification method to trial CSVs and writes DIR/model.yaml,\n"
-      "DIR/prediction_<k>.csv and DIR/metrics.json (default DIR: out/identify).\n\nmethods:\n");
+      "[--out DIR] [--scenario S.yaml]\n\nFits an identification method to trial CSVs and writes "
+      "DIR/model.yaml,\nDIR/prediction_<k>.csv and DIR/metrics.json (default DIR: out/identify).\n"
+      "--scenario names the rig the trials come from (used by full-model; without it full-model\n"
+      "assumes the default participant on the hand rig of paper 000, arm locked).\n\nmethods:\n");
   for (const auto& m : methods) std::printf("  %-22s %s\n", m.name.c_str(), m.summary.c_str());
 }
 
@@ -25,7 +27,8 @@ void PrintHelp(const std::vector<identification::MethodEntry>& methods) {
 int RunIdentify(int argc, char** argv) {
   auto methods = identification::BuiltinMethods();
   for (auto& m : ExtraIdentificationMethods()) methods.push_back(std::move(m));
-  const auto args = cli::Parse(argc, argv, 2, {"help"}, {"method", "train", "test", "out"});
+  const auto args =
+      cli::Parse(argc, argv, 2, {"help"}, {"method", "train", "test", "out", "scenario"});
   if (args.Has("help")) {
     PrintHelp(methods);
     return 0;
@@ -47,6 +50,11 @@ int RunIdentify(int argc, char** argv) {
   for (const auto& p : cli::SplitList(args.Get("train"))) train.push_back(ReadTrialCsv(p));
   for (const auto& p : cli::SplitList(args.Get("test"))) test.push_back(ReadTrialCsv(p));
   if (train.empty()) throw std::runtime_error("--train: no files given");
+  if (args.Has("scenario")) {
+    const std::string scenario = args.Get("scenario");
+    ReadFile(scenario);  // fails early with the path when it cannot be read
+    for (auto& t : train) t.metadata["scenario_path"] = scenario;
+  }
 
   const auto result = method->run(train, test, cli::ShowProgress);
 

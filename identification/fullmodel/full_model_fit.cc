@@ -209,7 +209,8 @@ Eigen::MatrixXd ParallelJacobian(const sim::ModelParams& base,
                                  const std::vector<FitParameter>& params, const Eigen::VectorXd& x,
                                  const Eigen::VectorXd& r0, const Eigen::VectorXd& upper,
                                  const std::vector<Trial>& train, const TrainingData& data,
-                                 double tolerance, double rel_step, int threads) {
+                                 double tolerance, double rel_step, int threads,
+                                 const std::function<void(double)>& progress = {}) {
   const int p = static_cast<int>(x.size());
   const int nt = static_cast<int>(train.size());
   std::vector<double> h(p);
@@ -225,12 +226,18 @@ Eigen::MatrixXd ParallelJacobian(const sim::ModelParams& base,
   }
   std::vector<Trial> sims(static_cast<std::size_t>(p) * nt);
   std::vector<char> ok(sims.size(), 1);
+  std::mutex progress_mutex;
+  int done = 0;
   ParallelFor(p * nt, threads, [&](int task) {
     const int c = task / nt, t = task % nt;
     try {
       sims[task] = SimulateLike(models[c], train[t], tolerance);
     } catch (const std::exception&) {
       ok[task] = 0;
+    }
+    if (progress) {
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      progress(static_cast<double>(++done) / (p * nt));
     }
   });
   Eigen::MatrixXd J = Eigen::MatrixXd::Zero(r0.size(), p);
@@ -296,6 +303,7 @@ std::vector<FitParameter> CandidateParameters(const sim::ModelParams& base,
       throw std::invalid_argument("channel '" + ch + "' is not in the rig (" + ChannelList(base) +
                                   ")");
     }
+    if (base.channels[k].pads.empty()) continue;  // an electrode pair, not the array
     for (int j : forearm) {
       FitParameter p;
       p.name = "A." + ch + "." + base.muscles[j].name;
@@ -520,7 +528,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
   }
   FullModelFit fit;
   const sim::ModelParams base = WithExplicitArrayWeights(rig);
-  fit.candidates = CandidateParameters(base, channels);
+  fit.candidates = CandidateParameters(rig, channels);
   const int nc = static_cast<int>(fit.candidates.size());
   if (nc == 0) throw std::runtime_error("full-model: the rig offers no candidate parameter");
   fit.residuals = data.residuals;
@@ -535,9 +543,12 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
   }
   const Eigen::VectorXd r_nom =
       Residuals(base, fit.candidates, x_nom, train, data, tol, threads, true);
+  const std::string sens_label = "sensitivity ranking of " + std::to_string(nc) + " parameters";
   const Eigen::MatrixXd J_nom =
       ParallelJacobian(base, fit.candidates, x_nom, r_nom, upper_all, train, data, tol,
-                       options.fd_relative_step, threads);
+                       options.fd_relative_step, threads, [&](double f) {
+                         if (progress) progress(0.1 * f, sens_label);
+                       });
   const double sqrt_n = std::sqrt(static_cast<double>(std::max<long>(1, data.residuals)));
   std::vector<int> order(nc);
   std::vector<double> s(nc);
@@ -594,11 +605,20 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
   const ResidualFn residual = [&](const Eigen::VectorXd& x) {
     return Residuals(base, fit.kept, x, train, data, tol, threads, false);
   };
+  int current_start = 0, jacobians = 0;
   const JacobianFn jacobian = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& r,
                                   int* evaluations) {
     *evaluations += p;
+    ++jacobians;
+    const std::string label = "start " + std::to_string(current_start + 1) + "/" +
+                              std::to_string(options.starts) + ", Jacobian " +
+                              std::to_string(jacobians);
     return ParallelJacobian(base, fit.kept, x, r, upper, train, data, tol, options.fd_relative_step,
-                            threads);
+                            threads, [&](double f) {
+                              if (progress) {
+                                progress(0.1 + 0.85 * (current_start + f) / options.starts, label);
+                              }
+                            });
   };
   LmOptions lm;
   lm.max_iterations = options.max_iterations;
@@ -608,6 +628,8 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
   double best_cost = std::numeric_limits<double>::infinity();
   LmResult best;
   for (int sidx = 0; sidx < options.starts; ++sidx) {
+    current_start = sidx;
+    jacobians = 0;
     Eigen::VectorXd x0 = nominal;
     if (sidx > 0) {
       for (int k = 0; k < p; ++k) {

@@ -12,8 +12,8 @@
 //
 // Candidate parameters (all on the rig `base`, a ModelParams with its free/locked coordinates):
 //   A.<channel>.<muscle>   array weight A_{muscle,channel} (eq. 1), dimensionless, [0, 1], for
-//                          every stimulated channel × forearm muscle (ECRL, ECRB, ECU, FCR, FCU,
-//                          EDC, FDS, FDP that the model has)
+//                          every stimulated array channel × forearm muscle (ECRL, ECRB, ECU, FCR,
+//                          FCU, EDC, FDS, FDP that the model has)
 //   k.<joint>              passive stiffness k_i (eq. 14) of every free joint, N·m/rad,
 //                          [0.2, 5] × nominal
 //   beta.<muscle>          recruitment steepness β (eq. 3), 1/µs, [0.3, 3] × nominal
@@ -73,8 +73,9 @@ struct FitParameter {
 /// cleared, weights = the geometry's A column), so A's entries can be parameters.
 sim::ModelParams WithExplicitArrayWeights(const sim::ModelParams& base);
 
-/// Candidate parameters for `base` (explicit weights, see above) and the stimulated channels
-/// (model channel names). Throws std::invalid_argument naming an unknown channel.
+/// Candidate parameters of the rig (before WithExplicitArrayWeights) for the stimulated channels
+/// (model channel names); A entries only for channels that drive array pads (electrode pairs
+/// keep their explicit weights). Throws std::invalid_argument naming an unknown channel.
 std::vector<FitParameter> CandidateParameters(const sim::ModelParams& base,
                                               const std::vector<std::string>& channels);
 

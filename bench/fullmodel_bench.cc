@@ -1,0 +1,191 @@
+// Issue 4 benchmark: the full model (12) fit versus the Hammerstein two-step fit on one participant
+// of the hand-array study (paper 000 §5.1, Tables 1–2: 1019 s versus 0.178 s per local
+// optimisation step in MATLAB).
+//
+// Participant: the default participant on the hand rig (identification/fullmodel DefaultHandRig:
+// arm locked, wrist and index finger free) whose candidate parameters are perturbed by a seeded
+// ±20 % (the "true" participant; the fit starts from the nominal values). Data: the step grid of
+// §5.1 (channels ext/flex, 50 µs spacing, u1 + u2 ≤ u_max = 300 µs, 28 points, 5 s per step,
+// 140 s per data set), four data sets (both traversal orders), joint angles q.wrist_flexion,
+// q.mcp_flexion, q.pip_flexion at 40 Hz with 0.3° noise; three data sets fit, the fourth
+// validates. A local optimisation step = one bounded LM run from one start point.
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "identification/fullmodel/full_model_fit.h"
+#include "identification/hammerstein_mimo.h"
+#include "identification/method_support.h"
+#include "identification/metrics.h"
+#include "scenarios/protocols.h"
+#include "sim/trial_runner.h"
+#include "sim/upper_limb_model.h"
+
+namespace {
+
+using fesim::Trial;
+namespace fm = fesim::identification::fullmodel;
+namespace id = fesim::identification;
+namespace sim = fesim::sim;
+
+constexpr double kRateHz = 40.0;
+constexpr double kNoiseRad = 0.3 * 3.14159265358979323846 / 180.0;
+constexpr double kDataTolerance = 1e-6;  // integrator tolerance of the data generation
+constexpr double kPerturbation = 0.2;    // ± relative perturbation of the true participant
+
+struct Study {
+  sim::ModelParams rig;          // nominal (start point)
+  sim::ModelParams participant;  // the "true" participant
+  std::vector<Trial> train;      // three data sets
+  Trial validation;              // the fourth
+};
+
+sim::ModelParams TrueParticipant(const sim::ModelParams& rig) {
+  const sim::ModelParams base = fm::WithExplicitArrayWeights(rig);
+  const auto candidates = fm::CandidateParameters(rig, {"ext", "flex"});
+  std::mt19937_64 rng(2026);
+  std::uniform_real_distribution<double> u(-kPerturbation, kPerturbation);
+  Eigen::VectorXd x(static_cast<Eigen::Index>(candidates.size()));
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    const auto& c = candidates[i];
+    x(static_cast<Eigen::Index>(i)) = std::clamp(c.nominal * (1.0 + u(rng)), c.lower, c.upper);
+  }
+  return fm::ApplyParameters(base, candidates, x);
+}
+
+Trial SimulateProgram(const sim::ModelParams& model, const fesim::protocols::StimulationProgram& p,
+                      std::uint64_t seed) {
+  const sim::UpperLimbModel limb(model);
+  sim::TrialRequest req;
+  req.duration_s = p.duration_s;
+  for (std::size_t k = 0; k < p.times_s.size(); ++k) {
+    std::vector<double> u(model.channels.size(), 0.0);
+    u[0] = p.values_us[k][0];
+    u[1] = p.values_us[k][1];
+    req.stimulation.times.push_back(p.times_s[k]);
+    req.stimulation.values.push_back(u);
+  }
+  req.integrator.tolerance = kDataTolerance;
+  req.seed = seed;
+  req.sensors.angles.rate_hz = kRateHz;
+  req.sensors.angles.noise_std = kNoiseRad;
+  req.sensors.angles.coordinates = {sim::kWristFlexion, sim::kMcpFlexion, sim::kPipFlexion};
+  req.sensors.truth_rate_hz = 1.0;
+  const Trial m = sim::RunTrial(limb, req).measured;
+  Trial out;
+  out.time = m.time;
+  for (const char* name :
+       {"u.ext", "u.flex", "q.wrist_flexion", "q.mcp_flexion", "q.pip_flexion"}) {
+    out.AddColumn(name, m.Column(name));
+  }
+  return out;
+}
+
+Study MakeStudy() {
+  Study s;
+  s.rig = fm::DefaultHandRig();
+  s.participant = TrueParticipant(s.rig);
+  fesim::protocols::StepGridParams grid;
+  grid.u_max_us = 300.0;
+  const auto programs = fesim::protocols::StepGridDataSets(grid, 4);
+  for (std::size_t k = 0; k < programs.size(); ++k) {
+    Trial t = SimulateProgram(s.participant, programs[k], 10 + k);
+    if (k < 3) {
+      s.train.push_back(std::move(t));
+    } else {
+      s.validation = std::move(t);
+    }
+  }
+  return s;
+}
+
+id::MimoTrialData ToMimo(const Trial& t) {
+  id::MimoTrialData d;
+  d.sample_period_s = 1.0 / kRateHz;
+  d.u_us = id::RequireColumns(t, {"u.ext", "u.flex"}, "bench");
+  d.y_rad = id::RequireColumns(t, {"q.wrist_flexion", "q.mcp_flexion", "q.pip_flexion"}, "bench");
+  return d;
+}
+
+double MeanNormalisedError(const Trial& data, const Trial& prediction) {
+  double sum = 0.0;
+  for (const char* j : {"q.wrist_flexion", "q.mcp_flexion", "q.pip_flexion"}) {
+    sum += id::NormalisedError(data.Column(j), prediction.Column(j));
+  }
+  return sum / 3.0;
+}
+
+/// One 140 s step-grid data set through the full model (the unit cost of every residual).
+void BM_SimulateDataSet(benchmark::State& state) {
+  const Study s = MakeStudy();
+  const double tol = std::pow(10.0, -static_cast<double>(state.range(0)));
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(fm::SimulateLike(s.participant, s.train[0], tol));
+  }
+  state.counters["simulated_s"] = s.train[0].time.back();
+}
+BENCHMARK(BM_SimulateDataSet)->Arg(4)->Arg(6)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+/// The full-model fit: sensitivity ranking of all candidates, then `starts` local optimisations
+/// of the 29 most influential, each capped at range(0) LM iterations.
+void BM_FullModelFit(benchmark::State& state) {
+  const Study s = MakeStudy();
+  fm::FullModelFitOptions o;
+  o.keep_parameters = 29;
+  o.starts = 1;
+  o.max_iterations = static_cast<int>(state.range(0));
+  o.integrator_tolerance = 1e-4;
+  o.fd_relative_step = 1e-2;
+  o.relative_tolerance = 1e-4;
+  o.threads = 2;
+  fm::FullModelFit fit;
+  for (auto _ : state) fit = fm::FitFullModel(s.rig, s.train, o);
+  const auto& run = fit.runs.front();
+  state.counters["candidates"] = static_cast<double>(fit.candidates.size());
+  state.counters["fitted"] = static_cast<double>(fit.kept.size());
+  state.counters["sensitivity_s"] = fit.sensitivity_wall_s;
+  state.counters["local_step_s"] = run.wall_s;
+  state.counters["lm_iterations"] = run.iterations;
+  state.counters["per_iteration_s"] = run.wall_s / std::max(1, run.iterations);
+  state.counters["evaluations"] = run.evaluations;
+  state.counters["total_s"] = fit.total_wall_s;
+  // Fit measures of Table 1: normalised error, train (mean of the three sets) and validation.
+  double start_ne = MeanNormalisedError(s.validation, fm::SimulateLike(s.rig, s.validation, 1e-6));
+  state.counters["validation_ne_start"] = start_ne;
+  state.counters["validation_ne"] =
+      MeanNormalisedError(s.validation, fm::SimulateLike(fit.model, s.validation, 1e-6));
+}
+BENCHMARK(BM_FullModelFit)->Arg(3)->Unit(benchmark::kSecond)->Iterations(1);
+
+/// The Hammerstein two-step fit on the same three data sets (20 static + 3 dynamic starts).
+void BM_HammersteinTwoStep(benchmark::State& state) {
+  const Study s = MakeStudy();
+  std::vector<id::MimoTrialData> train;
+  for (const auto& t : s.train) train.push_back(ToMimo(t));
+  id::HammersteinMimoOptions o;
+  id::HammersteinMimoFit fit;
+  for (auto _ : state) fit = id::FitHammersteinMimo(train, o);
+  double st = 0, dy = 0;
+  for (double w : fit.static_step_wall_s) st += w;
+  for (double w : fit.dynamic_step_wall_s) dy += w;
+  state.counters["static_step_ms"] = 1e3 * st / fit.static_step_wall_s.size();
+  state.counters["dynamic_step_ms"] = 1e3 * dy / fit.dynamic_step_wall_s.size();
+  state.counters["total_ms"] = 1e3 * fit.total_wall_s;
+  const id::MimoTrialData v = ToMimo(s.validation);
+  const Eigen::MatrixXd yh = id::SimulateHammersteinMimo(fit.params, v.u_us, v.sample_period_s);
+  double ne = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    const std::vector<double> y(v.y_rad.col(i).data(), v.y_rad.col(i).data() + v.y_rad.rows());
+    const std::vector<double> h(yh.col(i).data(), yh.col(i).data() + yh.rows());
+    ne += id::NormalisedError(y, h) / 3.0;
+  }
+  state.counters["validation_ne"] = ne;
+}
+BENCHMARK(BM_HammersteinTwoStep)->Unit(benchmark::kMillisecond)->Iterations(3);
+
+}  // namespace
+
+BENCHMARK_MAIN();
