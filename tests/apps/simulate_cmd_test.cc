@@ -94,6 +94,30 @@ TEST(SimulateCmd, BadInputFailsWithOneLineAndLeavesNoOutput) {
   EXPECT_FALSE(Exists(dir));
 }
 
+TEST(SimulateCmd, StudyResultsDoNotDependOnThreadCount) {
+  const std::string dir = ::testing::TempDir() + "study";
+  const std::string rig = Scenario("rig", kShort);
+  WriteFileAtomic(::testing::TempDir() + "st.yaml", R"(study: st
+scenario: rig.yaml
+repetitions: 2
+cohort: {size: 2, seed: 3, strength_scale: {mean: 1, sd: 0.2, min: 0.5, max: 1.5}}
+protocols:
+  - {name: hold, stimulation: {duration_s: 0.5, type: constant, values_us: {bic: 150}}}
+)");
+  const std::string st = ::testing::TempDir() + "st.yaml";
+  ASSERT_EQ(RunFesim("simulate " + st + " --out " + dir + "/t1 --threads 1").exit_code, 0);
+  ASSERT_EQ(RunFesim("simulate " + st + " --out " + dir + "/t2 --threads 2").exit_code, 0);
+  for (const char* f :
+       {"/manifest.json", "/p1/hold_r1.csv", "/p2/hold_r2.csv", "/p2/hold_r2_truth.csv"}) {
+    EXPECT_EQ(ReadFile(dir + "/t1" + f), ReadFile(dir + "/t2" + f)) << f;
+  }
+  // Different participants, different strength: different held-elbow torque.
+  const Trial a = ReadTrialCsv(dir + "/t1/p1/hold_r1_truth.csv");
+  const Trial b = ReadTrialCsv(dir + "/t1/p2/hold_r1_truth.csv");
+  EXPECT_NE(a.Column("tau.elbow_flexion").back(), b.Column("tau.elbow_flexion").back());
+  EXPECT_NE(ReadFile(dir + "/t1/manifest.json").find("\"strength_scale\""), std::string::npos);
+}
+
 TEST(SimulateCmd, DefaultScenarioRuns) {
   const std::string dir = ::testing::TempDir() + "simdefault";
   const std::string sc = std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/default.yaml";

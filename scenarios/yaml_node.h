@@ -1,0 +1,162 @@
+// Validating access to a YAML mapping for the scenario and study loaders: every read names the
+// file and the key path, checks the type and the allowed range, and unknown keys are errors.
+// Internal to scenarios/.
+#pragma once
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace fesim::internal {
+
+inline std::string Fmt(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+/// A YAML mapping with its key path, which checks types, ranges and unknown keys.
+class YamlNode {
+ public:
+  YamlNode(YAML::Node node, std::string path, const std::string* file)
+      : node_(std::move(node)), path_(std::move(path)), file_(file) {}
+
+  [[noreturn]] void Fail(const std::string& what) const {
+    throw std::runtime_error(*file_ + ": " + (path_.empty() ? "" : path_ + ": ") + what);
+  }
+  [[noreturn]] void FailKey(const std::string& key, const std::string& what) const {
+    throw std::runtime_error(*file_ + ": " + Join(key) + ": " + what);
+  }
+  std::string Join(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+
+  /// Requires a mapping whose keys are all in `allowed`.
+  void Keys(const std::set<std::string>& allowed) const {
+    if (!node_.IsMap()) Fail("expected a mapping");
+    for (const auto& kv : node_) {
+      const std::string k = kv.first.as<std::string>();
+      if (!allowed.count(k)) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        FailKey(k, "unknown key (allowed: " + list + ")");
+      }
+    }
+  }
+  bool Has(const std::string& key) const { return node_.IsMap() && node_[key]; }
+  YamlNode Child(const std::string& key) const {
+    if (!Has(key)) FailKey(key, "missing required key");
+    return YamlNode(node_[key], Join(key), file_);
+  }
+  YamlNode Item(std::size_t i) const {
+    return YamlNode(node_[i], path_ + "[" + std::to_string(i) + "]", file_);
+  }
+  std::size_t Size() const {
+    if (!node_.IsSequence()) Fail("expected a list");
+    return node_.size();
+  }
+  bool IsMap() const { return node_.IsMap(); }
+
+  double Number(const std::string& key, double lo, double hi) const {
+    const YamlNode c = Child(key);
+    double v = 0.0;
+    try {
+      if (!c.node_.IsScalar()) throw YAML::Exception(YAML::Mark(), "");
+      v = c.node_.as<double>();
+    } catch (const YAML::Exception&) {
+      FailKey(key, "expected a number in [" + Fmt(lo) + ", " + Fmt(hi) + "]");
+    }
+    if (!std::isfinite(v) || v < lo || v > hi) {
+      FailKey(key, Fmt(v) + " is outside [" + Fmt(lo) + ", " + Fmt(hi) + "]");
+    }
+    return v;
+  }
+  /// Optional number: keeps `*out` when the key is absent.
+  void Number(const std::string& key, double lo, double hi, double* out, double scale = 1.0) const {
+    if (Has(key)) *out = Number(key, lo, hi) * scale;
+  }
+  int Integer(const std::string& key, int lo, int hi) const {
+    const double v = Number(key, lo, hi);
+    if (v != std::floor(v))
+      FailKey(key, Fmt(v) + " is not an integer in [" + Fmt(lo) + ", " + Fmt(hi) + "]");
+    return static_cast<int>(v);
+  }
+  std::string Text(const std::string& key) const {
+    const YamlNode c = Child(key);
+    if (!c.node_.IsScalar()) FailKey(key, "expected text");
+    return c.node_.as<std::string>();
+  }
+  std::string Choice(const std::string& key, const std::set<std::string>& allowed) const {
+    const std::string v = Text(key);
+    if (!allowed.count(v)) {
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : "|") + a;
+      FailKey(key, "'" + v + "' is not one of " + list);
+    }
+    return v;
+  }
+  std::vector<double> Vector(const std::string& key, std::size_t n, double lo, double hi) const {
+    const YamlNode c = Child(key);
+    if (!c.node_.IsSequence() || c.node_.size() != n) {
+      FailKey(key, "expected a list of " + std::to_string(n) + " numbers");
+    }
+    std::vector<double> v;
+    for (std::size_t i = 0; i < n; ++i) {
+      double x = 0.0;
+      try {
+        x = c.node_[i].as<double>();
+      } catch (const YAML::Exception&) {
+        FailKey(key, "element " + std::to_string(i) + " is not a number");
+      }
+      if (!std::isfinite(x) || x < lo || x > hi) {
+        FailKey(key, "element " + std::to_string(i) + " = " + Fmt(x) + " is outside [" + Fmt(lo) +
+                         ", " + Fmt(hi) + "]");
+      }
+      v.push_back(x);
+    }
+    return v;
+  }
+  std::vector<int> IntList(const std::string& key, int lo, int hi) const {
+    const YamlNode c = Child(key);
+    std::vector<int> out;
+    for (std::size_t i = 0; i < c.Size(); ++i) {
+      double x = 0.0;
+      try {
+        x = c.node_[i].as<double>();
+      } catch (const YAML::Exception&) {
+        FailKey(key, "element " + std::to_string(i) + " is not an integer");
+      }
+      if (x != std::floor(x) || x < lo || x > hi) {
+        FailKey(key, "element " + std::to_string(i) + " = " + Fmt(x) + " is not an integer in [" +
+                         Fmt(lo) + ", " + Fmt(hi) + "]");
+      }
+      out.push_back(static_cast<int>(x));
+    }
+    return out;
+  }
+  std::vector<std::string> TextList() const {
+    std::vector<std::string> out;
+    for (std::size_t i = 0; i < Size(); ++i) {
+      if (!node_[i].IsScalar()) Fail("element " + std::to_string(i) + " is not text");
+      out.push_back(node_[i].as<std::string>());
+    }
+    return out;
+  }
+  /// Keys of a mapping, in file order.
+  std::vector<std::string> MapKeys() const {
+    if (!node_.IsMap()) Fail("expected a mapping");
+    std::vector<std::string> k;
+    for (const auto& kv : node_) k.push_back(kv.first.as<std::string>());
+    return k;
+  }
+
+ private:
+  YAML::Node node_;
+  std::string path_;
+  const std::string* file_;
+};
+
+}  // namespace fesim::internal
