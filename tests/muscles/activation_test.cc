@@ -8,21 +8,26 @@ namespace {
 constexpr double kRk4Step = 1e-4;  // s
 constexpr double kTol = 1e-10;
 
+/// One classical Runge–Kutta step of eq. (6) with constant input w.
+ActivationState Rk4Step(double omega, double w, const ActivationState& s) {
+  const auto f = [&](const ActivationState& x) { return ActivationDerivative(omega, w, x); };
+  const auto add = [](ActivationState x, ActivationState d, double h) {
+    return ActivationState{x.a + h * d.a, x.a_dot + h * d.a_dot};
+  };
+  const auto k1 = f(s);
+  const auto k2 = f(add(s, k1, kRk4Step / 2));
+  const auto k3 = f(add(s, k2, kRk4Step / 2));
+  const auto k4 = f(add(s, k3, kRk4Step));
+  return {s.a + kRk4Step / 6 * (k1.a + 2 * k2.a + 2 * k3.a + k4.a),
+          s.a_dot + kRk4Step / 6 * (k1.a_dot + 2 * k2.a_dot + 2 * k3.a_dot + k4.a_dot)};
+}
+
 TEST(Activation, Rk4IntegrationMatchesAnalyticStepResponse) {
   for (double omega : {3.0, 8.0, 15.0}) {
     const double w = 0.7;
     ActivationState s;
     for (int i = 1; i <= 20000; ++i) {  // 2 s
-      const auto f = [&](const ActivationState& x) { return ActivationDerivative(omega, w, x); };
-      const auto add = [](ActivationState x, ActivationState d, double h) {
-        return ActivationState{x.a + h * d.a, x.a_dot + h * d.a_dot};
-      };
-      const auto k1 = f(s);
-      const auto k2 = f(add(s, k1, kRk4Step / 2));
-      const auto k3 = f(add(s, k2, kRk4Step / 2));
-      const auto k4 = f(add(s, k3, kRk4Step));
-      s.a += kRk4Step / 6 * (k1.a + 2 * k2.a + 2 * k3.a + k4.a);
-      s.a_dot += kRk4Step / 6 * (k1.a_dot + 2 * k2.a_dot + 2 * k3.a_dot + k4.a_dot);
+      s = Rk4Step(omega, w, s);
       if (i % 1000 == 0) {
         const auto exact = ActivationStepResponse(omega, w, i * kRk4Step);
         EXPECT_NEAR(s.a, exact.a, kTol);
@@ -39,16 +44,7 @@ TEST(Activation, FreeResponseSolvesTheOdeFromAnyState) {
   const ActivationState start{0.6, -1.5};
   ActivationState s = start;
   for (int i = 1; i <= 10000; ++i) {
-    const auto f = [&](const ActivationState& x) { return ActivationDerivative(omega, w, x); };
-    const auto add = [](ActivationState x, ActivationState d, double h) {
-      return ActivationState{x.a + h * d.a, x.a_dot + h * d.a_dot};
-    };
-    const auto k1 = f(s);
-    const auto k2 = f(add(s, k1, kRk4Step / 2));
-    const auto k3 = f(add(s, k2, kRk4Step / 2));
-    const auto k4 = f(add(s, k3, kRk4Step));
-    s.a += kRk4Step / 6 * (k1.a + 2 * k2.a + 2 * k3.a + k4.a);
-    s.a_dot += kRk4Step / 6 * (k1.a_dot + 2 * k2.a_dot + 2 * k3.a_dot + k4.a_dot);
+    s = Rk4Step(omega, w, s);
     if (i % 1000 == 0) {
       const auto exact = ActivationFreeResponse(omega, w, start, i * kRk4Step);
       EXPECT_NEAR(s.a, exact.a, kTol);
