@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "muscles/activation.h"
 #include "sim/default_model.h"
@@ -47,6 +48,8 @@ TEST(Integrator, CvodesAndSimbodyAgreeOnFiveSecondTrial) {
   }
   EXPECT_GT(moved, 0.1);
   EXPECT_LT(worst, kAgreementTol);
+  std::printf("CVODES vs Simbody RKM: max |dq| = %.3g rad over 5 s (largest excursion %.3g rad)\n",
+              worst, moved);
 }
 
 TEST(Integrator, LockedActivationFollowsAnalyticStepResponse) {
