@@ -81,12 +81,23 @@ struct SinePrescription {
   double phase_rad = 0.0;
 };
 
+/// A prescribed coordinate trajectory from samples (robot-driven reaching, papers/004_*): q, q̇, q̈
+/// at strictly increasing times, interpolated by a C² quintic Hermite spline
+/// (sim/prescribed_motion.h). All four vectors have the same length (≥ 2), or all are empty.
+struct TablePrescription {
+  std::vector<double> times_s;     ///< s, strictly increasing.
+  std::vector<double> q_rad;       ///< rad.
+  std::vector<double> qd_rad_s;    ///< rad/s.
+  std::vector<double> qdd_rad_s2;  ///< rad/s².
+};
+
 struct CoordinateParams {
   CoordinateMode mode = CoordinateMode::kFree;
   double initial_rad = 0.0;          ///< q at t = 0 (the lock angle when locked), rad.
   double initial_speed_rad_s = 0.0;  ///< q̇ at t = 0 (free coordinates), rad/s.
   PassiveJointParams passive;
-  SinePrescription prescription;  ///< used when mode == kPrescribed.
+  SinePrescription prescription;  ///< used when mode == kPrescribed and `table` is empty.
+  TablePrescription table;        ///< used instead of `prescription` when non-empty.
 };
 
 /// One muscle: architecture, recruitment, activation dynamics, path.

@@ -10,6 +10,7 @@
 #include "sim/arm_support.h"
 #include "sim/mechanisms.h"
 #include "sim/passive_joint.h"
+#include "sim/prescribed_motion.h"
 #include "tendons/tendon_network.h"
 
 namespace fesim::sim {
@@ -341,8 +342,12 @@ UpperLimbModel::UpperLimbModel(ModelParams params)
 
   for (int i = 0; i < kNumCoordinates; ++i) {
     if (p.coordinates[i].mode == CoordinateMode::kPrescribed) {
-      SimTK::Motion::Custom(matter_->updMobilizedBody(coordinate_bodies_[i]),
-                            new SineMotion(p.coordinates[i].prescription));
+      const auto& c = p.coordinates[i];
+      SimTK::Motion::Custom::Implementation* motion =
+          c.table.times_s.empty()
+              ? static_cast<SimTK::Motion::Custom::Implementation*>(new SineMotion(c.prescription))
+              : new TableMotion(c.table);
+      SimTK::Motion::Custom(matter_->updMobilizedBody(coordinate_bodies_[i]), motion);
     }
   }
 
