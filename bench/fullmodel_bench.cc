@@ -158,7 +158,7 @@ void BM_FullModelFit(benchmark::State& state) {
   state.counters["validation_ne"] =
       MeanNormalisedError(s.validation, fm::SimulateLike(fit.model, s.validation, 1e-6));
 }
-BENCHMARK(BM_FullModelFit)->Arg(3)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_FullModelFit)->Arg(50)->Unit(benchmark::kSecond)->Iterations(1);
 
 /// The Hammerstein two-step fit on the same three data sets (20 static + 3 dynamic starts).
 void BM_HammersteinTwoStep(benchmark::State& state) {
