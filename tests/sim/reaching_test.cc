@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <memory>
 
 #include "identification/inverse_dynamics.h"
 #include "sim/default_model.h"
