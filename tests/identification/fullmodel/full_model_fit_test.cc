@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <map>
 #include <string>
 #include <vector>
@@ -335,6 +336,38 @@ TEST(FullModelFitTest, MethodEntryRejectsUnusableData) {
   Trial unknown = good;
   unknown.metadata["fullmodel.bogus"] = "1";
   EXPECT_NE(message(unknown).find("fullmodel.bogus"), std::string::npos);
+}
+
+TEST(FullModelFitTest, IdentifyCommandWritesModelPredictionsAndMetrics) {
+  // `fesim identify --method full-model --scenario` end to end on a short trial of the default
+  // scenario's rig (arm on its support, all joints free); two parameters, two LM iterations.
+  const std::string dir = ::testing::TempDir() + "fullmodel_cli";
+  std::system(("rm -rf '" + dir + "' && mkdir -p '" + dir + "'").c_str());
+  const std::string scenario = std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/default.yaml";
+  const sim::ModelParams rig = DefaultHandRig();
+  Trial train = MakeTrial(rig, Staircase(rig), 3.0, 0.0, 1);
+  train.metadata["fullmodel.keep"] = "2";
+  train.metadata["fullmodel.max_iterations"] = "2";
+  train.metadata["fullmodel.starts"] = "1";
+  train.metadata["fullmodel.integrator_tolerance"] = "1e-4";
+  WriteFileAtomic(dir + "/train.csv", FormatTrialCsv(train));
+  const std::string cmd = std::string(FESIM_BIN_PATH) + " identify --method full-model --train '" +
+                          dir + "/train.csv' --scenario '" + scenario + "' --out '" + dir +
+                          "/out' 2>'" + dir + "/stderr.txt'";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << ReadFile(dir + "/stderr.txt");
+  const std::string yaml = ReadFile(dir + "/out/model.yaml");
+  EXPECT_NE(yaml.find("rig: " + scenario), std::string::npos);
+  EXPECT_NE(yaml.find("unit:"), std::string::npos);
+  const Trial prediction = ReadTrialCsv(dir + "/out/prediction_0.csv");
+  EXPECT_EQ(prediction.size(), train.size());
+  EXPECT_TRUE(prediction.Has("q.wrist_flexion"));
+  EXPECT_NE(ReadFile(dir + "/out/metrics.json").find("local_step_wall_s"), std::string::npos);
+  // A scenario that does not exist is a one-line error and a non-zero exit.
+  const std::string bad = std::string(FESIM_BIN_PATH) + " identify --method full-model --train '" +
+                          dir + "/train.csv' --scenario /nonexistent.yaml --out '" + dir +
+                          "/bad' 2>'" + dir + "/stderr2.txt'";
+  EXPECT_NE(std::system(bad.c_str()), 0);
+  EXPECT_NE(ReadFile(dir + "/stderr2.txt").find("/nonexistent.yaml"), std::string::npos);
 }
 
 }  // namespace
