@@ -2,13 +2,13 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <mutex>
-#include <thread>
-#include <vector>
 #include <cstdint>
 #include <cstdio>
+#include <mutex>
 #include <stdexcept>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "apps/cli.h"
 #include "apps/commands.h"
@@ -17,6 +17,7 @@
 #include "scenarios/scenario.h"
 #include "scenarios/study.h"
 #include "scenarios/trial.h"
+#include "sim/reaching.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
 
@@ -66,8 +67,8 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args) {
   const Study st = LoadStudy(path, static_cast<std::uint64_t>(seed));
   const std::string out = args.Get("out", "out/" + st.name);
   const std::string hash = Fnv1a64(st.source_text);
-  const int threads = static_cast<int>(args.GetInt(
-      "threads", std::max(1u, std::thread::hardware_concurrency())));
+  const int threads =
+      static_cast<int>(args.GetInt("threads", std::max(1u, std::thread::hardware_concurrency())));
   if (threads < 1) throw std::runtime_error("option --threads: must be >= 1");
   const auto t0 = std::chrono::steady_clock::now();
 
@@ -91,7 +92,8 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args) {
       std::lock_guard<std::mutex> lock(progress_mutex);
       const double elapsed =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      const double left = elapsed / static_cast<double>(n) * static_cast<double>(st.items.size() - n);
+      const double left =
+          elapsed / static_cast<double>(n) * static_cast<double>(st.items.size() - n);
       cli::ShowProgress(static_cast<double>(n) / static_cast<double>(st.items.size()),
                         st.name + " " + std::to_string(n) + "/" + std::to_string(st.items.size()) +
                             ", ~" + std::to_string(static_cast<int>(left + 0.5)) + " s left");
@@ -162,6 +164,37 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args) {
   return 0;
 }
 
+/// Robot-driven reaching (papers/004_*): one trial per reach, written as <name>_<k>.csv.
+int RunReaching(const Scenario& sc, const std::string& out, long seed) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<Trial> trials = sim::SimulateReaching(sc.model, *sc.reaching, {});
+  const std::string hash = Fnv1a64(sc.source_text);
+  cli::MakeDirs(out);
+  Json files = Json::Array();
+  for (std::size_t k = 0; k < trials.size(); ++k) {
+    trials[k].metadata["scenario"] = sc.name;
+    trials[k].metadata["scenario_hash"] = hash;
+    trials[k].metadata["fesim_version"] = FESIM_VERSION;
+    char stem[64];
+    std::snprintf(stem, sizeof stem, "%s_%03zu", sc.name.c_str(), k + 1);
+    WriteFileAtomic(out + "/" + stem + ".csv", FormatTrialCsv(trials[k]));
+    files.Push(std::string(stem) + ".csv");
+  }
+  Json manifest = Json::Object();
+  manifest.Set("fesim_version", FESIM_VERSION)
+      .Set("scenario", sc.name)
+      .Set("scenario_file", sc.path)
+      .Set("scenario_hash_fnv1a64", hash)
+      .Set("seed", static_cast<double>(seed))
+      .Set("protocol", "reaching")
+      .Set("files", files);
+  WriteFileAtomic(out + "/manifest.json", manifest.Dump());
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::fprintf(stderr, "fesim simulate: %s, %zu reaching trials in %.1f s -> %s\n", sc.name.c_str(),
+               trials.size(), wall, out.c_str());
+  return 0;
+}
+
 }  // namespace
 
 int RunSimulate(int argc, char** argv) {
@@ -180,6 +213,7 @@ int RunSimulate(int argc, char** argv) {
   Scenario sc = LoadScenario(args.positional[0]);
   sc.trial.seed = static_cast<std::uint64_t>(seed);
   const std::string out = args.Get("out", "out/" + sc.name);
+  if (sc.reaching) return RunReaching(sc, out, seed);
 
   const auto t0 = std::chrono::steady_clock::now();
   const sim::UpperLimbModel model(sc.model);

@@ -10,8 +10,8 @@
 #include <stdexcept>
 
 #include "scenarios/protocols.h"
-#include "scenarios/yaml_node.h"
 #include "scenarios/trial.h"
+#include "scenarios/yaml_node.h"
 #include "sim/default_model.h"
 
 namespace fesim {
@@ -22,46 +22,53 @@ constexpr double kDeg = 3.14159265358979323846 / 180.0;
 using internal::Fmt;
 using Node = internal::YamlNode;
 
-int MuscleIndex(const sim::ModelParams& m, const std::string& name) {
+int MuscleIndex(const sim::ModelParams &m, const std::string &name) {
   for (std::size_t j = 0; j < m.muscles.size(); ++j) {
-    if (m.muscles[j].name == name) return static_cast<int>(j);
+    if (m.muscles[j].name == name)
+      return static_cast<int>(j);
   }
   return -1;
 }
 
-std::string MuscleList(const sim::ModelParams& m) {
+std::string MuscleList(const sim::ModelParams &m) {
   std::string s;
-  for (const auto& x : m.muscles) s += (s.empty() ? "" : ", ") + x.name;
+  for (const auto &x : m.muscles)
+    s += (s.empty() ? "" : ", ") + x.name;
   return s;
 }
 
 std::string CoordinateList() {
   std::string s;
-  for (const auto& n : sim::CoordinateNames()) s += (s.empty() ? "" : ", ") + n;
+  for (const auto &n : sim::CoordinateNames())
+    s += (s.empty() ? "" : ", ") + n;
   return s;
 }
 
-int Coordinate(const Node& parent, const std::string& key, const std::string& name) {
+int Coordinate(const Node &parent, const std::string &key,
+               const std::string &name) {
   const int i = sim::CoordinateIndex(name);
   if (i < 0)
-    parent.FailKey(key, "unknown coordinate '" + name + "' (allowed: " + CoordinateList() + ")");
+    parent.FailKey(key, "unknown coordinate '" + name +
+                            "' (allowed: " + CoordinateList() + ")");
   return i;
 }
 
-void LoadCoordinates(const Node& n, sim::ModelParams* m) {
-  for (const auto& name : n.MapKeys()) {
+void LoadCoordinates(const Node &n, sim::ModelParams *m) {
+  for (const auto &name : n.MapKeys()) {
     const int i = Coordinate(n, name, name);
     const Node c = n.Child(name);
-    c.Keys({"mode", "initial_deg", "initial_speed_deg_s", "rest_deg", "min_deg", "max_deg",
-            "stiffness_nm_per_rad", "damping_nms_per_rad", "limit_stiffness_nm_per_rad",
-            "limit_sharpness_per_rad", "coulomb_friction_nm", "static_friction_nm",
-            "stribeck_velocity_rad_s", "reflex_gain_nms_per_rad", "reflex_threshold_deg_s",
-            "prescription"});
-    auto& p = m->coordinates[i];
-    auto& pj = p.passive;
+    c.Keys({"mode", "initial_deg", "initial_speed_deg_s", "rest_deg", "min_deg",
+            "max_deg", "stiffness_nm_per_rad", "damping_nms_per_rad",
+            "limit_stiffness_nm_per_rad", "limit_sharpness_per_rad",
+            "coulomb_friction_nm", "static_friction_nm",
+            "stribeck_velocity_rad_s", "reflex_gain_nms_per_rad",
+            "reflex_threshold_deg_s", "prescription"});
+    auto &p = m->coordinates[i];
+    auto &pj = p.passive;
     c.Number("min_deg", -180, 180, &pj.min_angle_rad, kDeg);
     c.Number("max_deg", -180, 180, &pj.max_angle_rad, kDeg);
-    if (!(pj.max_angle_rad > pj.min_angle_rad)) c.Fail("max_deg must be greater than min_deg");
+    if (!(pj.max_angle_rad > pj.min_angle_rad))
+      c.Fail("max_deg must be greater than min_deg");
     const double lo = pj.min_angle_rad / kDeg, hi = pj.max_angle_rad / kDeg;
     c.Number("rest_deg", lo, hi, &pj.rest_angle_rad, kDeg);
     p.initial_rad = pj.rest_angle_rad;
@@ -69,15 +76,18 @@ void LoadCoordinates(const Node& n, sim::ModelParams* m) {
     c.Number("initial_speed_deg_s", -2000, 2000, &p.initial_speed_rad_s, kDeg);
     c.Number("stiffness_nm_per_rad", 0, 1e3, &pj.stiffness_nm_per_rad);
     c.Number("damping_nms_per_rad", 0, 1e2, &pj.damping_nms_per_rad);
-    c.Number("limit_stiffness_nm_per_rad", 0, 1e4, &pj.limit_stiffness_nm_per_rad);
+    c.Number("limit_stiffness_nm_per_rad", 0, 1e4,
+             &pj.limit_stiffness_nm_per_rad);
     c.Number("limit_sharpness_per_rad", 1, 200, &pj.limit_sharpness_per_rad);
     c.Number("coulomb_friction_nm", 0, 100, &pj.coulomb_friction_nm);
     c.Number("static_friction_nm", 0, 100, &pj.static_friction_nm);
     c.Number("stribeck_velocity_rad_s", 1e-4, 10, &pj.stribeck_velocity_rad_s);
     c.Number("reflex_gain_nms_per_rad", 0, 100, &pj.reflex_gain_nms_per_rad);
-    c.Number("reflex_threshold_deg_s", 0, 2000, &pj.reflex_threshold_rad_s, kDeg);
+    c.Number("reflex_threshold_deg_s", 0, 2000, &pj.reflex_threshold_rad_s,
+             kDeg);
     if (c.Has("mode")) {
-      const std::string mode = c.Choice("mode", {"free", "locked", "prescribed"});
+      const std::string mode =
+          c.Choice("mode", {"free", "locked", "prescribed"});
       p.mode = mode == "free"     ? sim::CoordinateMode::kFree
                : mode == "locked" ? sim::CoordinateMode::kLocked
                                   : sim::CoordinateMode::kPrescribed;
@@ -92,24 +102,28 @@ void LoadCoordinates(const Node& n, sim::ModelParams* m) {
       pr.Number("amplitude_deg", 0, 180, &p.prescription.amplitude_rad, kDeg);
       pr.Number("frequency_hz", 0, 50, &p.prescription.frequency_hz);
       pr.Number("phase_deg", -360, 360, &p.prescription.phase_rad, kDeg);
-      p.initial_rad = p.prescription.offset_rad +
-                      p.prescription.amplitude_rad * std::sin(p.prescription.phase_rad);
+      p.initial_rad =
+          p.prescription.offset_rad +
+          p.prescription.amplitude_rad * std::sin(p.prescription.phase_rad);
     } else if (p.mode == sim::CoordinateMode::kPrescribed) {
       c.FailKey("prescription", "missing required key (mode: prescribed)");
     }
   }
 }
 
-void LoadMuscles(const Node& n, sim::ModelParams* m) {
-  for (const auto& name : n.MapKeys()) {
+void LoadMuscles(const Node &n, sim::ModelParams *m) {
+  for (const auto &name : n.MapKeys()) {
     const int j = MuscleIndex(*m, name);
-    if (j < 0) n.FailKey(name, "unknown muscle (allowed: " + MuscleList(*m) + ")");
+    if (j < 0)
+      n.FailKey(name, "unknown muscle (allowed: " + MuscleList(*m) + ")");
     const Node c = n.Child(name);
-    c.Keys({"max_isometric_force_n", "optimal_fibre_length_m", "tendon_slack_length_m",
-            "pennation_deg", "omega_rad_s", "alpha", "beta_per_us", "gamma"});
-    auto& mu = m->muscles[j];
+    c.Keys({"max_isometric_force_n", "optimal_fibre_length_m",
+            "tendon_slack_length_m", "pennation_deg", "omega_rad_s", "alpha",
+            "beta_per_us", "gamma"});
+    auto &mu = m->muscles[j];
     c.Number("max_isometric_force_n", 0.1, 1e4, &mu.hill.max_isometric_force_n);
-    c.Number("optimal_fibre_length_m", 0.005, 0.5, &mu.hill.optimal_fibre_length_m);
+    c.Number("optimal_fibre_length_m", 0.005, 0.5,
+             &mu.hill.optimal_fibre_length_m);
     c.Number("tendon_slack_length_m", 0.0, 0.6, &mu.hill.tendon_slack_length_m);
     c.Number("pennation_deg", 0, 60, &mu.hill.pennation_at_optimal_rad, kDeg);
     c.Number("omega_rad_s", 0.1, 100, &mu.activation_omega_rad_s);
@@ -119,13 +133,15 @@ void LoadMuscles(const Node& n, sim::ModelParams* m) {
   }
 }
 
-void LoadElectrodes(const Node& n, sim::ModelParams* m) {
+void LoadElectrodes(const Node &n, sim::ModelParams *m) {
   n.Keys({"array", "channels"});
   if (n.Has("array")) {
     const Node a = n.Child("array");
     a.Keys({"rows", "cols", "pitch_m", "origin_m", "spread_m", "motor_points"});
-    if (a.Has("rows")) m->array.rows = a.Integer("rows", 1, 16);
-    if (a.Has("cols")) m->array.cols = a.Integer("cols", 1, 16);
+    if (a.Has("rows"))
+      m->array.rows = a.Integer("rows", 1, 16);
+    if (a.Has("cols"))
+      m->array.cols = a.Integer("cols", 1, 16);
     a.Number("pitch_m", 1e-3, 0.1, &m->array.pitch_m);
     a.Number("spread_m", 1e-4, 0.1, &m->array.spread_m);
     if (a.Has("origin_m")) {
@@ -135,7 +151,7 @@ void LoadElectrodes(const Node& n, sim::ModelParams* m) {
     if (a.Has("motor_points")) {
       const Node mp = a.Child("motor_points");
       m->array.motor_points.clear();
-      for (const auto& name : mp.MapKeys()) {
+      for (const auto &name : mp.MapKeys()) {
         if (MuscleIndex(*m, name) < 0)
           mp.FailKey(name, "unknown muscle (allowed: " + MuscleList(*m) + ")");
         const auto p = mp.Vector(name, 2, -0.5, 0.5);
@@ -153,40 +169,49 @@ void LoadElectrodes(const Node& n, sim::ModelParams* m) {
       c.Keys({"name", "pads", "muscles"});
       sim::ChannelParams p;
       p.name = c.Text("name");
-      if (!names.insert(p.name).second) c.FailKey("name", "duplicate channel '" + p.name + "'");
-      if (c.Has("pads")) p.pads = c.IntList("pads", 0, pads - 1);
+      if (!names.insert(p.name).second)
+        c.FailKey("name", "duplicate channel '" + p.name + "'");
+      if (c.Has("pads"))
+        p.pads = c.IntList("pads", 0, pads - 1);
       if (c.Has("muscles")) {
         const Node mw = c.Child("muscles");
-        for (const auto& name : mw.MapKeys()) {
+        for (const auto &name : mw.MapKeys()) {
           if (MuscleIndex(*m, name) < 0)
-            mw.FailKey(name, "unknown muscle (allowed: " + MuscleList(*m) + ")");
+            mw.FailKey(name,
+                       "unknown muscle (allowed: " + MuscleList(*m) + ")");
           p.muscle_weights.push_back({name, mw.Number(name, 0, 10)});
         }
       }
-      if (p.pads.empty() && p.muscle_weights.empty()) c.Fail("a channel needs pads or muscles");
+      if (p.pads.empty() && p.muscle_weights.empty())
+        c.Fail("a channel needs pads or muscles");
       m->channels.push_back(p);
     }
   }
 }
 
-void LoadSupport(const Node& n, sim::ModelParams* m) {
+void LoadSupport(const Node &n, sim::ModelParams *m) {
   n.Keys({"bands", "weight_compensation"});
-  const auto segment = [](const Node& c) {
+  const auto segment = [](const Node &c) {
     const std::string s = c.Text("segment");
     const int i = sim::SegmentIndex(s);
     if (i < 0) {
       std::string list;
-      for (const auto& x : sim::SegmentNames()) list += (list.empty() ? "" : ", ") + x;
-      c.FailKey("segment", "unknown segment '" + s + "' (allowed: " + list + ")");
+      for (const auto &x : sim::SegmentNames())
+        list += (list.empty() ? "" : ", ") + x;
+      c.FailKey("segment",
+                "unknown segment '" + s + "' (allowed: " + list + ")");
     }
     return i;
   };
-  const auto vec3 = [](const std::vector<double>& v) { return sim::Vec3d{v[0], v[1], v[2]}; };
+  const auto vec3 = [](const std::vector<double> &v) {
+    return sim::Vec3d{v[0], v[1], v[2]};
+  };
   if (n.Has("bands")) {
     const Node b = n.Child("bands");
     for (std::size_t k = 0; k < b.Size(); ++k) {
       const Node c = b.Item(k);
-      c.Keys({"segment", "cuff_m", "anchor_m", "stiffness_n_per_m", "slack_length_m"});
+      c.Keys({"segment", "cuff_m", "anchor_m", "stiffness_n_per_m",
+              "slack_length_m"});
       sim::BandParams band;
       band.segment = segment(c);
       band.cuff_in_segment_m = vec3(c.Vector("cuff_m", 3, -1, 1));
@@ -201,22 +226,25 @@ void LoadSupport(const Node& n, sim::ModelParams* m) {
     for (std::size_t k = 0; k < w.Size(); ++k) {
       const Node c = w.Item(k);
       c.Keys({"segment", "cuff_m", "force_n"});
-      m->weight_compensation.push_back(
-          {segment(c), vec3(c.Vector("cuff_m", 3, -1, 1)), c.Number("force_n", 0, 500)});
+      m->weight_compensation.push_back({segment(c),
+                                        vec3(c.Vector("cuff_m", 3, -1, 1)),
+                                        c.Number("force_n", 0, 500)});
     }
   }
 }
 
-std::vector<double> ChannelValues(const Node& n, const sim::ModelParams& m) {
+std::vector<double> ChannelValues(const Node &n, const sim::ModelParams &m) {
   std::vector<double> u(m.channels.size(), 0.0);
-  for (const auto& name : n.MapKeys()) {
+  for (const auto &name : n.MapKeys()) {
     int k = -1;
     for (std::size_t i = 0; i < m.channels.size(); ++i) {
-      if (m.channels[i].name == name) k = static_cast<int>(i);
+      if (m.channels[i].name == name)
+        k = static_cast<int>(i);
     }
     if (k < 0) {
       std::string list;
-      for (const auto& c : m.channels) list += (list.empty() ? "" : ", ") + c.name;
+      for (const auto &c : m.channels)
+        list += (list.empty() ? "" : ", ") + c.name;
       n.FailKey(name, "unknown channel (allowed: " + list + ")");
     }
     u[k] = n.Number(name, 0, 300);
@@ -224,13 +252,15 @@ std::vector<double> ChannelValues(const Node& n, const sim::ModelParams& m) {
   return u;
 }
 
-std::string Directory(const std::string& path) {
+std::string Directory(const std::string &path) {
   const auto slash = path.find_last_of('/');
   return slash == std::string::npos ? "" : path.substr(0, slash + 1);
 }
 
-/// The protocol generators of scenarios/protocols.h, by name, with their parameters.
-protocols::StimulationProgram LoadProtocol(const Node& n, const sim::ModelParams& m) {
+/// The protocol generators of scenarios/protocols.h, by name, with their
+/// parameters.
+protocols::StimulationProgram LoadProtocol(const Node &n,
+                                           const sim::ModelParams &m) {
   n.Keys({"name",
           "channel",
           "channels",
@@ -262,29 +292,35 @@ protocols::StimulationProgram LoadProtocol(const Node& n, const sim::ModelParams
           "step_max_s",
           "gap_min_s",
           "gap_max_s"});
-  const std::string name = n.Choice("name", {"step_grid", "ramp", "staircase", "filtered_noise",
-                                             "prms", "multisine", "shoulder_steps"});
-  const auto channel_ok = [&](const std::string& key, const std::string& c) {
-    for (const auto& ch : m.channels) {
-      if (ch.name == c) return c;
+  const std::string name =
+      n.Choice("name", {"step_grid", "ramp", "staircase", "filtered_noise",
+                        "prms", "multisine", "shoulder_steps"});
+  const auto channel_ok = [&](const std::string &key, const std::string &c) {
+    for (const auto &ch : m.channels) {
+      if (ch.name == c)
+        return c;
     }
     n.FailKey(key, "unknown channel '" + c + "'");
   };
   protocols::StimulationLimit limit;
   n.Number("u_sum_max_us", 0, 1800, &limit.sum_max_us);
   std::uint64_t seed = 1;
-  if (n.Has("seed")) seed = static_cast<std::uint64_t>(n.Integer("seed", 0, 1 << 30));
+  if (n.Has("seed"))
+    seed = static_cast<std::uint64_t>(n.Integer("seed", 0, 1 << 30));
   protocols::IsometricTestTiming timing;
   n.Number("duration_s", 0.1, 36000, &timing.duration_s);
   n.Number("rest_s", 0, 3600, &timing.rest_s);
   const auto channels = [&](std::vector<std::string> fallback) {
-    if (!n.Has("channels")) return fallback;
+    if (!n.Has("channels"))
+      return fallback;
     std::vector<std::string> out;
-    for (const auto& c : n.Child("channels").TextList()) out.push_back(channel_ok("channels", c));
+    for (const auto &c : n.Child("channels").TextList())
+      out.push_back(channel_ok("channels", c));
     return out;
   };
-  const std::string channel =
-      n.Has("channel") ? channel_ok("channel", n.Text("channel")) : std::string("bic");
+  const std::string channel = n.Has("channel")
+                                  ? channel_ok("channel", n.Text("channel"))
+                                  : std::string("bic");
   try {
     if (name == "step_grid") {
       protocols::StepGridParams p;
@@ -293,7 +329,8 @@ protocols::StimulationProgram LoadProtocol(const Node& n, const sim::ModelParams
       n.Number("spacing_us", 1, 300, &p.spacing_us);
       n.Number("step_duration_s", 0.01, 600, &p.step_duration_s);
       if (n.Has("order")) {
-        p.order = n.Choice("order", {"first_fastest", "last_fastest"}) == "first_fastest"
+        p.order = n.Choice("order", {"first_fastest", "last_fastest"}) ==
+                          "first_fastest"
                       ? protocols::GridOrder::kFirstChannelFastest
                       : protocols::GridOrder::kLastChannelFastest;
       }
@@ -304,7 +341,8 @@ protocols::StimulationProgram LoadProtocol(const Node& n, const sim::ModelParams
       p.channel = channel;
       n.Number("u_min_us", 0, 300, &p.u_min_us);
       n.Number("u_max_us", 0, 300, &p.u_peak_us);
-      if (n.Has("num_triangles")) p.num_triangles = n.Integer("num_triangles", 1, 1000);
+      if (n.Has("num_triangles"))
+        p.num_triangles = n.Integer("num_triangles", 1, 1000);
       p.timing = timing;
       p.limit = limit;
       return protocols::TriangularRamp(p);
@@ -326,7 +364,8 @@ protocols::StimulationProgram LoadProtocol(const Node& n, const sim::ModelParams
       n.Number("u_min_us", 0, 300, &p.u_min_us);
       n.Number("u_max_us", 0, 300, &p.u_max_us);
       n.Number("cutoff_hz", 1e-3, 500, &p.cutoff_hz);
-      if (n.Has("filter_order")) p.filter_order = n.Integer("filter_order", 1, 10);
+      if (n.Has("filter_order"))
+        p.filter_order = n.Integer("filter_order", 1, 10);
       p.timing = timing;
       p.limit = limit;
       p.seed = seed;
@@ -337,8 +376,10 @@ protocols::StimulationProgram LoadProtocol(const Node& n, const sim::ModelParams
       p.channel = channel;
       n.Number("u_min_us", 0, 300, &p.u_min_us);
       n.Number("u_max_us", 0, 300, &p.u_max_us);
-      if (n.Has("num_levels")) p.num_levels = n.Integer("num_levels", 2, 31);
-      if (n.Has("register_length")) p.register_length = n.Integer("register_length", 1, 20);
+      if (n.Has("num_levels"))
+        p.num_levels = n.Integer("num_levels", 2, 31);
+      if (n.Has("register_length"))
+        p.register_length = n.Integer("register_length", 1, 20);
       n.Number("symbol_duration_s", 1e-3, 3600, &p.symbol_duration_s);
       p.timing = timing;
       p.limit = limit;
@@ -372,29 +413,72 @@ protocols::StimulationProgram LoadProtocol(const Node& n, const sim::ModelParams
     p.limit = limit;
     p.seed = seed;
     return protocols::ShoulderPseudoRandomSteps(p);
-  } catch (const std::invalid_argument& e) {
+  } catch (const std::invalid_argument &e) {
     n.Fail(e.what());
   }
 }
 
-void LoadStimulation(const Node& n, const std::string& path, const sim::ModelParams& m,
-                     sim::TrialRequest* t) {
-  n.Keys({"duration_s", "type", "values_us", "steps", "file", "protocol"});
-  const std::string type = n.Choice("type", {"constant", "steps", "csv", "protocol"});
-  auto& sched = t->stimulation;
+protocols::ReachingParams LoadReaching(const Node &n) {
+  n.Keys({"repetitions", "reach_duration_s", "hold_s", "pause_s",
+          "transfer_duration_s", "sample_rate_hz", "homes_m", "targets_m"});
+  protocols::ReachingParams r;
+  if (n.Has("repetitions"))
+    r.repetitions = n.Integer("repetitions", 1, 100);
+  n.Number("reach_duration_s", 0.01, 60, &r.reach_duration_s);
+  n.Number("hold_s", 0, 60, &r.hold_s);
+  n.Number("pause_s", 0, 60, &r.pause_s);
+  n.Number("transfer_duration_s", 0.01, 60, &r.transfer_duration_s);
+  n.Number("sample_rate_hz", 1, 10000, &r.sample_rate_hz);
+  const auto points = [&](const std::string &key) {
+    std::vector<protocols::Vec3> out;
+    const Node list = n.Child(key);
+    for (std::size_t i = 0; i < list.Size(); ++i) {
+      const auto v = list.Item(i).Vector3();
+      out.push_back({v[0], v[1], v[2]});
+    }
+    return out;
+  };
+  if (n.Has("homes_m"))
+    r.homes_m = points("homes_m");
+  if (n.Has("targets_m"))
+    r.targets_m = points("targets_m");
+  return r;
+}
+
+void LoadStimulation(const Node &n, const std::string &path,
+                     const sim::ModelParams &m, sim::TrialRequest *t,
+                     std::optional<protocols::ReachingParams> *reaching) {
+  n.Keys({"duration_s", "type", "values_us", "steps", "file", "protocol",
+          "reaching"});
+  const std::string type =
+      n.Choice("type", {"constant", "steps", "csv", "protocol", "reaching"});
+  auto &sched = t->stimulation;
+  if (type == "reaching") {
+    *reaching = n.Has("reaching") ? LoadReaching(n.Child("reaching"))
+                                  : protocols::ReachingParams{};
+    try {
+      t->duration_s = protocols::ReachingProgram(**reaching).duration_s;
+    } catch (const std::invalid_argument &e) {
+      n.FailKey("reaching", e.what());
+    }
+    return;
+  }
   if (type == "protocol") {
-    const protocols::StimulationProgram prog = LoadProtocol(n.Child("protocol"), m);
+    const protocols::StimulationProgram prog =
+        LoadProtocol(n.Child("protocol"), m);
     t->duration_s = prog.duration_s;
     n.Number("duration_s", 1e-3, 36000, &t->duration_s);
-    std::vector<int> column;  // model channel of each program channel
-    for (const auto& c : prog.channels) {
+    std::vector<int> column; // model channel of each program channel
+    for (const auto &c : prog.channels) {
       for (std::size_t k = 0; k < m.channels.size(); ++k) {
-        if (m.channels[k].name == c) column.push_back(static_cast<int>(k));
+        if (m.channels[k].name == c)
+          column.push_back(static_cast<int>(k));
       }
     }
     for (std::size_t i = 0; i < prog.times_s.size(); ++i) {
       std::vector<double> u(m.channels.size(), 0.0);
-      for (std::size_t c = 0; c < column.size(); ++c) u[column[c]] = prog.values_us[i][c];
+      for (std::size_t c = 0; c < column.size(); ++c)
+        u[column[c]] = prog.values_us[i][c];
       sched.times.push_back(prog.times_s[i]);
       sched.values.push_back(u);
     }
@@ -412,25 +496,29 @@ void LoadStimulation(const Node& n, const std::string& path, const sim::ModelPar
       s.Keys({"time_s", "values_us"});
       const double time = s.Number("time_s", 0, t->duration_s);
       if (!sched.times.empty() && !(time > sched.times.back())) {
-        s.FailKey("time_s", Fmt(time) + " is not after the previous step's time");
+        s.FailKey("time_s",
+                  Fmt(time) + " is not after the previous step's time");
       }
       sched.times.push_back(time);
       sched.values.push_back(ChannelValues(s.Child("values_us"), m));
     }
-    if (sched.times.empty()) n.FailKey("steps", "needs at least one step");
+    if (sched.times.empty())
+      n.FailKey("steps", "needs at least one step");
   } else {
     const std::string file = n.Text("file");
-    const std::string full = file.size() && file[0] == '/' ? file : Directory(path) + file;
+    const std::string full =
+        file.size() && file[0] == '/' ? file : Directory(path) + file;
     Trial input;
     try {
       input = ReadTrialCsv(full);
-    } catch (const std::exception& e) {
+    } catch (const std::exception &e) {
       n.FailKey("file", e.what());
     }
-    std::vector<const std::vector<double>*> cols;
-    for (const auto& c : m.channels) {
+    std::vector<const std::vector<double> *> cols;
+    for (const auto &c : m.channels) {
       if (!input.Has("u." + c.name)) {
-        n.FailKey("file", full + " has no column u." + c.name + " (one per channel)");
+        n.FailKey("file",
+                  full + " has no column u." + c.name + " (one per channel)");
       }
       cols.push_back(&input.Column("u." + c.name));
     }
@@ -439,8 +527,9 @@ void LoadStimulation(const Node& n, const std::string& path, const sim::ModelPar
       for (std::size_t k = 0; k < cols.size(); ++k) {
         const double v = (*cols[k])[i];
         if (!(v >= 0.0 && v <= 300.0)) {
-          n.FailKey("file", full + ": row " + std::to_string(i + 1) + " column u." +
-                                m.channels[k].name + " = " + Fmt(v) + " is outside [0, 300]");
+          n.FailKey("file", full + ": row " + std::to_string(i + 1) +
+                                " column u." + m.channels[k].name + " = " +
+                                Fmt(v) + " is outside [0, 300]");
         }
         u.push_back(v);
       }
@@ -450,9 +539,10 @@ void LoadStimulation(const Node& n, const std::string& path, const sim::ModelPar
   }
 }
 
-void LoadMechanisms(const Node& n, sim::ModelParams* m) {
-  n.Keys({"fatigue", "potentiation", "electromechanical_delay_s", "tremor", "crosstalk"});
-  auto& mech = m->mechanisms;
+void LoadMechanisms(const Node &n, sim::ModelParams *m) {
+  n.Keys({"fatigue", "potentiation", "electromechanical_delay_s", "tremor",
+          "crosstalk"});
+  auto &mech = m->mechanisms;
   if (n.Has("fatigue")) {
     const Node f = n.Child("fatigue");
     f.Keys({"fatigue_time_s", "recovery_time_s", "min_fitness"});
@@ -472,11 +562,13 @@ void LoadMechanisms(const Node& n, sim::ModelParams* m) {
   n.Number("electromechanical_delay_s", 0, 1, &mech.electromechanical_delay_s);
   if (n.Has("tremor")) {
     const Node t = n.Child("tremor");
-    t.Keys({"coordinate", "frequency_hz", "amplitude_nm", "amplitude_modulation", "modulation_hz",
-            "frequency_drift_hz_per_s", "phase_deg"});
-    auto& tr = mech.tremor;
+    t.Keys({"coordinate", "frequency_hz", "amplitude_nm",
+            "amplitude_modulation", "modulation_hz", "frequency_drift_hz_per_s",
+            "phase_deg"});
+    auto &tr = mech.tremor;
     tr.enabled = true;
-    if (t.Has("coordinate")) tr.coordinate = Coordinate(t, "coordinate", t.Text("coordinate"));
+    if (t.Has("coordinate"))
+      tr.coordinate = Coordinate(t, "coordinate", t.Text("coordinate"));
     t.Number("frequency_hz", 3, 12, &tr.frequency_hz);
     t.Number("amplitude_nm", 0, 50, &tr.amplitude_nm);
     t.Number("amplitude_modulation", 0, 1, &tr.amplitude_modulation);
@@ -492,15 +584,18 @@ void LoadMechanisms(const Node& n, sim::ModelParams* m) {
   }
 }
 
-/// A sensor block; `unit` is the suffix of its noise/drift/outlier keys (deg, deg_s or nm) and
-/// `scale` converts that unit to SI.
-void LoadSensor(const Node& n, const std::string& unit, double scale, sim::SensorParams* s) {
-  n.Keys({"rate_hz", "coordinates", "noise_std_" + unit, "offset_drift_" + unit + "_per_s",
-          "dropout_probability", "dropout_mean_samples", "outlier_probability",
+/// A sensor block; `unit` is the suffix of its noise/drift/outlier keys (deg,
+/// deg_s or nm) and `scale` converts that unit to SI.
+void LoadSensor(const Node &n, const std::string &unit, double scale,
+                sim::SensorParams *s) {
+  n.Keys({"rate_hz", "coordinates", "noise_std_" + unit,
+          "offset_drift_" + unit + "_per_s", "dropout_probability",
+          "dropout_mean_samples", "outlier_probability",
           "outlier_std_" + unit});
   n.Number("rate_hz", 0.1, 20000, &s->rate_hz);
   n.Number("noise_std_" + unit, 0, 1e3, &s->noise_std, scale);
-  n.Number("offset_drift_" + unit + "_per_s", -100, 100, &s->offset_drift_per_s, scale);
+  n.Number("offset_drift_" + unit + "_per_s", -100, 100, &s->offset_drift_per_s,
+           scale);
   n.Number("dropout_probability", 0, 0.9, &s->dropout_probability);
   n.Number("dropout_mean_samples", 1, 1e4, &s->dropout_mean_samples);
   n.Number("outlier_probability", 0, 0.5, &s->outlier_probability);
@@ -508,19 +603,19 @@ void LoadSensor(const Node& n, const std::string& unit, double scale, sim::Senso
   if (n.Has("coordinates")) {
     const Node c = n.Child("coordinates");
     s->coordinates.clear();
-    for (const auto& name : c.TextList()) {
+    for (const auto &name : c.TextList()) {
       s->coordinates.push_back(Coordinate(n, "coordinates", name));
     }
   }
 }
 
-}  // namespace
+} // namespace
 
-Scenario ParseScenario(const std::string& text, const std::string& path) {
+Scenario ParseScenario(const std::string &text, const std::string &path) {
   YAML::Node root;
   try {
     root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
+  } catch (const YAML::Exception &e) {
     throw std::runtime_error(path + ":" + std::to_string(e.mark.line + 1) +
                              ": YAML syntax: " + e.msg);
   }
@@ -528,8 +623,9 @@ Scenario ParseScenario(const std::string& text, const std::string& path) {
   sc.path = path;
   sc.source_text = text;
   const Node top(root, "", &sc.path);
-  top.Keys({"name", "participant", "gravity_m_s2", "coordinates", "muscles", "electrodes",
-            "support", "mechanisms", "stimulation", "sensors", "integrator"});
+  top.Keys({"name", "participant", "gravity_m_s2", "coordinates", "muscles",
+            "electrodes", "support", "mechanisms", "stimulation", "sensors",
+            "integrator"});
   sc.name = top.Text("name");
   double height = 1.75, mass = 75.0;
   if (top.Has("participant")) {
@@ -539,46 +635,55 @@ Scenario ParseScenario(const std::string& text, const std::string& path) {
     p.Number("mass_kg", 30, 150, &mass);
   }
   sc.model = sim::DefaultModelParams(height, mass);
-  sim::ModelParams& m = sc.model;
+  sim::ModelParams &m = sc.model;
   if (top.Has("gravity_m_s2")) {
     const auto g = top.Vector("gravity_m_s2", 3, -100, 100);
     m.gravity_m_s2 = {g[0], g[1], g[2]};
   }
-  if (top.Has("coordinates")) LoadCoordinates(top.Child("coordinates"), &m);
-  if (top.Has("muscles")) LoadMuscles(top.Child("muscles"), &m);
-  if (top.Has("electrodes")) LoadElectrodes(top.Child("electrodes"), &m);
-  if (top.Has("support")) LoadSupport(top.Child("support"), &m);
-  if (top.Has("mechanisms")) LoadMechanisms(top.Child("mechanisms"), &m);
+  if (top.Has("coordinates"))
+    LoadCoordinates(top.Child("coordinates"), &m);
+  if (top.Has("muscles"))
+    LoadMuscles(top.Child("muscles"), &m);
+  if (top.Has("electrodes"))
+    LoadElectrodes(top.Child("electrodes"), &m);
+  if (top.Has("support"))
+    LoadSupport(top.Child("support"), &m);
+  if (top.Has("mechanisms"))
+    LoadMechanisms(top.Child("mechanisms"), &m);
   sim::CalibrateReferenceLengths(&m);
 
-  sim::TrialRequest& t = sc.trial;
+  sim::TrialRequest &t = sc.trial;
   t.name = sc.name;
-  // Default sensors: every free coordinate's angle at 60 Hz with 1° noise; torques on every
-  // locked or prescribed coordinate at 100 Hz.
+  // Default sensors: every free coordinate's angle at 60 Hz with 1° noise;
+  // torques on every locked or prescribed coordinate at 100 Hz.
   t.sensors.angles.rate_hz = 60.0;
   t.sensors.angles.noise_std = 1.0 * kDeg;
   t.sensors.torques.rate_hz = 100.0;
   t.sensors.torques.noise_std = 0.01;
   t.sensors.velocities.rate_hz = 100.0;
   for (int i = 0; i < sim::kNumCoordinates; ++i) {
-    (m.coordinates[i].mode == sim::CoordinateMode::kFree ? t.sensors.angles : t.sensors.torques)
+    (m.coordinates[i].mode == sim::CoordinateMode::kFree ? t.sensors.angles
+                                                         : t.sensors.torques)
         .coordinates.push_back(i);
   }
-  LoadStimulation(top.Child("stimulation"), path, m, &t);
+  LoadStimulation(top.Child("stimulation"), path, m, &t, &sc.reaching);
   if (top.Has("sensors")) {
     const Node s = top.Child("sensors");
     s.Keys({"angles", "velocities", "torques", "truth_rate_hz"});
-    if (s.Has("angles")) LoadSensor(s.Child("angles"), "deg", kDeg, &t.sensors.angles);
+    if (s.Has("angles"))
+      LoadSensor(s.Child("angles"), "deg", kDeg, &t.sensors.angles);
     if (s.Has("velocities"))
       LoadSensor(s.Child("velocities"), "deg_s", kDeg, &t.sensors.velocities);
-    if (s.Has("torques")) LoadSensor(s.Child("torques"), "nm", 1.0, &t.sensors.torques);
+    if (s.Has("torques"))
+      LoadSensor(s.Child("torques"), "nm", 1.0, &t.sensors.torques);
     s.Number("truth_rate_hz", 0.1, 20000, &t.sensors.truth_rate_hz);
     if (s.Has("torques")) {
       for (int i : t.sensors.torques.coordinates) {
         if (m.coordinates[i].mode == sim::CoordinateMode::kFree) {
-          s.Child("torques").FailKey("coordinates", "torque sensor on free coordinate " +
-                                                        sim::CoordinateNames()[i] +
-                                                        " (allowed: locked or prescribed ones)");
+          s.Child("torques").FailKey(
+              "coordinates", "torque sensor on free coordinate " +
+                                 sim::CoordinateNames()[i] +
+                                 " (allowed: locked or prescribed ones)");
         }
       }
     }
@@ -587,30 +692,32 @@ Scenario ParseScenario(const std::string& text, const std::string& path) {
     const Node in = top.Child("integrator");
     in.Keys({"method", "tolerance"});
     if (in.Has("method")) {
-      const std::string method = in.Choice("method", {"cvodes", "cvodes-adams", "simbody-rkm"});
-      t.integrator.method = method == "cvodes" ? sim::IntegratorParams::Method::kCvodes
-                            : method == "cvodes-adams"
-                                ? sim::IntegratorParams::Method::kCvodesAdams
-                                : sim::IntegratorParams::Method::kSimbodyRkMerson;
+      const std::string method =
+          in.Choice("method", {"cvodes", "cvodes-adams", "simbody-rkm"});
+      t.integrator.method =
+          method == "cvodes" ? sim::IntegratorParams::Method::kCvodes
+          : method == "cvodes-adams"
+              ? sim::IntegratorParams::Method::kCvodesAdams
+              : sim::IntegratorParams::Method::kSimbodyRkMerson;
     }
     in.Number("tolerance", 1e-12, 1e-2, &t.integrator.tolerance);
   }
   try {
     sim::BuildElectrodeMatrix(m);
-  } catch (const std::exception& e) {
+  } catch (const std::exception &e) {
     top.FailKey("electrodes", e.what());
   }
   return sc;
 }
 
-Scenario LoadScenario(const std::string& path) {
+Scenario LoadScenario(const std::string &path) {
   std::string text;
   try {
     text = ReadFile(path);
-  } catch (const std::exception& e) {
+  } catch (const std::exception &e) {
     throw std::runtime_error(e.what());
   }
   return ParseScenario(text, path);
 }
 
-}  // namespace fesim
+} // namespace fesim

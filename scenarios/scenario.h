@@ -36,12 +36,14 @@
 //     crosstalk: {fraction: 0–1, spread_m}
 //   stimulation:
 //     duration_s: > 0                            (required)
-//     type: constant | steps | csv | protocol    (required)
+//     type: constant | steps | csv | protocol | reaching   (required)
 //     values_us: {<channel>: 0–300}              (constant)
 //     steps: [{time_s, values_us: {<channel>: µs}}]   (steps; channels not named are 0)
 //     file: path relative to the scenario, u.<channel> columns held until the next row (csv)
 //     protocol: {name: step_grid|ramp|staircase|filtered_noise|prms|multisine|shoulder_steps,
 //                channel(s), u_min_us, u_max_us, u_sum_max_us, seed, …} (scenarios/protocols.h)
+//     reaching: {repetitions, reach_duration_s, hold_s, pause_s, transfer_duration_s,
+//                sample_rate_hz, homes_m: [[x, y, z]…], targets_m: [[x, y, z]…]}  (paper 004)
 //   sensors:
 //     angles:     {rate_hz, noise_std_deg, coordinates: [<coordinate>…], offset_drift_deg_per_s,
 //                  dropout_probability, dropout_mean_samples, outlier_probability, outlier_std_deg}
@@ -51,8 +53,10 @@
 //   integrator: {method: cvodes|cvodes-adams|simbody-rkm, tolerance: 1e-12–1e-2}
 #pragma once
 
+#include <optional>
 #include <string>
 
+#include "scenarios/protocols.h"
 #include "sim/model_params.h"
 #include "sim/trial_runner.h"
 
@@ -64,6 +68,9 @@ struct Scenario {
   std::string source_text;  ///< the file's bytes (hashed into the manifest).
   sim::ModelParams model;   ///< the participant and rig.
   sim::TrialRequest trial;  ///< stimulation, duration, sensors, integrator.
+  /// Robot-driven reaching (stimulation type `reaching`, papers/004_*): the arm is moved along
+  /// the hand path with muscles relaxed; `fesim simulate` writes one trial per reach.
+  std::optional<protocols::ReachingParams> reaching;
 };
 
 /// Loads and validates a scenario. Throws std::runtime_error with the one-line message above.

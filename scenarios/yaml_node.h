@@ -119,6 +119,24 @@ class YamlNode {
     }
     return v;
   }
+  /// This node as a list of three finite numbers in [−10, 10] (a point in m).
+  std::vector<double> Vector3() const {
+    if (!node_.IsSequence() || node_.size() != 3) Fail("expected a list of 3 numbers");
+    std::vector<double> v;
+    for (std::size_t i = 0; i < 3; ++i) {
+      double x = 0.0;
+      try {
+        x = node_[i].as<double>();
+      } catch (const YAML::Exception&) {
+        Fail("element " + std::to_string(i) + " is not a number");
+      }
+      if (!std::isfinite(x) || x < -10 || x > 10) {
+        Fail("element " + std::to_string(i) + " = " + Fmt(x) + " is outside [-10, 10]");
+      }
+      v.push_back(x);
+    }
+    return v;
+  }
   std::vector<int> IntList(const std::string& key, int lo, int hi) const {
     const YamlNode c = Child(key);
     std::vector<int> out;

@@ -8,6 +8,8 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "scenarios/study.h"
+#include "sim/reaching.h"
 #include "sim/upper_limb_model.h"
 
 namespace fesim {
@@ -106,7 +108,7 @@ TEST(Scenario, EveryBadInputClassNamesFileKeyAndRange) {
                 .find("unknown coordinate 'knee'"),
             std::string::npos);
   EXPECT_EQ(ErrorOf("name: t\nstimulation: {duration_s: 2, type: ramp}\n"),
-            "s.yaml: stimulation.type: 'ramp' is not one of constant|csv|protocol|steps");
+            "s.yaml: stimulation.type: 'ramp' is not one of constant|csv|protocol|reaching|steps");
   EXPECT_EQ(ErrorOf(std::string(kMinimal) + "electrodes: {channels: [{name: a, pads: [24]}]}\n"),
             "s.yaml: electrodes.channels[0].pads: element 0 = 24 is not an integer in [0, 23]");
   EXPECT_NE(ErrorOf("name: [\n").find("s.yaml:"), std::string::npos);  // YAML syntax
@@ -171,6 +173,13 @@ stimulation: {type: protocol, protocol: {name: ramp, channel: bic, u_max_us: 200
   double peak = 0.0;
   for (const auto& u : ramp.trial.stimulation.values) peak = std::max(peak, u[2]);
   EXPECT_NEAR(peak, 200.0, 1e-9);
+  const Scenario reach = ParseScenario(
+      "name: r\nstimulation: {type: reaching, reaching: {repetitions: 1, hold_s: 0.5}}\n",
+      "s.yaml");
+  ASSERT_TRUE(reach.reaching.has_value());
+  EXPECT_EQ(reach.reaching->repetitions, 1);
+  EXPECT_EQ(ErrorOf("name: r\nstimulation: {type: reaching, reaching: {homes_m: [[0, 1]]}}\n"),
+            "s.yaml: stimulation.reaching.homes_m[0]: expected a list of 3 numbers");
   EXPECT_EQ(ErrorOf("name: p\nstimulation: {type: protocol, protocol: {name: chirp}}\n"),
             "s.yaml: stimulation.protocol.name: 'chirp' is not one of filtered_noise|multisine|"
             "prms|ramp|shoulder_steps|staircase|step_grid");
@@ -190,7 +199,21 @@ TEST(Scenario, EveryShippedScenarioLoadsAndSimulates) {
   while (dirent* e = readdir(d)) {
     const std::string f = e->d_name;
     if (f.size() < 5 || f.substr(f.size() - 5) != ".yaml") continue;
+    if (IsStudy(ReadFile(dir + "/" + f))) {  // a study: its items must load
+      EXPECT_FALSE(LoadStudy(dir + "/" + f, 1).items.empty()) << f;
+      continue;
+    }
     Scenario sc = LoadScenario(dir + "/" + f);
+    if (sc.reaching) {  // robot-driven: one home, one target, once
+      sc.reaching->homes_m.resize(1);
+      sc.reaching->targets_m.resize(1);
+      sc.reaching->repetitions = 1;
+      const auto trials = sim::SimulateReaching(sc.model, *sc.reaching, {});
+      ASSERT_EQ(trials.size(), 1u) << f;
+      EXPECT_TRUE(trials[0].Has("f.robot_x")) << f;
+      ++count;
+      continue;
+    }
     sc.trial.duration_s = std::min(sc.trial.duration_s, 1.0);
     const sim::UpperLimbModel model(sc.model);
     const auto r = sim::RunTrial(model, sc.trial);
