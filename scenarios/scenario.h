@@ -49,6 +49,8 @@
 //                  dropout_probability, dropout_mean_samples, outlier_probability, outlier_std_deg}
 //     velocities: {rate_hz, noise_std_deg_s, coordinates: […], … the same with _deg_s}
 //     torques:    {rate_hz, noise_std_nm, coordinates: […], … with _nm}  (locked/prescribed)
+//     any sensor: baseline_window_s (subtract the mean of [0, window) — paper 002's offset
+//                 removal from the rest period)
 //     truth_rate_hz
 //   integrator: {method: cvodes|cvodes-adams|simbody-rkm, tolerance: 1e-12–1e-2}
 #pragma once

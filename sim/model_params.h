@@ -139,6 +139,10 @@ struct SensorParams {
   double dropout_mean_samples = 5.0;  ///< mean length of a dropout burst, samples, ≥ 1.
   double outlier_probability = 0.0;   ///< fraction of samples replaced by outliers, [0, 0.5].
   double outlier_std = 0.0;           ///< outlier deviation, measured unit, ≥ 0.
+  /// Baseline-offset removal (papers/002_* §5: the isometric rig's torque offset is taken from
+  /// the rest period): when > 0, the mean of this sensor's samples in [0, window) is subtracted
+  /// from every sample of the measured record, s, ≥ 0.
+  double baseline_window_s = 0.0;
 };
 
 struct SensorSuite {

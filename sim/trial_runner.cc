@@ -154,6 +154,27 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
       model, req.integrator, effective, report, &state, observer,
       sens.torques.coordinates.empty() ? SimTK::Stage::Velocity : SimTK::Stage::Acceleration);
 
+  // Baseline-offset removal over the initial rest window, per measured column.
+  const auto remove_baseline = [&](const SensorParams& sp,
+                                   std::vector<std::vector<double>>* columns) {
+    if (sp.baseline_window_s <= 0.0) return;
+    for (auto& col : *columns) {
+      double sum = 0.0;
+      int n = 0;
+      for (std::size_t i = 0; i < col.size() && meas_t[i] < sp.baseline_window_s; ++i) {
+        if (!std::isnan(col[i])) {
+          sum += col[i];
+          ++n;
+        }
+      }
+      if (n == 0) continue;
+      for (double& x : col) x -= sum / n;
+    }
+  };
+  remove_baseline(sens.angles, &meas_q);
+  remove_baseline(sens.velocities, &meas_qd);
+  remove_baseline(sens.torques, &meas_tau);
+
   const auto& params = model.params();
   Trial& m = result.measured;
   m.time = meas_t;

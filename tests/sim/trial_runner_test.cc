@@ -187,6 +187,20 @@ TEST(TrialRunner, StictionHoldsAJointThatCoulombFrictionAloneLetsSlide) {
   EXPECT_LT(moved_stick, 0.2 * moved_slide);
 }
 
+TEST(TrialRunner, BaselineOffsetRemovedFromTheRestPeriod) {
+  ModelParams p = LockedRig();
+  p.gravity_m_s2 = {0, -9.81, 0};  // gravity loads the held elbow: a torque offset
+  const UpperLimbModel model(p);
+  TrialRequest r = Request(4.0, {2.0}, {{0, 0, 200, 0, 0, 0}});
+  r.sensors.torques.baseline_window_s = 1.5;
+  const TrialResult res = RunTrial(model, r);
+  const auto& meas = res.measured.Column("tau.elbow_flexion");
+  const auto& truth = res.truth.Column("tau.elbow_flexion");
+  EXPECT_GT(std::abs(truth[0]), 0.5);                       // the raw offset is there
+  EXPECT_NEAR(meas[0], 0.0, 1e-9);                          // rest: offset removed
+  EXPECT_NEAR(meas.back(), truth.back() - truth[0], 1e-9);  // contraction kept
+}
+
 TEST(TrialRunner, SensorDriftDropoutsAndOutliers) {
   ModelParams p = LockedRig();
   p.coordinates[kWristFlexion].mode = CoordinateMode::kFree;
