@@ -1,5 +1,3 @@
-#include "scenarios/scenario.h"
-
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
@@ -10,6 +8,7 @@
 #include <stdexcept>
 
 #include "scenarios/protocols.h"
+#include "scenarios/scenario.h"
 #include "scenarios/trial.h"
 #include "scenarios/yaml_node.h"
 #include "sim/default_model.h"
@@ -24,32 +23,27 @@ using Node = internal::YamlNode;
 
 int MuscleIndex(const sim::ModelParams &m, const std::string &name) {
   for (std::size_t j = 0; j < m.muscles.size(); ++j) {
-    if (m.muscles[j].name == name)
-      return static_cast<int>(j);
+    if (m.muscles[j].name == name) return static_cast<int>(j);
   }
   return -1;
 }
 
 std::string MuscleList(const sim::ModelParams &m) {
   std::string s;
-  for (const auto &x : m.muscles)
-    s += (s.empty() ? "" : ", ") + x.name;
+  for (const auto &x : m.muscles) s += (s.empty() ? "" : ", ") + x.name;
   return s;
 }
 
 std::string CoordinateList() {
   std::string s;
-  for (const auto &n : sim::CoordinateNames())
-    s += (s.empty() ? "" : ", ") + n;
+  for (const auto &n : sim::CoordinateNames()) s += (s.empty() ? "" : ", ") + n;
   return s;
 }
 
-int Coordinate(const Node &parent, const std::string &key,
-               const std::string &name) {
+int Coordinate(const Node &parent, const std::string &key, const std::string &name) {
   const int i = sim::CoordinateIndex(name);
   if (i < 0)
-    parent.FailKey(key, "unknown coordinate '" + name +
-                            "' (allowed: " + CoordinateList() + ")");
+    parent.FailKey(key, "unknown coordinate '" + name + "' (allowed: " + CoordinateList() + ")");
   return i;
 }
 
@@ -57,18 +51,16 @@ void LoadCoordinates(const Node &n, sim::ModelParams *m) {
   for (const auto &name : n.MapKeys()) {
     const int i = Coordinate(n, name, name);
     const Node c = n.Child(name);
-    c.Keys({"mode", "initial_deg", "initial_speed_deg_s", "rest_deg", "min_deg",
-            "max_deg", "stiffness_nm_per_rad", "damping_nms_per_rad",
-            "limit_stiffness_nm_per_rad", "limit_sharpness_per_rad",
-            "coulomb_friction_nm", "static_friction_nm",
-            "stribeck_velocity_rad_s", "reflex_gain_nms_per_rad",
-            "reflex_threshold_deg_s", "prescription"});
+    c.Keys({"mode", "initial_deg", "initial_speed_deg_s", "rest_deg", "min_deg", "max_deg",
+            "stiffness_nm_per_rad", "damping_nms_per_rad", "limit_stiffness_nm_per_rad",
+            "limit_sharpness_per_rad", "coulomb_friction_nm", "static_friction_nm",
+            "stribeck_velocity_rad_s", "reflex_gain_nms_per_rad", "reflex_threshold_deg_s",
+            "prescription"});
     auto &p = m->coordinates[i];
     auto &pj = p.passive;
     c.Number("min_deg", -180, 180, &pj.min_angle_rad, kDeg);
     c.Number("max_deg", -180, 180, &pj.max_angle_rad, kDeg);
-    if (!(pj.max_angle_rad > pj.min_angle_rad))
-      c.Fail("max_deg must be greater than min_deg");
+    if (!(pj.max_angle_rad > pj.min_angle_rad)) c.Fail("max_deg must be greater than min_deg");
     const double lo = pj.min_angle_rad / kDeg, hi = pj.max_angle_rad / kDeg;
     c.Number("rest_deg", lo, hi, &pj.rest_angle_rad, kDeg);
     p.initial_rad = pj.rest_angle_rad;
@@ -76,18 +68,15 @@ void LoadCoordinates(const Node &n, sim::ModelParams *m) {
     c.Number("initial_speed_deg_s", -2000, 2000, &p.initial_speed_rad_s, kDeg);
     c.Number("stiffness_nm_per_rad", 0, 1e3, &pj.stiffness_nm_per_rad);
     c.Number("damping_nms_per_rad", 0, 1e2, &pj.damping_nms_per_rad);
-    c.Number("limit_stiffness_nm_per_rad", 0, 1e4,
-             &pj.limit_stiffness_nm_per_rad);
+    c.Number("limit_stiffness_nm_per_rad", 0, 1e4, &pj.limit_stiffness_nm_per_rad);
     c.Number("limit_sharpness_per_rad", 1, 200, &pj.limit_sharpness_per_rad);
     c.Number("coulomb_friction_nm", 0, 100, &pj.coulomb_friction_nm);
     c.Number("static_friction_nm", 0, 100, &pj.static_friction_nm);
     c.Number("stribeck_velocity_rad_s", 1e-4, 10, &pj.stribeck_velocity_rad_s);
     c.Number("reflex_gain_nms_per_rad", 0, 100, &pj.reflex_gain_nms_per_rad);
-    c.Number("reflex_threshold_deg_s", 0, 2000, &pj.reflex_threshold_rad_s,
-             kDeg);
+    c.Number("reflex_threshold_deg_s", 0, 2000, &pj.reflex_threshold_rad_s, kDeg);
     if (c.Has("mode")) {
-      const std::string mode =
-          c.Choice("mode", {"free", "locked", "prescribed"});
+      const std::string mode = c.Choice("mode", {"free", "locked", "prescribed"});
       p.mode = mode == "free"     ? sim::CoordinateMode::kFree
                : mode == "locked" ? sim::CoordinateMode::kLocked
                                   : sim::CoordinateMode::kPrescribed;
@@ -102,9 +91,8 @@ void LoadCoordinates(const Node &n, sim::ModelParams *m) {
       pr.Number("amplitude_deg", 0, 180, &p.prescription.amplitude_rad, kDeg);
       pr.Number("frequency_hz", 0, 50, &p.prescription.frequency_hz);
       pr.Number("phase_deg", -360, 360, &p.prescription.phase_rad, kDeg);
-      p.initial_rad =
-          p.prescription.offset_rad +
-          p.prescription.amplitude_rad * std::sin(p.prescription.phase_rad);
+      p.initial_rad = p.prescription.offset_rad +
+                      p.prescription.amplitude_rad * std::sin(p.prescription.phase_rad);
     } else if (p.mode == sim::CoordinateMode::kPrescribed) {
       c.FailKey("prescription", "missing required key (mode: prescribed)");
     }
@@ -114,16 +102,13 @@ void LoadCoordinates(const Node &n, sim::ModelParams *m) {
 void LoadMuscles(const Node &n, sim::ModelParams *m) {
   for (const auto &name : n.MapKeys()) {
     const int j = MuscleIndex(*m, name);
-    if (j < 0)
-      n.FailKey(name, "unknown muscle (allowed: " + MuscleList(*m) + ")");
+    if (j < 0) n.FailKey(name, "unknown muscle (allowed: " + MuscleList(*m) + ")");
     const Node c = n.Child(name);
-    c.Keys({"max_isometric_force_n", "optimal_fibre_length_m",
-            "tendon_slack_length_m", "pennation_deg", "omega_rad_s", "alpha",
-            "beta_per_us", "gamma"});
+    c.Keys({"max_isometric_force_n", "optimal_fibre_length_m", "tendon_slack_length_m",
+            "pennation_deg", "omega_rad_s", "alpha", "beta_per_us", "gamma"});
     auto &mu = m->muscles[j];
     c.Number("max_isometric_force_n", 0.1, 1e4, &mu.hill.max_isometric_force_n);
-    c.Number("optimal_fibre_length_m", 0.005, 0.5,
-             &mu.hill.optimal_fibre_length_m);
+    c.Number("optimal_fibre_length_m", 0.005, 0.5, &mu.hill.optimal_fibre_length_m);
     c.Number("tendon_slack_length_m", 0.0, 0.6, &mu.hill.tendon_slack_length_m);
     c.Number("pennation_deg", 0, 60, &mu.hill.pennation_at_optimal_rad, kDeg);
     c.Number("omega_rad_s", 0.1, 100, &mu.activation_omega_rad_s);
@@ -138,10 +123,8 @@ void LoadElectrodes(const Node &n, sim::ModelParams *m) {
   if (n.Has("array")) {
     const Node a = n.Child("array");
     a.Keys({"rows", "cols", "pitch_m", "origin_m", "spread_m", "motor_points"});
-    if (a.Has("rows"))
-      m->array.rows = a.Integer("rows", 1, 16);
-    if (a.Has("cols"))
-      m->array.cols = a.Integer("cols", 1, 16);
+    if (a.Has("rows")) m->array.rows = a.Integer("rows", 1, 16);
+    if (a.Has("cols")) m->array.cols = a.Integer("cols", 1, 16);
     a.Number("pitch_m", 1e-3, 0.1, &m->array.pitch_m);
     a.Number("spread_m", 1e-4, 0.1, &m->array.spread_m);
     if (a.Has("origin_m")) {
@@ -169,21 +152,17 @@ void LoadElectrodes(const Node &n, sim::ModelParams *m) {
       c.Keys({"name", "pads", "muscles"});
       sim::ChannelParams p;
       p.name = c.Text("name");
-      if (!names.insert(p.name).second)
-        c.FailKey("name", "duplicate channel '" + p.name + "'");
-      if (c.Has("pads"))
-        p.pads = c.IntList("pads", 0, pads - 1);
+      if (!names.insert(p.name).second) c.FailKey("name", "duplicate channel '" + p.name + "'");
+      if (c.Has("pads")) p.pads = c.IntList("pads", 0, pads - 1);
       if (c.Has("muscles")) {
         const Node mw = c.Child("muscles");
         for (const auto &name : mw.MapKeys()) {
           if (MuscleIndex(*m, name) < 0)
-            mw.FailKey(name,
-                       "unknown muscle (allowed: " + MuscleList(*m) + ")");
+            mw.FailKey(name, "unknown muscle (allowed: " + MuscleList(*m) + ")");
           p.muscle_weights.push_back({name, mw.Number(name, 0, 10)});
         }
       }
-      if (p.pads.empty() && p.muscle_weights.empty())
-        c.Fail("a channel needs pads or muscles");
+      if (p.pads.empty() && p.muscle_weights.empty()) c.Fail("a channel needs pads or muscles");
       m->channels.push_back(p);
     }
   }
@@ -196,22 +175,17 @@ void LoadSupport(const Node &n, sim::ModelParams *m) {
     const int i = sim::SegmentIndex(s);
     if (i < 0) {
       std::string list;
-      for (const auto &x : sim::SegmentNames())
-        list += (list.empty() ? "" : ", ") + x;
-      c.FailKey("segment",
-                "unknown segment '" + s + "' (allowed: " + list + ")");
+      for (const auto &x : sim::SegmentNames()) list += (list.empty() ? "" : ", ") + x;
+      c.FailKey("segment", "unknown segment '" + s + "' (allowed: " + list + ")");
     }
     return i;
   };
-  const auto vec3 = [](const std::vector<double> &v) {
-    return sim::Vec3d{v[0], v[1], v[2]};
-  };
+  const auto vec3 = [](const std::vector<double> &v) { return sim::Vec3d{v[0], v[1], v[2]}; };
   if (n.Has("bands")) {
     const Node b = n.Child("bands");
     for (std::size_t k = 0; k < b.Size(); ++k) {
       const Node c = b.Item(k);
-      c.Keys({"segment", "cuff_m", "anchor_m", "stiffness_n_per_m",
-              "slack_length_m"});
+      c.Keys({"segment", "cuff_m", "anchor_m", "stiffness_n_per_m", "slack_length_m"});
       sim::BandParams band;
       band.segment = segment(c);
       band.cuff_in_segment_m = vec3(c.Vector("cuff_m", 3, -1, 1));
@@ -226,9 +200,8 @@ void LoadSupport(const Node &n, sim::ModelParams *m) {
     for (std::size_t k = 0; k < w.Size(); ++k) {
       const Node c = w.Item(k);
       c.Keys({"segment", "cuff_m", "force_n"});
-      m->weight_compensation.push_back({segment(c),
-                                        vec3(c.Vector("cuff_m", 3, -1, 1)),
-                                        c.Number("force_n", 0, 500)});
+      m->weight_compensation.push_back(
+          {segment(c), vec3(c.Vector("cuff_m", 3, -1, 1)), c.Number("force_n", 0, 500)});
     }
   }
 }
@@ -238,13 +211,11 @@ std::vector<double> ChannelValues(const Node &n, const sim::ModelParams &m) {
   for (const auto &name : n.MapKeys()) {
     int k = -1;
     for (std::size_t i = 0; i < m.channels.size(); ++i) {
-      if (m.channels[i].name == name)
-        k = static_cast<int>(i);
+      if (m.channels[i].name == name) k = static_cast<int>(i);
     }
     if (k < 0) {
       std::string list;
-      for (const auto &c : m.channels)
-        list += (list.empty() ? "" : ", ") + c.name;
+      for (const auto &c : m.channels) list += (list.empty() ? "" : ", ") + c.name;
       n.FailKey(name, "unknown channel (allowed: " + list + ")");
     }
     u[k] = n.Number(name, 0, 300);
@@ -259,8 +230,7 @@ std::string Directory(const std::string &path) {
 
 /// The protocol generators of scenarios/protocols.h, by name, with their
 /// parameters.
-protocols::StimulationProgram LoadProtocol(const Node &n,
-                                           const sim::ModelParams &m) {
+protocols::StimulationProgram LoadProtocol(const Node &n, const sim::ModelParams &m) {
   n.Keys({"name",
           "channel",
           "channels",
@@ -292,35 +262,29 @@ protocols::StimulationProgram LoadProtocol(const Node &n,
           "step_max_s",
           "gap_min_s",
           "gap_max_s"});
-  const std::string name =
-      n.Choice("name", {"step_grid", "ramp", "staircase", "filtered_noise",
-                        "prms", "multisine", "shoulder_steps"});
+  const std::string name = n.Choice("name", {"step_grid", "ramp", "staircase", "filtered_noise",
+                                             "prms", "multisine", "shoulder_steps"});
   const auto channel_ok = [&](const std::string &key, const std::string &c) {
     for (const auto &ch : m.channels) {
-      if (ch.name == c)
-        return c;
+      if (ch.name == c) return c;
     }
     n.FailKey(key, "unknown channel '" + c + "'");
   };
   protocols::StimulationLimit limit;
   n.Number("u_sum_max_us", 0, 1800, &limit.sum_max_us);
   std::uint64_t seed = 1;
-  if (n.Has("seed"))
-    seed = static_cast<std::uint64_t>(n.Integer("seed", 0, 1 << 30));
+  if (n.Has("seed")) seed = static_cast<std::uint64_t>(n.Integer("seed", 0, 1 << 30));
   protocols::IsometricTestTiming timing;
   n.Number("duration_s", 0.1, 36000, &timing.duration_s);
   n.Number("rest_s", 0, 3600, &timing.rest_s);
   const auto channels = [&](std::vector<std::string> fallback) {
-    if (!n.Has("channels"))
-      return fallback;
+    if (!n.Has("channels")) return fallback;
     std::vector<std::string> out;
-    for (const auto &c : n.Child("channels").TextList())
-      out.push_back(channel_ok("channels", c));
+    for (const auto &c : n.Child("channels").TextList()) out.push_back(channel_ok("channels", c));
     return out;
   };
-  const std::string channel = n.Has("channel")
-                                  ? channel_ok("channel", n.Text("channel"))
-                                  : std::string("bic");
+  const std::string channel =
+      n.Has("channel") ? channel_ok("channel", n.Text("channel")) : std::string("bic");
   try {
     if (name == "step_grid") {
       protocols::StepGridParams p;
@@ -329,8 +293,7 @@ protocols::StimulationProgram LoadProtocol(const Node &n,
       n.Number("spacing_us", 1, 300, &p.spacing_us);
       n.Number("step_duration_s", 0.01, 600, &p.step_duration_s);
       if (n.Has("order")) {
-        p.order = n.Choice("order", {"first_fastest", "last_fastest"}) ==
-                          "first_fastest"
+        p.order = n.Choice("order", {"first_fastest", "last_fastest"}) == "first_fastest"
                       ? protocols::GridOrder::kFirstChannelFastest
                       : protocols::GridOrder::kLastChannelFastest;
       }
@@ -341,8 +304,7 @@ protocols::StimulationProgram LoadProtocol(const Node &n,
       p.channel = channel;
       n.Number("u_min_us", 0, 300, &p.u_min_us);
       n.Number("u_max_us", 0, 300, &p.u_peak_us);
-      if (n.Has("num_triangles"))
-        p.num_triangles = n.Integer("num_triangles", 1, 1000);
+      if (n.Has("num_triangles")) p.num_triangles = n.Integer("num_triangles", 1, 1000);
       p.timing = timing;
       p.limit = limit;
       return protocols::TriangularRamp(p);
@@ -364,8 +326,7 @@ protocols::StimulationProgram LoadProtocol(const Node &n,
       n.Number("u_min_us", 0, 300, &p.u_min_us);
       n.Number("u_max_us", 0, 300, &p.u_max_us);
       n.Number("cutoff_hz", 1e-3, 500, &p.cutoff_hz);
-      if (n.Has("filter_order"))
-        p.filter_order = n.Integer("filter_order", 1, 10);
+      if (n.Has("filter_order")) p.filter_order = n.Integer("filter_order", 1, 10);
       p.timing = timing;
       p.limit = limit;
       p.seed = seed;
@@ -376,10 +337,8 @@ protocols::StimulationProgram LoadProtocol(const Node &n,
       p.channel = channel;
       n.Number("u_min_us", 0, 300, &p.u_min_us);
       n.Number("u_max_us", 0, 300, &p.u_max_us);
-      if (n.Has("num_levels"))
-        p.num_levels = n.Integer("num_levels", 2, 31);
-      if (n.Has("register_length"))
-        p.register_length = n.Integer("register_length", 1, 20);
+      if (n.Has("num_levels")) p.num_levels = n.Integer("num_levels", 2, 31);
+      if (n.Has("register_length")) p.register_length = n.Integer("register_length", 1, 20);
       n.Number("symbol_duration_s", 1e-3, 3600, &p.symbol_duration_s);
       p.timing = timing;
       p.limit = limit;
@@ -419,11 +378,10 @@ protocols::StimulationProgram LoadProtocol(const Node &n,
 }
 
 protocols::ReachingParams LoadReaching(const Node &n) {
-  n.Keys({"repetitions", "reach_duration_s", "hold_s", "pause_s",
-          "transfer_duration_s", "sample_rate_hz", "homes_m", "targets_m"});
+  n.Keys({"repetitions", "reach_duration_s", "hold_s", "pause_s", "transfer_duration_s",
+          "sample_rate_hz", "homes_m", "targets_m"});
   protocols::ReachingParams r;
-  if (n.Has("repetitions"))
-    r.repetitions = n.Integer("repetitions", 1, 100);
+  if (n.Has("repetitions")) r.repetitions = n.Integer("repetitions", 1, 100);
   n.Number("reach_duration_s", 0.01, 60, &r.reach_duration_s);
   n.Number("hold_s", 0, 60, &r.hold_s);
   n.Number("pause_s", 0, 60, &r.pause_s);
@@ -438,24 +396,18 @@ protocols::ReachingParams LoadReaching(const Node &n) {
     }
     return out;
   };
-  if (n.Has("homes_m"))
-    r.homes_m = points("homes_m");
-  if (n.Has("targets_m"))
-    r.targets_m = points("targets_m");
+  if (n.Has("homes_m")) r.homes_m = points("homes_m");
+  if (n.Has("targets_m")) r.targets_m = points("targets_m");
   return r;
 }
 
-void LoadStimulation(const Node &n, const std::string &path,
-                     const sim::ModelParams &m, sim::TrialRequest *t,
-                     std::optional<protocols::ReachingParams> *reaching) {
-  n.Keys({"duration_s", "type", "values_us", "steps", "file", "protocol",
-          "reaching"});
-  const std::string type =
-      n.Choice("type", {"constant", "steps", "csv", "protocol", "reaching"});
+void LoadStimulation(const Node &n, const std::string &path, const sim::ModelParams &m,
+                     sim::TrialRequest *t, std::optional<protocols::ReachingParams> *reaching) {
+  n.Keys({"duration_s", "type", "values_us", "steps", "file", "protocol", "reaching"});
+  const std::string type = n.Choice("type", {"constant", "steps", "csv", "protocol", "reaching"});
   auto &sched = t->stimulation;
   if (type == "reaching") {
-    *reaching = n.Has("reaching") ? LoadReaching(n.Child("reaching"))
-                                  : protocols::ReachingParams{};
+    *reaching = n.Has("reaching") ? LoadReaching(n.Child("reaching")) : protocols::ReachingParams{};
     try {
       t->duration_s = protocols::ReachingProgram(**reaching).duration_s;
     } catch (const std::invalid_argument &e) {
@@ -464,21 +416,18 @@ void LoadStimulation(const Node &n, const std::string &path,
     return;
   }
   if (type == "protocol") {
-    const protocols::StimulationProgram prog =
-        LoadProtocol(n.Child("protocol"), m);
+    const protocols::StimulationProgram prog = LoadProtocol(n.Child("protocol"), m);
     t->duration_s = prog.duration_s;
     n.Number("duration_s", 1e-3, 36000, &t->duration_s);
-    std::vector<int> column; // model channel of each program channel
+    std::vector<int> column;  // model channel of each program channel
     for (const auto &c : prog.channels) {
       for (std::size_t k = 0; k < m.channels.size(); ++k) {
-        if (m.channels[k].name == c)
-          column.push_back(static_cast<int>(k));
+        if (m.channels[k].name == c) column.push_back(static_cast<int>(k));
       }
     }
     for (std::size_t i = 0; i < prog.times_s.size(); ++i) {
       std::vector<double> u(m.channels.size(), 0.0);
-      for (std::size_t c = 0; c < column.size(); ++c)
-        u[column[c]] = prog.values_us[i][c];
+      for (std::size_t c = 0; c < column.size(); ++c) u[column[c]] = prog.values_us[i][c];
       sched.times.push_back(prog.times_s[i]);
       sched.values.push_back(u);
     }
@@ -496,18 +445,15 @@ void LoadStimulation(const Node &n, const std::string &path,
       s.Keys({"time_s", "values_us"});
       const double time = s.Number("time_s", 0, t->duration_s);
       if (!sched.times.empty() && !(time > sched.times.back())) {
-        s.FailKey("time_s",
-                  Fmt(time) + " is not after the previous step's time");
+        s.FailKey("time_s", Fmt(time) + " is not after the previous step's time");
       }
       sched.times.push_back(time);
       sched.values.push_back(ChannelValues(s.Child("values_us"), m));
     }
-    if (sched.times.empty())
-      n.FailKey("steps", "needs at least one step");
+    if (sched.times.empty()) n.FailKey("steps", "needs at least one step");
   } else {
     const std::string file = n.Text("file");
-    const std::string full =
-        file.size() && file[0] == '/' ? file : Directory(path) + file;
+    const std::string full = file.size() && file[0] == '/' ? file : Directory(path) + file;
     Trial input;
     try {
       input = ReadTrialCsv(full);
@@ -517,8 +463,7 @@ void LoadStimulation(const Node &n, const std::string &path,
     std::vector<const std::vector<double> *> cols;
     for (const auto &c : m.channels) {
       if (!input.Has("u." + c.name)) {
-        n.FailKey("file",
-                  full + " has no column u." + c.name + " (one per channel)");
+        n.FailKey("file", full + " has no column u." + c.name + " (one per channel)");
       }
       cols.push_back(&input.Column("u." + c.name));
     }
@@ -527,9 +472,8 @@ void LoadStimulation(const Node &n, const std::string &path,
       for (std::size_t k = 0; k < cols.size(); ++k) {
         const double v = (*cols[k])[i];
         if (!(v >= 0.0 && v <= 300.0)) {
-          n.FailKey("file", full + ": row " + std::to_string(i + 1) +
-                                " column u." + m.channels[k].name + " = " +
-                                Fmt(v) + " is outside [0, 300]");
+          n.FailKey("file", full + ": row " + std::to_string(i + 1) + " column u." +
+                                m.channels[k].name + " = " + Fmt(v) + " is outside [0, 300]");
         }
         u.push_back(v);
       }
@@ -540,8 +484,7 @@ void LoadStimulation(const Node &n, const std::string &path,
 }
 
 void LoadMechanisms(const Node &n, sim::ModelParams *m) {
-  n.Keys({"fatigue", "potentiation", "electromechanical_delay_s", "tremor",
-          "crosstalk"});
+  n.Keys({"fatigue", "potentiation", "electromechanical_delay_s", "tremor", "crosstalk"});
   auto &mech = m->mechanisms;
   if (n.Has("fatigue")) {
     const Node f = n.Child("fatigue");
@@ -562,13 +505,11 @@ void LoadMechanisms(const Node &n, sim::ModelParams *m) {
   n.Number("electromechanical_delay_s", 0, 1, &mech.electromechanical_delay_s);
   if (n.Has("tremor")) {
     const Node t = n.Child("tremor");
-    t.Keys({"coordinate", "frequency_hz", "amplitude_nm",
-            "amplitude_modulation", "modulation_hz", "frequency_drift_hz_per_s",
-            "phase_deg"});
+    t.Keys({"coordinate", "frequency_hz", "amplitude_nm", "amplitude_modulation", "modulation_hz",
+            "frequency_drift_hz_per_s", "phase_deg"});
     auto &tr = mech.tremor;
     tr.enabled = true;
-    if (t.Has("coordinate"))
-      tr.coordinate = Coordinate(t, "coordinate", t.Text("coordinate"));
+    if (t.Has("coordinate")) tr.coordinate = Coordinate(t, "coordinate", t.Text("coordinate"));
     t.Number("frequency_hz", 3, 12, &tr.frequency_hz);
     t.Number("amplitude_nm", 0, 50, &tr.amplitude_nm);
     t.Number("amplitude_modulation", 0, 1, &tr.amplitude_modulation);
@@ -586,16 +527,14 @@ void LoadMechanisms(const Node &n, sim::ModelParams *m) {
 
 /// A sensor block; `unit` is the suffix of its noise/drift/outlier keys (deg,
 /// deg_s or nm) and `scale` converts that unit to SI.
-void LoadSensor(const Node &n, const std::string &unit, double scale,
-                sim::SensorParams *s) {
-  n.Keys({"rate_hz", "coordinates", "noise_std_" + unit,
-          "offset_drift_" + unit + "_per_s", "dropout_probability",
-          "dropout_mean_samples", "outlier_probability",
-          "outlier_std_" + unit});
+void LoadSensor(const Node &n, const std::string &unit, double scale, sim::SensorParams *s) {
+  n.Keys({"rate_hz", "coordinates", "noise_std_" + unit, "offset_drift_" + unit + "_per_s",
+          "dropout_probability", "dropout_mean_samples", "outlier_probability",
+          "outlier_std_" + unit, "baseline_window_s"});
+  n.Number("baseline_window_s", 0, 3600, &s->baseline_window_s);
   n.Number("rate_hz", 0.1, 20000, &s->rate_hz);
   n.Number("noise_std_" + unit, 0, 1e3, &s->noise_std, scale);
-  n.Number("offset_drift_" + unit + "_per_s", -100, 100, &s->offset_drift_per_s,
-           scale);
+  n.Number("offset_drift_" + unit + "_per_s", -100, 100, &s->offset_drift_per_s, scale);
   n.Number("dropout_probability", 0, 0.9, &s->dropout_probability);
   n.Number("dropout_mean_samples", 1, 1e4, &s->dropout_mean_samples);
   n.Number("outlier_probability", 0, 0.5, &s->outlier_probability);
@@ -609,7 +548,7 @@ void LoadSensor(const Node &n, const std::string &unit, double scale,
   }
 }
 
-} // namespace
+}  // namespace
 
 Scenario ParseScenario(const std::string &text, const std::string &path) {
   YAML::Node root;
@@ -623,9 +562,8 @@ Scenario ParseScenario(const std::string &text, const std::string &path) {
   sc.path = path;
   sc.source_text = text;
   const Node top(root, "", &sc.path);
-  top.Keys({"name", "participant", "gravity_m_s2", "coordinates", "muscles",
-            "electrodes", "support", "mechanisms", "stimulation", "sensors",
-            "integrator"});
+  top.Keys({"name", "participant", "gravity_m_s2", "coordinates", "muscles", "electrodes",
+            "support", "mechanisms", "stimulation", "sensors", "integrator"});
   sc.name = top.Text("name");
   double height = 1.75, mass = 75.0;
   if (top.Has("participant")) {
@@ -640,16 +578,11 @@ Scenario ParseScenario(const std::string &text, const std::string &path) {
     const auto g = top.Vector("gravity_m_s2", 3, -100, 100);
     m.gravity_m_s2 = {g[0], g[1], g[2]};
   }
-  if (top.Has("coordinates"))
-    LoadCoordinates(top.Child("coordinates"), &m);
-  if (top.Has("muscles"))
-    LoadMuscles(top.Child("muscles"), &m);
-  if (top.Has("electrodes"))
-    LoadElectrodes(top.Child("electrodes"), &m);
-  if (top.Has("support"))
-    LoadSupport(top.Child("support"), &m);
-  if (top.Has("mechanisms"))
-    LoadMechanisms(top.Child("mechanisms"), &m);
+  if (top.Has("coordinates")) LoadCoordinates(top.Child("coordinates"), &m);
+  if (top.Has("muscles")) LoadMuscles(top.Child("muscles"), &m);
+  if (top.Has("electrodes")) LoadElectrodes(top.Child("electrodes"), &m);
+  if (top.Has("support")) LoadSupport(top.Child("support"), &m);
+  if (top.Has("mechanisms")) LoadMechanisms(top.Child("mechanisms"), &m);
   sim::CalibrateReferenceLengths(&m);
 
   sim::TrialRequest &t = sc.trial;
@@ -662,28 +595,24 @@ Scenario ParseScenario(const std::string &text, const std::string &path) {
   t.sensors.torques.noise_std = 0.01;
   t.sensors.velocities.rate_hz = 100.0;
   for (int i = 0; i < sim::kNumCoordinates; ++i) {
-    (m.coordinates[i].mode == sim::CoordinateMode::kFree ? t.sensors.angles
-                                                         : t.sensors.torques)
+    (m.coordinates[i].mode == sim::CoordinateMode::kFree ? t.sensors.angles : t.sensors.torques)
         .coordinates.push_back(i);
   }
   LoadStimulation(top.Child("stimulation"), path, m, &t, &sc.reaching);
   if (top.Has("sensors")) {
     const Node s = top.Child("sensors");
     s.Keys({"angles", "velocities", "torques", "truth_rate_hz"});
-    if (s.Has("angles"))
-      LoadSensor(s.Child("angles"), "deg", kDeg, &t.sensors.angles);
+    if (s.Has("angles")) LoadSensor(s.Child("angles"), "deg", kDeg, &t.sensors.angles);
     if (s.Has("velocities"))
       LoadSensor(s.Child("velocities"), "deg_s", kDeg, &t.sensors.velocities);
-    if (s.Has("torques"))
-      LoadSensor(s.Child("torques"), "nm", 1.0, &t.sensors.torques);
+    if (s.Has("torques")) LoadSensor(s.Child("torques"), "nm", 1.0, &t.sensors.torques);
     s.Number("truth_rate_hz", 0.1, 20000, &t.sensors.truth_rate_hz);
     if (s.Has("torques")) {
       for (int i : t.sensors.torques.coordinates) {
         if (m.coordinates[i].mode == sim::CoordinateMode::kFree) {
-          s.Child("torques").FailKey(
-              "coordinates", "torque sensor on free coordinate " +
-                                 sim::CoordinateNames()[i] +
-                                 " (allowed: locked or prescribed ones)");
+          s.Child("torques").FailKey("coordinates", "torque sensor on free coordinate " +
+                                                        sim::CoordinateNames()[i] +
+                                                        " (allowed: locked or prescribed ones)");
         }
       }
     }
@@ -692,13 +621,11 @@ Scenario ParseScenario(const std::string &text, const std::string &path) {
     const Node in = top.Child("integrator");
     in.Keys({"method", "tolerance"});
     if (in.Has("method")) {
-      const std::string method =
-          in.Choice("method", {"cvodes", "cvodes-adams", "simbody-rkm"});
-      t.integrator.method =
-          method == "cvodes" ? sim::IntegratorParams::Method::kCvodes
-          : method == "cvodes-adams"
-              ? sim::IntegratorParams::Method::kCvodesAdams
-              : sim::IntegratorParams::Method::kSimbodyRkMerson;
+      const std::string method = in.Choice("method", {"cvodes", "cvodes-adams", "simbody-rkm"});
+      t.integrator.method = method == "cvodes" ? sim::IntegratorParams::Method::kCvodes
+                            : method == "cvodes-adams"
+                                ? sim::IntegratorParams::Method::kCvodesAdams
+                                : sim::IntegratorParams::Method::kSimbodyRkMerson;
     }
     in.Number("tolerance", 1e-12, 1e-2, &t.integrator.tolerance);
   }
@@ -720,4 +647,4 @@ Scenario LoadScenario(const std::string &path) {
   return ParseScenario(text, path);
 }
 
-} // namespace fesim
+}  // namespace fesim
