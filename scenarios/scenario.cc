@@ -1,3 +1,5 @@
+#include "scenarios/scenario.h"
+
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
@@ -8,9 +10,8 @@
 #include <stdexcept>
 
 #include "scenarios/protocols.h"
-#include "scenarios/scenario.h"
-#include "scenarios/trial.h"
 #include "scenarios/yaml_node.h"
+#include "scenarios/trial.h"
 #include "sim/default_model.h"
 
 namespace fesim {
@@ -21,34 +22,34 @@ constexpr double kDeg = 3.14159265358979323846 / 180.0;
 using internal::Fmt;
 using Node = internal::YamlNode;
 
-int MuscleIndex(const sim::ModelParams &m, const std::string &name) {
+int MuscleIndex(const sim::ModelParams& m, const std::string& name) {
   for (std::size_t j = 0; j < m.muscles.size(); ++j) {
     if (m.muscles[j].name == name) return static_cast<int>(j);
   }
   return -1;
 }
 
-std::string MuscleList(const sim::ModelParams &m) {
+std::string MuscleList(const sim::ModelParams& m) {
   std::string s;
-  for (const auto &x : m.muscles) s += (s.empty() ? "" : ", ") + x.name;
+  for (const auto& x : m.muscles) s += (s.empty() ? "" : ", ") + x.name;
   return s;
 }
 
 std::string CoordinateList() {
   std::string s;
-  for (const auto &n : sim::CoordinateNames()) s += (s.empty() ? "" : ", ") + n;
+  for (const auto& n : sim::CoordinateNames()) s += (s.empty() ? "" : ", ") + n;
   return s;
 }
 
-int Coordinate(const Node &parent, const std::string &key, const std::string &name) {
+int Coordinate(const Node& parent, const std::string& key, const std::string& name) {
   const int i = sim::CoordinateIndex(name);
   if (i < 0)
     parent.FailKey(key, "unknown coordinate '" + name + "' (allowed: " + CoordinateList() + ")");
   return i;
 }
 
-void LoadCoordinates(const Node &n, sim::ModelParams *m) {
-  for (const auto &name : n.MapKeys()) {
+void LoadCoordinates(const Node& n, sim::ModelParams* m) {
+  for (const auto& name : n.MapKeys()) {
     const int i = Coordinate(n, name, name);
     const Node c = n.Child(name);
     c.Keys({"mode", "initial_deg", "initial_speed_deg_s", "rest_deg", "min_deg", "max_deg",
@@ -56,8 +57,8 @@ void LoadCoordinates(const Node &n, sim::ModelParams *m) {
             "limit_sharpness_per_rad", "coulomb_friction_nm", "static_friction_nm",
             "stribeck_velocity_rad_s", "reflex_gain_nms_per_rad", "reflex_threshold_deg_s",
             "prescription"});
-    auto &p = m->coordinates[i];
-    auto &pj = p.passive;
+    auto& p = m->coordinates[i];
+    auto& pj = p.passive;
     c.Number("min_deg", -180, 180, &pj.min_angle_rad, kDeg);
     c.Number("max_deg", -180, 180, &pj.max_angle_rad, kDeg);
     if (!(pj.max_angle_rad > pj.min_angle_rad)) c.Fail("max_deg must be greater than min_deg");
@@ -99,14 +100,14 @@ void LoadCoordinates(const Node &n, sim::ModelParams *m) {
   }
 }
 
-void LoadMuscles(const Node &n, sim::ModelParams *m) {
-  for (const auto &name : n.MapKeys()) {
+void LoadMuscles(const Node& n, sim::ModelParams* m) {
+  for (const auto& name : n.MapKeys()) {
     const int j = MuscleIndex(*m, name);
     if (j < 0) n.FailKey(name, "unknown muscle (allowed: " + MuscleList(*m) + ")");
     const Node c = n.Child(name);
     c.Keys({"max_isometric_force_n", "optimal_fibre_length_m", "tendon_slack_length_m",
             "pennation_deg", "omega_rad_s", "alpha", "beta_per_us", "gamma"});
-    auto &mu = m->muscles[j];
+    auto& mu = m->muscles[j];
     c.Number("max_isometric_force_n", 0.1, 1e4, &mu.hill.max_isometric_force_n);
     c.Number("optimal_fibre_length_m", 0.005, 0.5, &mu.hill.optimal_fibre_length_m);
     c.Number("tendon_slack_length_m", 0.0, 0.6, &mu.hill.tendon_slack_length_m);
@@ -118,7 +119,7 @@ void LoadMuscles(const Node &n, sim::ModelParams *m) {
   }
 }
 
-void LoadElectrodes(const Node &n, sim::ModelParams *m) {
+void LoadElectrodes(const Node& n, sim::ModelParams* m) {
   n.Keys({"array", "channels"});
   if (n.Has("array")) {
     const Node a = n.Child("array");
@@ -134,7 +135,7 @@ void LoadElectrodes(const Node &n, sim::ModelParams *m) {
     if (a.Has("motor_points")) {
       const Node mp = a.Child("motor_points");
       m->array.motor_points.clear();
-      for (const auto &name : mp.MapKeys()) {
+      for (const auto& name : mp.MapKeys()) {
         if (MuscleIndex(*m, name) < 0)
           mp.FailKey(name, "unknown muscle (allowed: " + MuscleList(*m) + ")");
         const auto p = mp.Vector(name, 2, -0.5, 0.5);
@@ -156,7 +157,7 @@ void LoadElectrodes(const Node &n, sim::ModelParams *m) {
       if (c.Has("pads")) p.pads = c.IntList("pads", 0, pads - 1);
       if (c.Has("muscles")) {
         const Node mw = c.Child("muscles");
-        for (const auto &name : mw.MapKeys()) {
+        for (const auto& name : mw.MapKeys()) {
           if (MuscleIndex(*m, name) < 0)
             mw.FailKey(name, "unknown muscle (allowed: " + MuscleList(*m) + ")");
           p.muscle_weights.push_back({name, mw.Number(name, 0, 10)});
@@ -168,19 +169,19 @@ void LoadElectrodes(const Node &n, sim::ModelParams *m) {
   }
 }
 
-void LoadSupport(const Node &n, sim::ModelParams *m) {
+void LoadSupport(const Node& n, sim::ModelParams* m) {
   n.Keys({"bands", "weight_compensation"});
-  const auto segment = [](const Node &c) {
+  const auto segment = [](const Node& c) {
     const std::string s = c.Text("segment");
     const int i = sim::SegmentIndex(s);
     if (i < 0) {
       std::string list;
-      for (const auto &x : sim::SegmentNames()) list += (list.empty() ? "" : ", ") + x;
+      for (const auto& x : sim::SegmentNames()) list += (list.empty() ? "" : ", ") + x;
       c.FailKey("segment", "unknown segment '" + s + "' (allowed: " + list + ")");
     }
     return i;
   };
-  const auto vec3 = [](const std::vector<double> &v) { return sim::Vec3d{v[0], v[1], v[2]}; };
+  const auto vec3 = [](const std::vector<double>& v) { return sim::Vec3d{v[0], v[1], v[2]}; };
   if (n.Has("bands")) {
     const Node b = n.Child("bands");
     for (std::size_t k = 0; k < b.Size(); ++k) {
@@ -206,16 +207,16 @@ void LoadSupport(const Node &n, sim::ModelParams *m) {
   }
 }
 
-std::vector<double> ChannelValues(const Node &n, const sim::ModelParams &m) {
+std::vector<double> ChannelValues(const Node& n, const sim::ModelParams& m) {
   std::vector<double> u(m.channels.size(), 0.0);
-  for (const auto &name : n.MapKeys()) {
+  for (const auto& name : n.MapKeys()) {
     int k = -1;
     for (std::size_t i = 0; i < m.channels.size(); ++i) {
       if (m.channels[i].name == name) k = static_cast<int>(i);
     }
     if (k < 0) {
       std::string list;
-      for (const auto &c : m.channels) list += (list.empty() ? "" : ", ") + c.name;
+      for (const auto& c : m.channels) list += (list.empty() ? "" : ", ") + c.name;
       n.FailKey(name, "unknown channel (allowed: " + list + ")");
     }
     u[k] = n.Number(name, 0, 300);
@@ -223,14 +224,13 @@ std::vector<double> ChannelValues(const Node &n, const sim::ModelParams &m) {
   return u;
 }
 
-std::string Directory(const std::string &path) {
+std::string Directory(const std::string& path) {
   const auto slash = path.find_last_of('/');
   return slash == std::string::npos ? "" : path.substr(0, slash + 1);
 }
 
-/// The protocol generators of scenarios/protocols.h, by name, with their
-/// parameters.
-protocols::StimulationProgram LoadProtocol(const Node &n, const sim::ModelParams &m) {
+/// The protocol generators of scenarios/protocols.h, by name, with their parameters.
+protocols::StimulationProgram LoadProtocol(const Node& n, const sim::ModelParams& m) {
   n.Keys({"name",
           "channel",
           "channels",
@@ -264,8 +264,8 @@ protocols::StimulationProgram LoadProtocol(const Node &n, const sim::ModelParams
           "gap_max_s"});
   const std::string name = n.Choice("name", {"step_grid", "ramp", "staircase", "filtered_noise",
                                              "prms", "multisine", "shoulder_steps"});
-  const auto channel_ok = [&](const std::string &key, const std::string &c) {
-    for (const auto &ch : m.channels) {
+  const auto channel_ok = [&](const std::string& key, const std::string& c) {
+    for (const auto& ch : m.channels) {
       if (ch.name == c) return c;
     }
     n.FailKey(key, "unknown channel '" + c + "'");
@@ -280,7 +280,7 @@ protocols::StimulationProgram LoadProtocol(const Node &n, const sim::ModelParams
   const auto channels = [&](std::vector<std::string> fallback) {
     if (!n.Has("channels")) return fallback;
     std::vector<std::string> out;
-    for (const auto &c : n.Child("channels").TextList()) out.push_back(channel_ok("channels", c));
+    for (const auto& c : n.Child("channels").TextList()) out.push_back(channel_ok("channels", c));
     return out;
   };
   const std::string channel =
@@ -372,12 +372,12 @@ protocols::StimulationProgram LoadProtocol(const Node &n, const sim::ModelParams
     p.limit = limit;
     p.seed = seed;
     return protocols::ShoulderPseudoRandomSteps(p);
-  } catch (const std::invalid_argument &e) {
+  } catch (const std::invalid_argument& e) {
     n.Fail(e.what());
   }
 }
 
-protocols::ReachingParams LoadReaching(const Node &n) {
+protocols::ReachingParams LoadReaching(const Node& n) {
   n.Keys({"repetitions", "reach_duration_s", "hold_s", "pause_s", "transfer_duration_s",
           "sample_rate_hz", "homes_m", "targets_m"});
   protocols::ReachingParams r;
@@ -387,7 +387,7 @@ protocols::ReachingParams LoadReaching(const Node &n) {
   n.Number("pause_s", 0, 60, &r.pause_s);
   n.Number("transfer_duration_s", 0.01, 60, &r.transfer_duration_s);
   n.Number("sample_rate_hz", 1, 10000, &r.sample_rate_hz);
-  const auto points = [&](const std::string &key) {
+  const auto points = [&](const std::string& key) {
     std::vector<protocols::Vec3> out;
     const Node list = n.Child(key);
     for (std::size_t i = 0; i < list.Size(); ++i) {
@@ -401,16 +401,16 @@ protocols::ReachingParams LoadReaching(const Node &n) {
   return r;
 }
 
-void LoadStimulation(const Node &n, const std::string &path, const sim::ModelParams &m,
-                     sim::TrialRequest *t, std::optional<protocols::ReachingParams> *reaching) {
+void LoadStimulation(const Node& n, const std::string& path, const sim::ModelParams& m,
+                     sim::TrialRequest* t, std::optional<protocols::ReachingParams>* reaching) {
   n.Keys({"duration_s", "type", "values_us", "steps", "file", "protocol", "reaching"});
   const std::string type = n.Choice("type", {"constant", "steps", "csv", "protocol", "reaching"});
-  auto &sched = t->stimulation;
+  auto& sched = t->stimulation;
   if (type == "reaching") {
     *reaching = n.Has("reaching") ? LoadReaching(n.Child("reaching")) : protocols::ReachingParams{};
     try {
       t->duration_s = protocols::ReachingProgram(**reaching).duration_s;
-    } catch (const std::invalid_argument &e) {
+    } catch (const std::invalid_argument& e) {
       n.FailKey("reaching", e.what());
     }
     return;
@@ -420,7 +420,7 @@ void LoadStimulation(const Node &n, const std::string &path, const sim::ModelPar
     t->duration_s = prog.duration_s;
     n.Number("duration_s", 1e-3, 36000, &t->duration_s);
     std::vector<int> column;  // model channel of each program channel
-    for (const auto &c : prog.channels) {
+    for (const auto& c : prog.channels) {
       for (std::size_t k = 0; k < m.channels.size(); ++k) {
         if (m.channels[k].name == c) column.push_back(static_cast<int>(k));
       }
@@ -457,11 +457,11 @@ void LoadStimulation(const Node &n, const std::string &path, const sim::ModelPar
     Trial input;
     try {
       input = ReadTrialCsv(full);
-    } catch (const std::exception &e) {
+    } catch (const std::exception& e) {
       n.FailKey("file", e.what());
     }
-    std::vector<const std::vector<double> *> cols;
-    for (const auto &c : m.channels) {
+    std::vector<const std::vector<double>*> cols;
+    for (const auto& c : m.channels) {
       if (!input.Has("u." + c.name)) {
         n.FailKey("file", full + " has no column u." + c.name + " (one per channel)");
       }
@@ -483,9 +483,9 @@ void LoadStimulation(const Node &n, const std::string &path, const sim::ModelPar
   }
 }
 
-void LoadMechanisms(const Node &n, sim::ModelParams *m) {
+void LoadMechanisms(const Node& n, sim::ModelParams* m) {
   n.Keys({"fatigue", "potentiation", "electromechanical_delay_s", "tremor", "crosstalk"});
-  auto &mech = m->mechanisms;
+  auto& mech = m->mechanisms;
   if (n.Has("fatigue")) {
     const Node f = n.Child("fatigue");
     f.Keys({"fatigue_time_s", "recovery_time_s", "min_fitness"});
@@ -507,7 +507,7 @@ void LoadMechanisms(const Node &n, sim::ModelParams *m) {
     const Node t = n.Child("tremor");
     t.Keys({"coordinate", "frequency_hz", "amplitude_nm", "amplitude_modulation", "modulation_hz",
             "frequency_drift_hz_per_s", "phase_deg"});
-    auto &tr = mech.tremor;
+    auto& tr = mech.tremor;
     tr.enabled = true;
     if (t.Has("coordinate")) tr.coordinate = Coordinate(t, "coordinate", t.Text("coordinate"));
     t.Number("frequency_hz", 3, 12, &tr.frequency_hz);
@@ -525,9 +525,9 @@ void LoadMechanisms(const Node &n, sim::ModelParams *m) {
   }
 }
 
-/// A sensor block; `unit` is the suffix of its noise/drift/outlier keys (deg,
-/// deg_s or nm) and `scale` converts that unit to SI.
-void LoadSensor(const Node &n, const std::string &unit, double scale, sim::SensorParams *s) {
+/// A sensor block; `unit` is the suffix of its noise/drift/outlier keys (deg, deg_s or nm) and
+/// `scale` converts that unit to SI.
+void LoadSensor(const Node& n, const std::string& unit, double scale, sim::SensorParams* s) {
   n.Keys({"rate_hz", "coordinates", "noise_std_" + unit, "offset_drift_" + unit + "_per_s",
           "dropout_probability", "dropout_mean_samples", "outlier_probability",
           "outlier_std_" + unit, "baseline_window_s"});
@@ -542,7 +542,7 @@ void LoadSensor(const Node &n, const std::string &unit, double scale, sim::Senso
   if (n.Has("coordinates")) {
     const Node c = n.Child("coordinates");
     s->coordinates.clear();
-    for (const auto &name : c.TextList()) {
+    for (const auto& name : c.TextList()) {
       s->coordinates.push_back(Coordinate(n, "coordinates", name));
     }
   }
@@ -550,11 +550,11 @@ void LoadSensor(const Node &n, const std::string &unit, double scale, sim::Senso
 
 }  // namespace
 
-Scenario ParseScenario(const std::string &text, const std::string &path) {
+Scenario ParseScenario(const std::string& text, const std::string& path) {
   YAML::Node root;
   try {
     root = YAML::Load(text);
-  } catch (const YAML::Exception &e) {
+  } catch (const YAML::Exception& e) {
     throw std::runtime_error(path + ":" + std::to_string(e.mark.line + 1) +
                              ": YAML syntax: " + e.msg);
   }
@@ -573,7 +573,7 @@ Scenario ParseScenario(const std::string &text, const std::string &path) {
     p.Number("mass_kg", 30, 150, &mass);
   }
   sc.model = sim::DefaultModelParams(height, mass);
-  sim::ModelParams &m = sc.model;
+  sim::ModelParams& m = sc.model;
   if (top.Has("gravity_m_s2")) {
     const auto g = top.Vector("gravity_m_s2", 3, -100, 100);
     m.gravity_m_s2 = {g[0], g[1], g[2]};
@@ -585,10 +585,10 @@ Scenario ParseScenario(const std::string &text, const std::string &path) {
   if (top.Has("mechanisms")) LoadMechanisms(top.Child("mechanisms"), &m);
   sim::CalibrateReferenceLengths(&m);
 
-  sim::TrialRequest &t = sc.trial;
+  sim::TrialRequest& t = sc.trial;
   t.name = sc.name;
-  // Default sensors: every free coordinate's angle at 60 Hz with 1° noise;
-  // torques on every locked or prescribed coordinate at 100 Hz.
+  // Default sensors: every free coordinate's angle at 60 Hz with 1° noise; torques on every
+  // locked or prescribed coordinate at 100 Hz.
   t.sensors.angles.rate_hz = 60.0;
   t.sensors.angles.noise_std = 1.0 * kDeg;
   t.sensors.torques.rate_hz = 100.0;
@@ -631,17 +631,17 @@ Scenario ParseScenario(const std::string &text, const std::string &path) {
   }
   try {
     sim::BuildElectrodeMatrix(m);
-  } catch (const std::exception &e) {
+  } catch (const std::exception& e) {
     top.FailKey("electrodes", e.what());
   }
   return sc;
 }
 
-Scenario LoadScenario(const std::string &path) {
+Scenario LoadScenario(const std::string& path) {
   std::string text;
   try {
     text = ReadFile(path);
-  } catch (const std::exception &e) {
+  } catch (const std::exception& e) {
     throw std::runtime_error(e.what());
   }
   return ParseScenario(text, path);
