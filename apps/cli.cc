@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <stdexcept>
@@ -88,11 +89,13 @@ void MakeDirs(const std::string& path) {
 }
 
 void ShowProgress(double fraction, const std::string& stage) {
-  fraction = std::clamp(fraction, 0.0, 1.0);
+  // NaN would make the integer conversions below undefined: show it as 0.
+  fraction = std::isnan(fraction) ? 0.0 : std::clamp(fraction, 0.0, 1.0);
   const int width = 30;
-  const int filled = static_cast<int>(fraction * width + 0.5);
-  std::fprintf(stderr, "\r[%.*s%*s] %3d%% %-40.40s", filled, "==============================",
-               width - filled, "", static_cast<int>(fraction * 100.0 + 0.5), stage.c_str());
+  const int filled = static_cast<int>(std::lround(fraction * width));
+  std::fprintf(stderr, "\r[%.*s%*s] %3d%% %-40.40s", filled,
+               "==============================", width - filled, "",
+               static_cast<int>(std::lround(fraction * 100.0)), stage.c_str());
   if (fraction >= 1.0) std::fputc('\n', stderr);
   std::fflush(stderr);
 }

@@ -1,4 +1,8 @@
 // The `fesim` command-line tool: one binary, one subcommand per capability.
+#include <unistd.h>
+
+#include <cctype>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -6,8 +10,34 @@
 
 #include "apps/commands.h"
 #include "fesim/version.h"
+#include "scenarios/trial.h"
 
 namespace {
+
+/// SIGINT/SIGTERM: remove the temporary file of an atomic write in progress (if any), then die of
+/// the signal as before. Outputs are renamed into place only when complete, so an interrupted run
+/// leaves complete files or none, and no *.tmp.* files (docs/reliability.md).
+void OnTerminate(int sig) {
+  const char* tmp = fesim::PendingAtomicWriteTempFile();
+  if (tmp[0] != '\0') ::unlink(tmp);
+  std::signal(sig, SIG_DFL);
+  std::raise(sig);
+}
+
+/// Error messages are one line (PRODUCT.md "Interfaces"); some library exceptions (Simbody's)
+/// span several, so line breaks and the indentation after them become single spaces.
+std::string OneLine(const std::string& s) {
+  std::string out;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s[i] != '\n' && s[i] != '\r') {
+      out.push_back(s[i]);
+      continue;
+    }
+    while (i + 1 < s.size() && std::isspace(static_cast<unsigned char>(s[i + 1]))) ++i;
+    if (!out.empty() && i + 1 < s.size()) out.push_back(' ');
+  }
+  return out;
+}
 
 void PrintUsage() {
   std::printf(
@@ -31,6 +61,8 @@ int main(int argc, char** argv) {
     return argc < 2 ? 2 : 0;
   }
   const std::string cmd = argv[1];
+  std::signal(SIGINT, OnTerminate);
+  std::signal(SIGTERM, OnTerminate);
   if (cmd == "--version") {
     std::printf("fesim %s\n", FESIM_VERSION);
     return 0;
@@ -42,7 +74,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "fesim: unknown subcommand '%s' (see fesim --help)\n", cmd.c_str());
     return 2;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "\nfesim %s: error: %s\n", cmd.c_str(), e.what());
+    std::fprintf(stderr, "\nfesim %s: error: %s\n", cmd.c_str(), OneLine(e.what()).c_str());
     return 1;
   }
 }

@@ -80,7 +80,7 @@ void Json::DumpTo(std::string* out, int indent, int depth) const {
   const auto newline = [&](int d) {
     if (indent <= 0) return;
     out->push_back('\n');
-    out->append(static_cast<std::size_t>(indent * d), ' ');
+    out->append(static_cast<std::size_t>(indent) * static_cast<std::size_t>(d), ' ');
   };
   switch (kind_) {
     case Kind::kNull: out->append("null"); break;

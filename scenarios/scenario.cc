@@ -550,7 +550,8 @@ void LoadSensor(const Node& n, const std::string& unit, double scale, sim::Senso
 
 }  // namespace
 
-Scenario ParseScenario(const std::string& text, const std::string& path) {
+// The parser proper; ParseScenario below names the file in any stray yaml-cpp exception.
+static Scenario ParseScenarioText(const std::string& text, const std::string& path) {
   YAML::Node root;
   try {
     root = YAML::Load(text);
@@ -635,6 +636,17 @@ Scenario ParseScenario(const std::string& text, const std::string& path) {
     top.FailKey("electrodes", e.what());
   }
   return sc;
+}
+
+Scenario ParseScenario(const std::string& text, const std::string& path) {
+  try {
+    return ParseScenarioText(text, path);
+  } catch (const YAML::Exception& e) {
+    // E.g. a mapping used as a key ("{{ext: 1}}"): yaml-cpp's bad conversion, found by fuzzing.
+    throw std::runtime_error(path +
+                             (e.mark.is_null() ? "" : ":" + std::to_string(e.mark.line + 1)) +
+                             ": unexpected YAML structure (" + e.msg + ")");
+  }
 }
 
 Scenario LoadScenario(const std::string& path) {

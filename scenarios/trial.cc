@@ -1,11 +1,15 @@
 #include "scenarios/trial.h"
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <sstream>
@@ -14,7 +18,8 @@
 namespace fesim {
 namespace {
 
-constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegToRad = kPi / 180.0;
 
 std::string Trim(const std::string& s) {
   const auto b = s.find_first_not_of(" \t\r");
@@ -23,18 +28,37 @@ std::string Trim(const std::string& s) {
   return s.substr(b, e - b + 1);
 }
 
-std::vector<std::string> SplitComma(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cell;
-  for (char c : line) {
-    if (c == ',') {
-      out.push_back(Trim(cell));
-      cell.clear();
+/// Splits a line at commas into `out` (reused between lines to spare allocations), cells trimmed.
+void SplitComma(const std::string& line, std::vector<std::string>* out) {
+  std::size_t n = 0, begin = 0;
+  while (true) {
+    const std::size_t comma = std::min(line.find(',', begin), line.size());
+    std::size_t b = begin, e = comma;
+    while (b < e && (line[b] == ' ' || line[b] == '\t' || line[b] == '\r')) ++b;
+    while (e > b && (line[e - 1] == ' ' || line[e - 1] == '\t' || line[e - 1] == '\r')) --e;
+    if (n == out->size()) out->emplace_back();
+    (*out)[n++].assign(line, b, e - b);
+    if (comma == line.size()) break;
+    begin = comma + 1;
+  }
+  out->resize(n);
+}
+
+/// A cell or name as shown in an error message: control bytes as \xNN and at most 40 characters,
+/// so that the message stays one short line whatever the file holds.
+std::string Shown(const std::string& s) {
+  std::string out;
+  for (const char c : s.substr(0, 40)) {
+    const auto b = static_cast<unsigned char>(c);
+    if (b < 0x20 || b == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", b);
+      out += buf;
     } else {
-      cell.push_back(c);
+      out.push_back(c);
     }
   }
-  out.push_back(Trim(cell));
+  if (s.size() > 40) out += "...";
   return out;
 }
 
@@ -101,12 +125,18 @@ std::vector<std::string> Trial::NamesWithPrefix(const std::string& prefix) const
 
 Trial ParseTrialCsv(const std::string& text, const std::string& source) {
   Trial trial;
-  std::istringstream in(text);
   std::string line;
   std::size_t line_no = 0;
   bool have_header = false;
   std::vector<bool> in_degrees;
-  while (std::getline(in, line)) {
+  std::vector<std::string> cells;
+  std::vector<char> unit;  // 'u': pulse width in [0, 300] µs; 'q': angle in rad; 0: unchecked
+  // Lines are cut from `text` directly (no stream copy): a large file costs its text once.
+  for (std::size_t pos = 0; pos < text.size();) {
+    std::size_t eol = text.find('\n', pos);
+    if (eol == std::string::npos) eol = text.size();
+    line.assign(text, pos, eol - pos);
+    pos = eol + 1;
     ++line_no;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (Trim(line).empty()) continue;
@@ -118,25 +148,38 @@ Trial ParseTrialCsv(const std::string& text, const std::string& source) {
       trial.metadata[Trim(body.substr(0, colon))] = Trim(body.substr(colon + 1));
       continue;
     }
-    const auto cells = SplitComma(line);
+    SplitComma(line, &cells);
     if (!have_header) {
       if (cells.empty() || cells[0] != "time") {
-        Fail(source, line_no, "header must start with column 'time', found '" +
-                                  (cells.empty() ? std::string() : cells[0]) + "'");
+        Fail(source, line_no,
+             "header must start with column 'time', found '" +
+                 Shown(cells.empty() ? std::string() : cells[0]) + "'");
       }
       for (std::size_t k = 1; k < cells.size(); ++k) {
         std::string name = cells[k];
         if (name.empty()) Fail(source, line_no, "column " + std::to_string(k + 1) + " has no name");
         bool deg = false;
         if (name.size() > 4 && name.compare(name.size() - 4, 4, "_deg") == 0) {
-          name = name.substr(0, name.size() - 4);
+          name = Trim(name.substr(0, name.size() - 4));
           deg = true;
+          if (name.empty())
+            Fail(source, line_no, "column " + Shown(cells[k]) + ": no name before _deg");
+          if (name.size() > 4 && name.compare(name.size() - 4, 4, "_deg") == 0) {
+            Fail(source, line_no, "column " + Shown(cells[k]) + ": suffix _deg given twice");
+          }
+        }
+        for (const char c : name) {
+          if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
+            Fail(source, line_no,
+                 "column " + std::to_string(k + 1) + ": name contains a control character");
+          }
         }
         if (name == "time" || trial.Has(name)) {
-          Fail(source, line_no, "column " + cells[k] + ": duplicate column name");
+          Fail(source, line_no, "column " + Shown(cells[k]) + ": duplicate column name");
         }
         trial.names.push_back(name);
         in_degrees.push_back(deg);
+        unit.push_back(name.rfind("u.", 0) == 0 ? 'u' : name.rfind("q.", 0) == 0 ? 'q' : 0);
       }
       trial.columns.resize(trial.names.size());
       have_header = true;
@@ -149,19 +192,35 @@ Trial ParseTrialCsv(const std::string& text, const std::string& source) {
     }
     double t = 0.0;
     if (!ParseCell(cells[0], &t) || !std::isfinite(t)) {
-      Fail(source, line_no, "column time: '" + cells[0] + "' is not a finite number");
+      Fail(source, line_no, "column time: '" + Shown(cells[0]) + "' is not a finite number");
     }
     if (!trial.time.empty() && !(t > trial.time.back())) {
-      Fail(source, line_no, "column time: " + cells[0] + " is not greater than the previous time");
+      Fail(source, line_no,
+           "column time: " + Shown(cells[0]) + " is not greater than the previous time");
     }
     trial.time.push_back(t);
     for (std::size_t k = 0; k < trial.names.size(); ++k) {
       double v = 0.0;
       if (!ParseCell(cells[k + 1], &v) || std::isinf(v)) {
         Fail(source, line_no,
-             "column " + trial.names[k] + ": '" + cells[k + 1] + "' is not a number");
+             "column " + Shown(trial.names[k]) + ": '" + Shown(cells[k + 1]) + "' is not a number");
       }
-      trial.columns[k].push_back(in_degrees[k] ? v * kDegToRad : v);
+      if (in_degrees[k]) v *= kDegToRad;
+      // Wrong units: a pulse width outside 0–300 µs (ms or ns?) or an angle beyond a full turn
+      // (degrees without the _deg suffix?).
+      if (unit[k] == 'u' && !(std::isnan(v) || (v >= 0.0 && v <= 300.0))) {
+        Fail(source, line_no,
+             "column " + Shown(trial.names[k]) + ": " + Shown(cells[k + 1]) +
+                 " is outside [0, 300] (pulse width in µs)");
+      }
+      if (unit[k] == 'q' && std::abs(v) > 2.0 * kPi) {
+        Fail(source, line_no,
+             "column " + Shown(trial.names[k]) + ": " + Shown(cells[k + 1]) +
+                 (in_degrees[k] ? " is beyond a full turn"
+                                : " is beyond a full turn (angles are in rad; degrees need the "
+                                  "suffix _deg)"));
+      }
+      trial.columns[k].push_back(v);
     }
   }
   if (!have_header) Fail(source, line_no, "no header row (expected 'time,...')");
@@ -206,30 +265,68 @@ std::string FormatTrialSto(const Trial& trial, const std::string& name) {
   return out;
 }
 
+namespace {
+// The temporary file being written, for signal handlers (see PendingAtomicWriteTempFile).
+char g_pending_tmp[4096] = "";
+
+/// Publishes `tmp` as pending (empty clears it). Writes the terminating NUL first and the first
+/// byte last, so a handler interrupting the update sees either "" or a complete name.
+void SetPendingTemp(const std::string& tmp) {
+  g_pending_tmp[0] = '\0';
+  std::atomic_signal_fence(std::memory_order_seq_cst);
+  if (tmp.empty() || tmp.size() >= sizeof g_pending_tmp) return;
+  std::memcpy(g_pending_tmp + 1, tmp.c_str() + 1, tmp.size());
+  std::atomic_signal_fence(std::memory_order_seq_cst);
+  g_pending_tmp[0] = tmp[0];
+}
+}  // namespace
+
+const char* PendingAtomicWriteTempFile() { return g_pending_tmp; }
+
 void WriteFileAtomic(const std::string& path, const std::string& contents) {
   const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  SetPendingTemp(tmp);
   std::FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (f == nullptr) throw std::runtime_error(path + ": cannot open for writing");
+  if (f == nullptr) {
+    const int err = errno;
+    SetPendingTemp("");
+    throw std::runtime_error(path + ": cannot open for writing: " + std::strerror(err));
+  }
   const bool ok = std::fwrite(contents.data(), 1, contents.size(), f) == contents.size() &&
                   std::fflush(f) == 0 && ::fsync(::fileno(f)) == 0;
+  const int write_err = errno;
   const bool closed = std::fclose(f) == 0;
   if (!ok || !closed) {
+    const int err = ok ? errno : write_err;
     std::remove(tmp.c_str());
-    throw std::runtime_error(path + ": write failed (disk full?)");
+    SetPendingTemp("");
+    throw std::runtime_error(path + ": write failed: " + std::strerror(err));
   }
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int err = errno;
     std::remove(tmp.c_str());
-    throw std::runtime_error(path + ": cannot rename temporary file into place");
+    SetPendingTemp("");
+    throw std::runtime_error(path +
+                             ": cannot rename temporary file into place: " + std::strerror(err));
   }
+  SetPendingTemp("");
 }
 
 std::string ReadFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(path + ": cannot open for reading");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) throw std::runtime_error(path + ": read error");
-  return ss.str();
+  if (!in) throw std::runtime_error(path + ": cannot open for reading: " + std::strerror(errno));
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) {
+    throw std::runtime_error(path + ": cannot open for reading: is a directory");
+  }
+  // Read in blocks straight into the result (a stream copy would double the peak memory of a
+  // large file, docs/reliability.md).
+  std::string text;
+  if (S_ISREG(st.st_mode) && st.st_size > 0) text.reserve(static_cast<std::size_t>(st.st_size));
+  char buf[1 << 16];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) text.append(buf, in.gcount());
+  if (in.bad()) throw std::runtime_error(path + ": read error: " + std::strerror(errno));
+  return text;
 }
 
 }  // namespace fesim

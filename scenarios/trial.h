@@ -42,7 +42,8 @@ struct Trial {
 /// Reads a trial CSV (C locale, `#` metadata lines, header row whose first column is `time`).
 /// Columns whose name ends in `_deg` are angles in degrees: they are converted to rad and renamed
 /// without the suffix. Empty cells and `nan` become NaN (tracker dropouts); anything else that is
-/// not a number, a wrong cell count, a duplicate column or non-increasing time is an error.
+/// not a number, a wrong cell count, a duplicate column or non-increasing time is an error, and so
+/// are units that cannot be right: a `u.` value outside [0, 300] µs, a `q.` angle beyond ±2π rad.
 /// Throws std::runtime_error with a one-line message "FILE:LINE: column NAME: what is wrong".
 Trial ReadTrialCsv(const std::string& path);
 
@@ -60,6 +61,11 @@ std::string FormatTrialSto(const Trial& trial, const std::string& name);
 /// renamed over `path`. Throws std::runtime_error naming the path on failure; never leaves a
 /// partial file at `path`.
 void WriteFileAtomic(const std::string& path, const std::string& contents);
+
+/// The temporary file a WriteFileAtomic call is writing right now, or "" when none.
+/// Async-signal-safe: a SIGINT/SIGTERM handler may unlink() it before the process dies, so an
+/// interrupted run leaves no temporary file behind (apps/main.cc does).
+const char* PendingAtomicWriteTempFile();
 
 /// Reads a whole file; throws std::runtime_error naming the path when it cannot be read.
 std::string ReadFile(const std::string& path);
