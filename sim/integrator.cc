@@ -38,6 +38,15 @@ std::vector<double> Breakpoints(const StimulationSchedule& schedule, double t0) 
   return b;
 }
 
+/// A multi-line library message joined on one line.
+std::string OneLine(std::string s) {
+  for (char& c : s) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s;
+}
+
 std::string DescribeState(const UpperLimbModel& model, const SimTK::State& s) {
   // Name the coordinate furthest outside its range: the usual culprit of a blow-up.
   const auto q = model.GetQs(s);
@@ -277,7 +286,16 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
   Drive(
       model, schedule, report_times, state, observer, observe_stage,
       [&](double t, double stop) {
-        while (integ->getTime() < t) integ->stepTo(t, stop);
+        try {
+          while (integ->getTime() < t) integ->stepTo(t, stop);
+        } catch (const std::exception& e) {
+          *state = integ->getState();
+          throw std::runtime_error("integration failed at t = " + std::to_string(integ->getTime()) +
+                                   " s (Simbody RKM: " + OneLine(e.what()) + "); " +
+                                   DescribeState(model, *state) +
+                                   ". Hint: use integrator.method cvodes for stiff rigs, or "
+                                   "tighten integrator.tolerance");
+        }
         *state = integ->getState();
         if (std::abs(state->getTime() - t) > 1e-9) {
           throw std::runtime_error(

@@ -19,7 +19,10 @@ struct Result {
 };
 
 Result RunFesim(const std::string& args) {
-  const std::string err_file = ::testing::TempDir() + "sim_stderr.txt";
+  // One stderr file per test: ctest runs the tests of this binary in parallel processes.
+  const std::string err_file = ::testing::TempDir() + "sim_stderr_" +
+                               ::testing::UnitTest::GetInstance()->current_test_info()->name() +
+                               ".txt";
   const std::string cmd = std::string(FESIM_BIN_PATH) + " " + args + " 2>" + err_file;
   const int status = std::system(cmd.c_str());
   return {WEXITSTATUS(status), ReadFile(err_file)};
