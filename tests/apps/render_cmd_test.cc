@@ -13,9 +13,13 @@
 #include <vector>
 
 #include "scenarios/trial.h"
+#include "tests/testing/process.h"
 
 namespace fesim {
 namespace {
+
+using ::fesim::test_util::FindProgram;
+using ::fesim::test_util::RunCommand;
 
 namespace fs = std::filesystem;
 
@@ -41,28 +45,6 @@ Result RunFesim(const std::string& args, const fs::path& err_file) {
   const std::string cmd = FesimBin() + " " + args + " >/dev/null 2>'" + err_file.string() + "'";
   const int status = std::system(cmd.c_str());
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ReadFile(err_file.string())};
-}
-
-std::string FindProgram(const std::string& name) {
-  const char* path = std::getenv("PATH");
-  std::stringstream dirs(path ? path : "");
-  std::string dir;
-  while (std::getline(dirs, dir, ':')) {
-    const fs::path candidate = fs::path(dir.empty() ? "." : dir) / name;
-    if (::access(candidate.c_str(), X_OK) == 0) return candidate.string();
-  }
-  return "";
-}
-
-std::string RunCommand(const std::string& command) {
-  std::string out;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return out;
-  std::array<char, 4096> buffer;
-  std::size_t n;
-  while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) out.append(buffer.data(), n);
-  ::pclose(pipe);
-  return out;
 }
 
 /// A fresh directory per test, with inputs in in/ and outputs in out/.

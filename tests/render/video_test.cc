@@ -17,8 +17,13 @@
 #include <string>
 #include <vector>
 
+#include "tests/testing/process.h"
+
 namespace fesim::render {
 namespace {
+
+using ::fesim::test_util::FindProgram;
+using ::fesim::test_util::RunCommand;
 
 namespace fs = std::filesystem;
 
@@ -50,30 +55,6 @@ class TempDir {
  private:
   fs::path path_;
 };
-
-/// The program's full path if it is in PATH, else "".
-std::string FindProgram(const std::string& name) {
-  const char* path = std::getenv("PATH");
-  std::stringstream dirs(path ? path : "");
-  std::string dir;
-  while (std::getline(dirs, dir, ':')) {
-    const fs::path candidate = fs::path(dir.empty() ? "." : dir) / name;
-    if (::access(candidate.c_str(), X_OK) == 0) return candidate.string();
-  }
-  return "";
-}
-
-/// Runs a shell command and returns its stdout.
-std::string RunCommand(const std::string& command) {
-  std::string out;
-  FILE* pipe = ::popen(command.c_str(), "r");
-  if (pipe == nullptr) return out;
-  std::array<char, 4096> buffer;
-  std::size_t n;
-  while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) out.append(buffer.data(), n);
-  ::pclose(pipe);
-  return out;
-}
 
 /// A test pattern that changes with the frame index.
 Image Pattern(int width, int height, int index) {
