@@ -533,32 +533,35 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
   if (nc == 0) throw std::runtime_error("full-model: the rig offers no candidate parameter");
   fit.residuals = data.residuals;
 
-  // 1. Sensitivity ranking at the nominal point (one forward difference per candidate, parallel).
-  if (progress) progress(0.0, "sensitivity ranking of " + std::to_string(nc) + " parameters");
-  const auto t_sens = Clock::now();
-  Eigen::VectorXd x_nom(nc), upper_all(nc);
-  for (int i = 0; i < nc; ++i) {
-    x_nom(i) = fit.candidates[i].nominal;
-    upper_all(i) = fit.candidates[i].upper;
-  }
-  const Eigen::VectorXd r_nom =
-      Residuals(base, fit.candidates, x_nom, train, data, tol, threads, true);
-  const std::string sens_label = "sensitivity ranking of " + std::to_string(nc) + " parameters";
-  const Eigen::MatrixXd J_nom =
-      ParallelJacobian(base, fit.candidates, x_nom, r_nom, upper_all, train, data, tol,
-                       options.fd_relative_step, threads, [&](double f) {
-                         if (progress) progress(0.1 * f, sens_label);
-                       });
-  const double sqrt_n = std::sqrt(static_cast<double>(std::max<long>(1, data.residuals)));
+  // 1. Sensitivity ranking at the nominal point (one forward difference per candidate, parallel),
+  // skipped when the caller names the parameters and asks for no ranking.
   std::vector<int> order(nc);
   std::vector<double> s(nc);
-  for (int i = 0; i < nc; ++i) {
-    order[i] = i;
-    s[i] = J_nom.col(i).norm() * ScaleOf(fit.candidates[i]) / sqrt_n;
+  if (options.rank || options.fit_names.empty()) {
+    if (progress) progress(0.0, "sensitivity ranking of " + std::to_string(nc) + " parameters");
+    const auto t_sens = Clock::now();
+    Eigen::VectorXd x_nom(nc), upper_all(nc);
+    for (int i = 0; i < nc; ++i) {
+      x_nom(i) = fit.candidates[i].nominal;
+      upper_all(i) = fit.candidates[i].upper;
+    }
+    const Eigen::VectorXd r_nom =
+        Residuals(base, fit.candidates, x_nom, train, data, tol, threads, true);
+    const std::string sens_label = "sensitivity ranking of " + std::to_string(nc) + " parameters";
+    const Eigen::MatrixXd J_nom =
+        ParallelJacobian(base, fit.candidates, x_nom, r_nom, upper_all, train, data, tol,
+                         options.fd_relative_step, threads, [&](double f) {
+                           if (progress) progress(0.1 * f, sens_label);
+                         });
+    const double sqrt_n = std::sqrt(static_cast<double>(std::max<long>(1, data.residuals)));
+    for (int i = 0; i < nc; ++i) {
+      order[i] = i;
+      s[i] = J_nom.col(i).norm() * ScaleOf(fit.candidates[i]) / sqrt_n;
+    }
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return s[a] > s[b]; });
+    for (int i : order) fit.ranking.push_back({fit.candidates[i].name, s[i]});
+    fit.sensitivity_wall_s = Seconds(t_sens);
   }
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return s[a] > s[b]; });
-  for (int i : order) fit.ranking.push_back({fit.candidates[i].name, s[i]});
-  fit.sensitivity_wall_s = Seconds(t_sens);
 
   // 2. The kept subset.
   std::vector<int> kept_index;

@@ -93,6 +93,9 @@ struct FullModelFitOptions {
   int keep_parameters = 29;  ///< K, the most influential candidates fitted, ≥ 1.
   /// Fit exactly these candidates (by name) instead of the K best ranked (ranking still reported).
   std::vector<std::string> fit_names;
+  /// With fit_names given, false skips the sensitivity ranking (FullModelFit::ranking empty):
+  /// callers that ranked once (e.g. `fesim benchmark`, per participant) save its simulations.
+  bool rank = true;
   int starts = 2;                      ///< multi-start local optimisations, ≥ 1.
   unsigned seed = 1;                   ///< start points.
   double start_spread = 0.3;           ///< log half-width of the random starts (see header), ≥ 0.
