@@ -41,17 +41,6 @@ void PrintHelp() {
 }
 
 /// FNV-1a, 64 bit: a stable content hash for the manifest.
-std::string Fnv1a64(const std::string& s) {
-  std::uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : s) {
-    h ^= c;
-    h *= 1099511628211ull;
-  }
-  char buf[17];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
-  return buf;
-}
-
 Json StatsJson(const sim::TrialResult& r) {
   Json stats = Json::Object();
   stats.Set("steps", static_cast<double>(r.stats.steps))
@@ -66,7 +55,7 @@ Json StatsJson(const sim::TrialResult& r) {
 int RunStudy(const std::string& path, long seed, const cli::Args& args) {
   const Study st = LoadStudy(path, static_cast<std::uint64_t>(seed));
   const std::string out = args.Get("out", "out/" + st.name);
-  const std::string hash = Fnv1a64(st.source_text);
+  const std::string hash = Fnv1a64Hex(st.source_text);
   const int threads =
       static_cast<int>(args.GetInt("threads", std::max(1u, std::thread::hardware_concurrency())));
   if (threads < 1) throw std::runtime_error("option --threads: must be >= 1");
@@ -168,7 +157,7 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args) {
 int RunReaching(const Scenario& sc, const std::string& out, long seed) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<Trial> trials = sim::SimulateReaching(sc.model, *sc.reaching, {});
-  const std::string hash = Fnv1a64(sc.source_text);
+  const std::string hash = Fnv1a64Hex(sc.source_text);
   cli::MakeDirs(out);
   Json files = Json::Array();
   for (std::size_t k = 0; k < trials.size(); ++k) {
@@ -222,7 +211,7 @@ int RunSimulate(int argc, char** argv) {
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   Trial measured = r.measured, truth = r.truth;
-  const std::string hash = Fnv1a64(sc.source_text);
+  const std::string hash = Fnv1a64Hex(sc.source_text);
   for (Trial* t : {&measured, &truth}) {
     t->metadata["scenario"] = sc.name;
     t->metadata["scenario_hash"] = hash;

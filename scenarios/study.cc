@@ -113,6 +113,7 @@ Study LoadStudy(const std::string& path, std::uint64_t noise_seed) {
   top.Keys({"study", "scenario", "repetitions", "cohort", "protocols"});
   st.name = top.Text("study");
   const std::string base_path = Directory(path) + top.Text("scenario");
+  st.scenario_path = base_path;
   std::string base_text;
   try {
     base_text = ReadFile(base_path);

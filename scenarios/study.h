@@ -68,6 +68,7 @@ struct Study {
   std::string name;
   std::string path;
   std::string source_text;
+  std::string scenario_path;  ///< the base scenario (the rig), resolved against `path`.
   CohortParams cohort;
   std::vector<Participant> participants;
   std::vector<StudyItem> items;  ///< participant-major, then protocol, then repetition.

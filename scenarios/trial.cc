@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -327,6 +328,18 @@ std::string ReadFile(const std::string& path) {
   while (in.read(buf, sizeof buf) || in.gcount() > 0) text.append(buf, in.gcount());
   if (in.bad()) throw std::runtime_error(path + ": read error: " + std::strerror(errno));
   return text;
+}
+
+std::string Fnv1a64Hex(const std::string& bytes) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : bytes) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  static const char kHex[] = "0123456789abcdef";
+  std::string out(16, '0');
+  for (int k = 15; k >= 0; --k, h >>= 4) out[static_cast<std::size_t>(k)] = kHex[h & 15];
+  return out;
 }
 
 }  // namespace fesim

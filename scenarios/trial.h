@@ -67,6 +67,9 @@ void WriteFileAtomic(const std::string& path, const std::string& contents);
 /// interrupted run leaves no temporary file behind (apps/main.cc does).
 const char* PendingAtomicWriteTempFile();
 
+/// FNV-1a 64-bit hash of `bytes` as 16 lower-case hex digits (cache keys, manifest hashes).
+std::string Fnv1a64Hex(const std::string& bytes);
+
 /// Reads a whole file; throws std::runtime_error naming the path when it cannot be read.
 std::string ReadFile(const std::string& path);
 
