@@ -11,6 +11,7 @@ namespace fesim {
 int RunSimulate(int argc, char** argv);
 int RunIdentify(int argc, char** argv);
 int RunRender(int argc, char** argv);
+int RunBenchmark(int argc, char** argv);
 
 /// Identification methods that live outside identification/'s Eigen-only core (e.g. the
 /// full-model fit, which simulates through sim/).

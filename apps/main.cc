@@ -45,6 +45,7 @@ void PrintUsage() {
       "usage:\n"
       "  fesim simulate  SCENARIO.yaml [--out DIR] [--seed N]\n"
       "  fesim identify  --method NAME --train A.csv[,B.csv...] [--test C.csv] [--out DIR]\n"
+      "  fesim benchmark [STUDY.yaml] [--out DIR] [--quick] [--threads N] [--seed N]\n"
       "  fesim render    TRIAL.csv --scenario SCENARIO.yaml --out MOVIE.mp4 | --frames DIR\n"
       "                  [--width W --height H --fps F --camera front|side|top|orbit]\n"
       "                  [--compare OTHER.csv]\n"
@@ -71,6 +72,7 @@ int main(int argc, char** argv) {
     if (cmd == "simulate") return fesim::RunSimulate(argc, argv);
     if (cmd == "render") return fesim::RunRender(argc, argv);
     if (cmd == "identify") return fesim::RunIdentify(argc, argv);
+    if (cmd == "benchmark") return fesim::RunBenchmark(argc, argv);
     std::fprintf(stderr, "fesim: unknown subcommand '%s' (see fesim --help)\n", cmd.c_str());
     return 2;
   } catch (const std::exception& e) {

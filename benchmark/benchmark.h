@@ -1,0 +1,52 @@
+// `fesim benchmark` (issue 6): every identifier of papers 000–004 against the ground truth of a
+// virtual cohort, with the papers' validation schemes and the layout of their tables.
+//
+// Sections (scenarios/benchmark_spec.h says which run and on which studies):
+//  hand_array    paper 000 Tables 1–2: per participant and joint the normalised cross-validation
+//                error (fit on three of four step-grid data sets, validate on the fourth, all four
+//                rotations, mean) of the full-model (12) fit and of the MIMO Hammerstein model,
+//                and the time per local optimisation step.
+//  elbow_tests   paper 002 Tables 1–3: identification, validation and cross-validation Best Fit of
+//                Algorithms 1 and 2 for triangular ramp, filtered random noise, staircase, PRMS.
+//  tremor_wrist  paper 001 Table 5: the order sweep's validation / cross-validation Best Fit, and
+//                the identified tremor frequency and amplitude against the planted ones.
+//  shoulder      paper 003: offline fit indices of models 1 and 2, EKF convergence times and
+//                parameter estimates (trajectories plotted).
+//  reaching      paper 004: LOOCV normalised RMS torque error per joint of the three models.
+//  truth         what the papers could not do: prediction error of every reduced model against
+//                the noiseless full model on inputs it never saw, parameter errors where a
+//                parameter has a ground-truth counterpart, and (assumptions) how far the cohort's
+//                ground truth is from paper 000's Assumptions, by switching that aspect of the full
+//                model to the assumption and re-simulating.
+// Outputs: DIR/report.md, DIR/results.json (every figure of the report), DIR/plots/*.png; the
+// trials and fits are cached under DIR/cache/ so a killed run resumes.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "scenarios/benchmark_spec.h"
+#include "scenarios/json.h"
+
+namespace fesim::benchmark {
+
+struct BenchmarkOptions {
+  std::string out_dir = "out/benchmark";
+  bool quick = false;      ///< the sections' quick studies (tests).
+  int threads = 0;         ///< 0 = all cores.
+  std::uint64_t seed = 1;  ///< sensor-noise seed of every study.
+  /// Progress (fraction 0–1 and a label with the estimated time left); may be empty.
+  std::function<void(double, const std::string&)> progress;
+};
+
+struct BenchmarkOutcome {
+  Json results;        ///< what results.json holds.
+  std::string report;  ///< report.md's text.
+  double wall_s = 0.0;
+};
+
+/// Runs the benchmark and writes report.md, results.json and the plots atomically.
+BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions& options);
+
+}  // namespace fesim::benchmark

@@ -1,0 +1,68 @@
+// The sections of `fesim benchmark` (see benchmark.h); internal to benchmark/.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "benchmark/work.h"
+#include "scenarios/benchmark_spec.h"
+#include "scenarios/json.h"
+
+namespace fesim::benchmark {
+
+/// What every section gets: the spec, the caches, the thread count and where plots go.
+struct SectionContext {
+  const BenchmarkSpec* spec = nullptr;
+  bool quick = false;
+  int threads = 1;
+  std::uint64_t seed = 1;
+  std::string cache_dir;  ///< DIR/cache.
+  std::string plots_dir;  ///< DIR/plots.
+  FitRunner* fits = nullptr;
+  Progress* progress = nullptr;
+  int trials_simulated = 0;  ///< summed by the sections.
+};
+
+/// A section's figures (results.json) and its Markdown (report.md).
+struct SectionResult {
+  Json json = Json::Object();
+  std::string markdown;
+};
+
+SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx);
+SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx);
+SectionResult RunTremorWrist(const BenchmarkSection& section, SectionContext* ctx);
+SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx);
+SectionResult RunReaching(const BenchmarkSection& section, SectionContext* ctx);
+
+/// Progress weights (≈ seconds on one core) of the work units, shared by the plan in
+/// RunBenchmark and the sections' Done() calls.
+inline constexpr double kTrialWeightPerSecond = 0.003;  ///< per simulated second.
+inline constexpr double kHammersteinFitWeight = 0.6;
+inline constexpr double kSplineFitWeight = 0.1;
+inline constexpr double kTremorParticipantWeight = 2.0;
+inline constexpr double kShoulderFitWeight = 0.5;
+inline constexpr double kReachingWeight = 5.0;
+inline double FullModelFitWeight(const FullModelBudget& b) {
+  return 0.3 * b.keep * (b.max_iterations + 1);
+}
+
+// Small shared helpers.
+
+/// Mean of the finite values (NaN when none).
+double MeanFinite(const std::vector<double>& v);
+/// Sample standard deviation of the finite values (0 for fewer than two).
+double StdFinite(const std::vector<double>& v);
+/// Markdown number with `digits` decimals ("–" for NaN).
+std::string Fixed(double v, int digits);
+/// The value of top-level key `key` of an identified model's YAML (`key: {value: v, …}`), NaN
+/// when absent.
+double ModelYamlValue(const std::string& model_yaml, const std::string& key);
+/// The values of the mapping `key` of an identified model's YAML (`key: {k1: {value: v}, …}`),
+/// in file order; empty when absent.
+std::vector<double> ModelYamlList(const std::string& model_yaml, const std::string& key);
+/// A finding: "holds"/"does not hold" and the margin, as JSON and one Markdown line.
+Json Finding(const std::string& claim, bool holds, const std::string& margin);
+std::string FindingLine(const Json& finding);
+
+}  // namespace fesim::benchmark

@@ -1,0 +1,306 @@
+#include "benchmark/work.h"
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <stdexcept>
+#include <thread>
+
+#include "benchmark/sections.h"
+#include "fesim/version.h"
+#include "sim/trial_runner.h"
+#include "sim/upper_limb_model.h"
+
+namespace fesim::benchmark {
+namespace {
+
+bool FileExists(const std::string& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+/// The truth record reduced to what the benchmark compares against: inputs, joint angles and
+/// velocities, sensor torques (the full record with forces and activations is `fesim simulate`'s).
+Trial TrimTruth(const Trial& truth) {
+  Trial t;
+  t.metadata = truth.metadata;
+  t.time = truth.time;
+  for (std::size_t k = 0; k < truth.names.size(); ++k) {
+    const std::string& n = truth.names[k];
+    if (n.rfind("u.", 0) == 0 || n.rfind("q.", 0) == 0 || n.rfind("qd.", 0) == 0 ||
+        n.rfind("tau.", 0) == 0) {
+      t.AddColumn(n, truth.columns[k]);
+    }
+  }
+  return t;
+}
+
+/// The record an identifier sees: the rows of the output sensor (q.* if the rig measures angles,
+/// else tau.*), the channels the protocol drives (u.* not identically zero), the output columns,
+/// and every other sensor column that has a value at each of those rows (e.g. qd.* at the same
+/// rate). Rigs with sensors at several rates write NaN where a sensor did not sample.
+Trial SensorView(const Trial& t) {
+  const std::string primary = t.NamesWithPrefix("q.").empty() ? "tau." : "q.";
+  const std::vector<std::string> outputs = t.NamesWithPrefix(primary);
+  std::vector<std::size_t> rows;
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    bool any = false;
+    for (const auto& n : outputs) any = any || std::isfinite(t.Column(n)[i]);
+    if (any) rows.push_back(i);
+  }
+  Trial v;
+  v.metadata = t.metadata;
+  for (std::size_t i : rows) v.time.push_back(t.time[i]);
+  const auto pick = [&](const std::string& n) {
+    std::vector<double> c;
+    for (std::size_t i : rows) c.push_back(t.Column(n)[i]);
+    return c;
+  };
+  std::vector<std::string> driven;
+  for (const auto& n : t.NamesWithPrefix("u.")) {
+    const auto& c = t.Column(n);
+    if (std::any_of(c.begin(), c.end(), [](double x) { return x != 0.0; })) driven.push_back(n);
+  }
+  if (driven.empty()) driven = t.NamesWithPrefix("u.");
+  for (const auto& n : driven) v.AddColumn(n, pick(n));
+  for (const auto& n : t.names) {
+    if (n.rfind("u.", 0) == 0) continue;
+    std::vector<double> c = pick(n);
+    const bool is_output = n.rfind(primary, 0) == 0;
+    if (is_output || std::all_of(c.begin(), c.end(), [](double x) { return std::isfinite(x); })) {
+      v.AddColumn(n, std::move(c));
+    }
+  }
+  return v;
+}
+
+/// Sets metadata `trial_hash` to the hash of the trial's CSV without it; returns the CSV with it.
+std::string HashAndFormat(Trial* t) {
+  t->metadata.erase("trial_hash");
+  t->metadata["trial_hash"] = Fnv1a64Hex(FormatTrialCsv(*t));
+  return FormatTrialCsv(*t);
+}
+
+}  // namespace
+
+void MakeDirs(const std::string& path) {
+  for (std::size_t i = 1; i <= path.size(); ++i) {
+    if (i < path.size() && path[i] != '/') continue;
+    const std::string p = path.substr(0, i);
+    if (::mkdir(p.c_str(), 0777) != 0 && errno != EEXIST) {
+      throw std::runtime_error(p + ": cannot create directory");
+    }
+  }
+}
+
+void ParallelFor(std::size_t n, int threads, const std::string& label,
+                 const std::function<void(std::size_t)>& fn) {
+  std::vector<std::string> errors(n);
+  std::atomic<std::size_t> next{0};
+  const auto worker = [&] {
+    for (std::size_t i = next++; i < n; i = next++) {
+      try {
+        fn(i);
+      } catch (const std::exception& e) {
+        errors[i] = e.what();
+      }
+    }
+  };
+  const int nt = std::max(1, std::min<int>(threads, static_cast<int>(n)));
+  if (nt == 1) {
+    worker();
+  } else {
+    std::vector<std::thread> pool;
+    for (int k = 0; k < nt; ++k) pool.emplace_back(worker);
+    for (auto& t : pool) t.join();
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!errors[i].empty())
+      throw std::runtime_error(label + " " + std::to_string(i) + ": " + errors[i]);
+  }
+}
+
+Progress::Progress(std::function<void(double, const std::string&)> report)
+    : report_(std::move(report)), start_(std::chrono::steady_clock::now()) {}
+
+void Progress::Plan(double weight) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  planned_ += weight;
+}
+
+void Progress::Done(double weight, const std::string& stage) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  done_ += weight;
+  if (!report_) return;
+  // Below 1 until the caller reports completion (the plan is an estimate).
+  const double f = planned_ > 0.0 ? std::min(0.99, done_ / planned_) : 0.0;
+  const double elapsed =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  std::string label = stage;
+  if (f > 0.02) {
+    const double left = elapsed / f * (1.0 - f);
+    char buf[64];
+    std::snprintf(buf, sizeof buf, ", ~%.0f s left", left);
+    label += buf;
+  }
+  report_(f, label);
+}
+
+StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
+                          const std::string& cache_dir, int threads, Progress* progress) {
+  StudyTrials out;
+  out.study = LoadStudy(study_path, seed);
+  const Study& st = out.study;
+  const std::string key =
+      Fnv1a64Hex(st.source_text + "\n--\n" + ReadFile(st.scenario_path) + "\n--\n" +
+                 std::to_string(seed) + "\n" + FESIM_VERSION + "\nsensor-view-1");
+  const std::string dir = cache_dir + "/" + st.name + "_" + key;
+  const std::size_t n = st.items.size();
+  out.measured.resize(n);
+  out.truth.resize(n);
+  std::vector<double> weight(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    weight[i] = kTrialWeightPerSecond * st.items[i].scenario.trial.duration_s;
+  }
+  std::mutex write_mutex;
+  std::atomic<int> simulated{0};
+  ParallelFor(n, threads, st.name + " trial", [&](std::size_t i) {
+    const StudyItem& item = st.items[i];
+    const std::string stem = dir + "/" + item.file_stem;
+    if (FileExists(stem + ".csv") && FileExists(stem + "_truth.csv")) {
+      out.measured[i] = ReadTrialCsv(stem + ".csv");
+      out.truth[i] = ReadTrialCsv(stem + "_truth.csv");
+    } else {
+      sim::TrialRequest req = item.scenario.trial;
+      req.seed = item.noise_seed;
+      req.name = item.file_stem;
+      const sim::UpperLimbModel model(item.scenario.model);
+      sim::TrialResult r = sim::RunTrial(model, req);
+      Trial measured = SensorView(r.measured);
+      Trial truth = TrimTruth(r.truth);
+      for (Trial* t : {&measured, &truth}) {
+        t->metadata["study"] = st.name;
+        t->metadata["participant"] = "p" + std::to_string(item.participant + 1);
+        t->metadata["protocol"] = item.protocol;
+        t->metadata["repetition"] = std::to_string(item.repetition + 1);
+      }
+      const std::string measured_csv = HashAndFormat(&measured);
+      const std::string truth_csv = HashAndFormat(&truth);
+      {
+        std::lock_guard<std::mutex> lock(write_mutex);
+        MakeDirs(stem.substr(0, stem.find_last_of('/')));
+        WriteFileAtomic(stem + "_truth.csv", truth_csv);
+        WriteFileAtomic(stem + ".csv", measured_csv);
+      }
+      out.measured[i] = std::move(measured);
+      out.truth[i] = std::move(truth);
+      ++simulated;
+    }
+    if (progress) progress->Done(weight[i], st.name + " trials");
+  });
+  out.simulated = simulated;
+  return out;
+}
+
+FitRunner::FitRunner(std::string cache_dir, std::vector<identification::MethodEntry> methods)
+    : cache_dir_(std::move(cache_dir)), methods_(std::move(methods)) {}
+
+std::string FitRunner::Key(const std::vector<std::string>& parts) const {
+  std::string all = FESIM_VERSION;
+  for (const auto& p : parts) all += "\n" + p;
+  return Fnv1a64Hex(all);
+}
+
+bool FitRunner::Load(const std::vector<std::string>& parts, Json* out) const {
+  const std::string path = cache_dir_ + "/" + Key(parts) + ".json";
+  if (!FileExists(path)) return false;
+  *out = Json::Parse(ReadFile(path), path);
+  return true;
+}
+
+void FitRunner::Store(const std::vector<std::string>& parts, const Json& value) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  MakeDirs(cache_dir_);
+  WriteFileAtomic(cache_dir_ + "/" + Key(parts) + ".json", value.Dump(0));
+}
+
+FitOutput FitRunner::Run(const std::string& method, const std::vector<Trial>& train,
+                         const std::vector<Trial>& test,
+                         const std::map<std::string, std::string>& options) {
+  const identification::MethodEntry* entry = nullptr;
+  for (const auto& m : methods_) {
+    if (m.name == method) entry = &m;
+  }
+  if (entry == nullptr) throw std::logic_error("benchmark: method " + method + " not registered");
+  std::vector<std::string> parts = {"fit", method};
+  for (const auto& [k, v] : options) parts.push_back(k + "=" + v);
+  parts.push_back("train");
+  for (const auto& t : train) parts.push_back(TrialHash(t));
+  parts.push_back("test");
+  for (const auto& t : test) parts.push_back(TrialHash(t));
+  const std::string dir = cache_dir_ + "/" + Key(parts);
+  FitOutput out;
+  if (FileExists(dir + "/metrics.json")) {
+    out.metrics = Json::Parse(ReadFile(dir + "/metrics.json"), dir + "/metrics.json");
+    out.model_yaml = ReadFile(dir + "/model.yaml");
+    const std::size_t np =
+        static_cast<std::size_t>(out.metrics.Find("benchmark_predictions")->AsNumber());
+    for (std::size_t k = 0; k < np; ++k) {
+      out.predictions.push_back(ReadTrialCsv(dir + "/prediction_" + std::to_string(k) + ".csv"));
+    }
+    out.cached = true;
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++fits_cached_;
+    return out;
+  }
+  std::vector<Trial> tr = train;
+  for (const auto& [k, v] : options) tr[0].metadata[k] = v;
+  identification::MethodResult r = entry->run(tr, test, {});
+  out.model_yaml = std::move(r.model_yaml);
+  out.predictions = std::move(r.predictions);
+  out.metrics = std::move(r.metrics);
+  out.metrics.Set("benchmark_predictions", static_cast<int>(out.predictions.size()));
+  // Round-trip the metrics through text so a cached and a fresh run read the same values.
+  out.metrics = Json::Parse(out.metrics.Dump(0));
+  std::lock_guard<std::mutex> lock(mutex_);
+  MakeDirs(dir);
+  WriteFileAtomic(dir + "/model.yaml", out.model_yaml);
+  for (std::size_t k = 0; k < out.predictions.size(); ++k) {
+    WriteFileAtomic(dir + "/prediction_" + std::to_string(k) + ".csv",
+                    FormatTrialCsv(out.predictions[k]));
+  }
+  WriteFileAtomic(dir + "/metrics.json", out.metrics.Dump(0));  // last: marks the fit complete
+  ++fits_run_;
+  return out;
+}
+
+const std::string& TrialHash(const Trial& trial) {
+  const auto it = trial.metadata.find("trial_hash");
+  if (it == trial.metadata.end()) throw std::logic_error("benchmark: trial without trial_hash");
+  return it->second;
+}
+
+std::vector<double> Resample(const Trial& source, const std::string& column,
+                             const std::vector<double>& times) {
+  const std::vector<double>& t = source.time;
+  const std::vector<double>& y = source.Column(column);
+  std::vector<double> out(times.size(), std::nan(""));
+  if (t.size() < 2) return out;
+  std::size_t j = 0;
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    const double x = times[i];
+    if (x < t.front() - 1e-12 || x > t.back() + 1e-12) continue;
+    while (j + 2 < t.size() && t[j + 1] < x) ++j;
+    while (j > 0 && t[j] > x) --j;
+    const double w = std::clamp((x - t[j]) / (t[j + 1] - t[j]), 0.0, 1.0);
+    out[i] = (1.0 - w) * y[j] + w * y[j + 1];
+  }
+  return out;
+}
+
+}  // namespace fesim::benchmark

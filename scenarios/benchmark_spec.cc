@@ -1,0 +1,137 @@
+#include "scenarios/benchmark_spec.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <set>
+#include <stdexcept>
+
+#include "scenarios/trial.h"
+#include "scenarios/yaml_node.h"
+
+namespace fesim {
+namespace {
+
+using Node = internal::YamlNode;
+
+std::string Directory(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  return slash == std::string::npos ? "" : path.substr(0, slash + 1);
+}
+
+BenchmarkSection LoadSection(const Node& top, const std::string& key, const std::string& dir) {
+  const Node n = top.Child(key);
+  const bool reaching = key == "reaching";
+  const std::string file_key = reaching ? "scenario" : "study";
+  const std::string quick_key = reaching ? "quick_scenario" : "quick_study";
+  std::set<std::string> keys = {file_key, quick_key, "methods", "options"};
+  if (key == "hand_array") {
+    keys.insert("full_model");
+    keys.insert("quick_full_model");
+  }
+  n.Keys(keys);
+  BenchmarkSection s;
+  const auto resolve = [&](const std::string& k) {
+    const std::string p = dir + n.Text(k);
+    try {
+      ReadFile(p);
+    } catch (const std::exception& e) {
+      n.FailKey(k, e.what());
+    }
+    return p;
+  };
+  s.study_path = resolve(file_key);
+  s.quick_study_path = n.Has(quick_key) ? resolve(quick_key) : s.study_path;
+  const std::vector<std::string>& allowed = BenchmarkSectionMethods().at(key);
+  if (n.Has("methods")) {
+    for (const auto& m : n.Child("methods").TextList()) {
+      bool ok = false;
+      for (const auto& a : allowed) ok = ok || a == m;
+      if (!ok) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "" : "|") + a;
+        n.FailKey("methods", "'" + m + "' is not one of " + list);
+      }
+      s.methods.push_back(m);
+    }
+    if (s.methods.empty()) n.FailKey("methods", "needs at least one method");
+  } else {
+    s.methods = allowed;
+  }
+  if (n.Has("options")) {
+    const Node o = n.Child("options");
+    for (const auto& k : o.MapKeys()) {
+      if (k.find('.') == std::string::npos) {
+        o.FailKey(k, "expected <method prefix>.<option>, e.g. tremor.eps");
+      }
+      s.options[k] = o.Text(k);
+    }
+  }
+  return s;
+}
+
+FullModelBudget LoadBudget(const Node& h, const std::string& key, FullModelBudget m) {
+  const Node f = h.Child(key);
+  f.Keys({"keep", "starts", "max_iterations", "integrator_tolerance", "rank_once"});
+  if (f.Has("keep")) m.keep = f.Integer("keep", 1, 39);
+  if (f.Has("starts")) m.starts = f.Integer("starts", 1, 100);
+  if (f.Has("max_iterations")) m.max_iterations = f.Integer("max_iterations", 1, 1000);
+  f.Number("integrator_tolerance", 1e-8, 1e-2, &m.integrator_tolerance);
+  if (f.Has("rank_once")) m.rank_once = f.Choice("rank_once", {"true", "false"}) == "true";
+  return m;
+}
+
+}  // namespace
+
+const std::map<std::string, std::vector<std::string>>& BenchmarkSectionMethods() {
+  static const std::map<std::string, std::vector<std::string>> kMethods = {
+      {"hand_array", {"full-model", "hammerstein-mimo"}},
+      {"elbow_tests", {"spline-arx", "spline-oe"}},
+      {"tremor_wrist", {"tremor-arx"}},
+      {"shoulder", {"shoulder-model1", "shoulder-model2", "shoulder-ekf"}},
+      {"reaching", {"invdyn-parametric", "invdyn-gp", "invdyn-semiparametric"}},
+  };
+  return kMethods;
+}
+
+BenchmarkSpec LoadBenchmarkSpec(const std::string& path) {
+  BenchmarkSpec b;
+  b.path = path;
+  b.source_text = ReadFile(path);
+  YAML::Node root;
+  try {
+    root = YAML::Load(b.source_text);
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(path + ":" + std::to_string(e.mark.line + 1) +
+                             ": YAML syntax: " + e.msg);
+  }
+  const Node top(root, "", &b.path);
+  top.Keys({"benchmark", "hand_array", "elbow_tests", "tremor_wrist", "shoulder", "reaching",
+            "assumptions"});
+  b.name = top.Text("benchmark");
+  const std::string dir = Directory(path);
+  if (top.Has("hand_array")) {
+    b.hand_array = LoadSection(top, "hand_array", dir);
+    const Node h = top.Child("hand_array");
+    if (h.Has("full_model")) b.full_model = LoadBudget(h, "full_model", b.full_model);
+    b.quick_full_model = b.full_model;
+    if (h.Has("quick_full_model")) {
+      b.quick_full_model = LoadBudget(h, "quick_full_model", b.quick_full_model);
+    }
+  }
+  if (top.Has("elbow_tests")) b.elbow_tests = LoadSection(top, "elbow_tests", dir);
+  if (top.Has("tremor_wrist")) b.tremor_wrist = LoadSection(top, "tremor_wrist", dir);
+  if (top.Has("shoulder")) b.shoulder = LoadSection(top, "shoulder", dir);
+  if (top.Has("reaching")) b.reaching = LoadSection(top, "reaching", dir);
+  if (top.Has("assumptions")) {
+    const Node a = top.Child("assumptions");
+    a.Keys({"participants"});
+    b.assumption_participants = a.Integer("participants", 1, 1000);
+    if (!b.hand_array) top.FailKey("assumptions", "needs the hand_array section");
+  }
+  if (!b.hand_array && !b.elbow_tests && !b.tremor_wrist && !b.shoulder && !b.reaching) {
+    top.Fail("needs at least one of hand_array, elbow_tests, tremor_wrist, shoulder, reaching");
+  }
+  return b;
+}
+
+}  // namespace fesim

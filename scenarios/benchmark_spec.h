@@ -1,0 +1,64 @@
+// The benchmark study file of `fesim benchmark` (issue 6): which virtual studies to generate,
+// which identification methods to fit to them, and how (papers 000–004's validation schemes).
+//
+//   benchmark: text                                   (required) name of the report
+//   hand_array:      {study, quick_study, methods, options, full_model, quick_full_model}
+//                                                                  paper 000 Tables 1–2
+//   elbow_tests:     {study, quick_study, methods, options}        paper 002 Tables 1–3
+//   tremor_wrist:    {study, quick_study, methods, options}        paper 001 Table 5
+//   shoulder:        {study, quick_study, methods, options}        paper 003
+//   reaching:        {scenario, quick_scenario, methods, options}  paper 004
+//   assumptions:     {participants: 1–1000}                        paper 000 Assumptions 1–7
+// Every section is optional (at least one is required). `study`/`quick_study` are study files
+// (scenarios/study.h) relative to this file; `--quick` uses `quick_study` (shorter protocols,
+// two participants). `methods` lists `fesim identify` names allowed for the section (default:
+// all of them). `options` are method options passed as `fesim identify` trial metadata
+// (`<prefix>.<key>: value`, e.g. `tremor.eps: 1.0e-5`). `full_model` sets the full-model fit's
+// budget (`quick_full_model` the one --quick uses; default: full_model's):
+//   {keep: 1–39, starts: 1–100, max_iterations: 1–1000, integrator_tolerance: 1e-8–1e-2,
+//    rank_once: true|false}  (rank once per participant on the first fold, then fit the same
+//    K parameters in every fold; default true)
+// The hand_array study's first protocol is the paper's step grid (the cross-validation folds
+// are its repetitions); an optional second protocol is an input the models never see in
+// training, used for the prediction error against the noiseless truth.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace fesim {
+
+struct BenchmarkSection {
+  std::string study_path;        ///< study (or, for reaching, scenario) file, resolved.
+  std::string quick_study_path;  ///< for --quick, resolved; empty = same as study_path.
+  std::vector<std::string> methods;
+  std::map<std::string, std::string> options;  ///< method options (trial metadata).
+};
+
+struct FullModelBudget {
+  int keep = 8;
+  int starts = 1;
+  int max_iterations = 4;
+  double integrator_tolerance = 1e-4;
+  bool rank_once = true;
+};
+
+struct BenchmarkSpec {
+  std::string name;
+  std::string path;
+  std::string source_text;
+  std::optional<BenchmarkSection> hand_array, elbow_tests, tremor_wrist, shoulder, reaching;
+  FullModelBudget full_model;
+  FullModelBudget quick_full_model;
+  int assumption_participants = 0;  ///< 0 = no assumption analysis.
+};
+
+/// Loads and validates a benchmark file; errors name the file, the key path and the range.
+BenchmarkSpec LoadBenchmarkSpec(const std::string& path);
+
+/// The methods each section accepts, in report order.
+const std::map<std::string, std::vector<std::string>>& BenchmarkSectionMethods();
+
+}  // namespace fesim
