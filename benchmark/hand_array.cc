@@ -14,6 +14,7 @@
 #include "benchmark/sections.h"
 #include "identification/fullmodel/full_model_fit.h"
 #include "identification/metrics.h"
+#include "render/plot.h"
 #include "scenarios/scenario.h"
 #include "tendons/tendon_network.h"
 
@@ -162,6 +163,7 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
 
   // Hammerstein (16): every participant × fold in parallel.
   std::vector<FoldFigures> ham(static_cast<std::size_t>(np * reps));
+  Trial example;  // Hammerstein prediction of participant 1, fold 1 (plotted)
   if (do_ham) {
     ParallelFor(ham.size(), ctx->threads, "hand_array hammerstein fit", [&](std::size_t i) {
       const int p = static_cast<int>(i) / reps, k = static_cast<int>(i) % reps;
@@ -179,6 +181,7 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
       const Json* d = fit.metrics.Find("dynamic_local_step_wall_s");
       f.step_wall_s = s->Find("mean")->AsNumber() + d->Find("mean")->AsNumber();
       f.parameters["Omega"] = ModelYamlValue(fit.model_yaml, "Omega");
+      if (i == 0) example = fit.predictions[0];
       ham[i] = f;
       ctx->progress->Done(ham_weight, "hand array: Hammerstein fits");
     });
@@ -376,6 +379,49 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
     md += FindingLine(g);
   }
   out.json.Set("findings", findings);
+
+  // Plots: mean normalised error per joint beside the paper's; one held-out prediction.
+  {
+    std::vector<render::BarSeries> bars;
+    std::vector<std::string> cats;
+    for (const auto& j : joints) cats.push_back(j.substr(2));
+    for (int m = 0; m < 2; ++m) {
+      if (!on[m]) continue;
+      render::BarSeries b{models[m].first + " (fesim)", mean_err[m], render::PaletteColour(2 * m)};
+      render::BarSeries pb{models[m].first + " (paper 000)", {}, render::PaletteColour(2 * m + 1)};
+      for (int j = 0; j < nj; ++j) {
+        pb.values.push_back(j < 3 ? (m == 0 ? kPaperFullModelError[j] : kPaperHammersteinError[j])
+                                  : NAN);
+      }
+      bars.push_back(b);
+      bars.push_back(pb);
+    }
+    render::Axes ax;
+    ax.title = "Hand array: normalised cross-validation error (paper 000 Tables 1-2)";
+    ax.y_label = "normalised error";
+    render::WriteBarChartPng(ctx->plots_dir + "/hand_array_error.png", ax, cats, bars);
+    md += "\n![hand array error](plots/hand_array_error.png)\n";
+    if (do_ham && !example.time.empty()) {
+      const Trial& measured = data.measured[index(0, 0, 0)];
+      std::vector<render::Series> series;
+      for (int j = 0; j < nj; ++j) {
+        render::Series y{joints[j] + " measured", measured.time, measured.Column(joints[j]),
+                         render::PaletteColour(j), true};
+        render::Series yh{joints[j] + " Hammerstein", example.time, example.Column(joints[j]),
+                          render::PaletteColour(j), false};
+        series.push_back(y);
+        series.push_back(yh);
+      }
+      render::Axes ax2;
+      ax2.title = "Hand array: held-out data set 1 of participant 1, Hammerstein prediction";
+      ax2.x_label = "time s";
+      ax2.y_label = "angle rad";
+      ax2.width_px = 1000;
+      render::WriteLinePlotPng(ctx->plots_dir + "/hand_array_prediction.png", ax2, series);
+      md += "\n![hand array prediction](plots/hand_array_prediction.png)\n";
+    }
+    md += "\n";
+  }
 
   // Against the truth: unseen input, noiseless reference.
   Json truth = Json::Object();

@@ -86,6 +86,42 @@ std::string HashAndFormat(Trial* t) {
   return FormatTrialCsv(*t);
 }
 
+/// Predictions as JSON for the fit cache: unlike the trial CSV reader, which rejects angles
+/// beyond a full turn as unit errors, JSON keeps what a diverging model predicted.
+Json PredictionsToJson(const std::vector<Trial>& predictions) {
+  Json all = Json::Array();
+  for (const Trial& t : predictions) {
+    Json meta = Json::Object();
+    for (const auto& [k, v] : t.metadata) meta.Set(k, v);
+    Json cols = Json::Object();
+    for (std::size_t k = 0; k < t.names.size(); ++k) cols.Set(t.names[k], Json(t.columns[k]));
+    Json j = Json::Object();
+    j.Set("metadata", meta).Set("time", Json(t.time)).Set("columns", cols);
+    all.Push(j);
+  }
+  return all;
+}
+
+std::vector<Trial> PredictionsFromJson(const Json& all) {
+  std::vector<Trial> out;
+  for (const Json& j : all.Items()) {
+    Trial t;
+    const Json& meta = *j.Find("metadata");
+    for (std::size_t k = 0; k < meta.Keys().size(); ++k) {
+      t.metadata[meta.Keys()[k]] = meta.Items()[k].AsString();
+    }
+    for (const Json& v : j.Find("time")->Items()) t.time.push_back(v.AsNumber());
+    const Json& cols = *j.Find("columns");
+    for (std::size_t k = 0; k < cols.Keys().size(); ++k) {
+      std::vector<double> c;
+      for (const Json& v : cols.Items()[k].Items()) c.push_back(v.AsNumber());
+      t.AddColumn(cols.Keys()[k], std::move(c));
+    }
+    out.push_back(std::move(t));
+  }
+  return out;
+}
+
 }  // namespace
 
 void MakeDirs(const std::string& path) {
@@ -248,11 +284,8 @@ FitOutput FitRunner::Run(const std::string& method, const std::vector<Trial>& tr
   if (FileExists(dir + "/metrics.json")) {
     out.metrics = Json::Parse(ReadFile(dir + "/metrics.json"), dir + "/metrics.json");
     out.model_yaml = ReadFile(dir + "/model.yaml");
-    const std::size_t np =
-        static_cast<std::size_t>(out.metrics.Find("benchmark_predictions")->AsNumber());
-    for (std::size_t k = 0; k < np; ++k) {
-      out.predictions.push_back(ReadTrialCsv(dir + "/prediction_" + std::to_string(k) + ".csv"));
-    }
+    out.predictions = PredictionsFromJson(
+        Json::Parse(ReadFile(dir + "/predictions.json"), dir + "/predictions.json"));
     out.cached = true;
     std::lock_guard<std::mutex> lock(mutex_);
     ++fits_cached_;
@@ -262,18 +295,15 @@ FitOutput FitRunner::Run(const std::string& method, const std::vector<Trial>& tr
   for (const auto& [k, v] : options) tr[0].metadata[k] = v;
   identification::MethodResult r = entry->run(tr, test, {});
   out.model_yaml = std::move(r.model_yaml);
-  out.predictions = std::move(r.predictions);
-  out.metrics = std::move(r.metrics);
-  out.metrics.Set("benchmark_predictions", static_cast<int>(out.predictions.size()));
-  // Round-trip the metrics through text so a cached and a fresh run read the same values.
-  out.metrics = Json::Parse(out.metrics.Dump(0));
+  // Round-trip through the cache's text so a fresh and a cached run read the same values
+  // (non-finite numbers become NaN either way).
+  const std::string predictions = PredictionsToJson(r.predictions).Dump(0);
+  out.predictions = PredictionsFromJson(Json::Parse(predictions));
+  out.metrics = Json::Parse(r.metrics.Dump(0));
   std::lock_guard<std::mutex> lock(mutex_);
   MakeDirs(dir);
   WriteFileAtomic(dir + "/model.yaml", out.model_yaml);
-  for (std::size_t k = 0; k < out.predictions.size(); ++k) {
-    WriteFileAtomic(dir + "/prediction_" + std::to_string(k) + ".csv",
-                    FormatTrialCsv(out.predictions[k]));
-  }
+  WriteFileAtomic(dir + "/predictions.json", predictions);
   WriteFileAtomic(dir + "/metrics.json", out.metrics.Dump(0));  // last: marks the fit complete
   ++fits_run_;
   return out;

@@ -31,7 +31,8 @@ BenchmarkSection LoadSection(const Node& top, const std::string& key, const std:
   n.Keys(keys);
   BenchmarkSection s;
   const auto resolve = [&](const std::string& k) {
-    const std::string p = dir + n.Text(k);
+    const std::string text = n.Text(k);
+    const std::string p = !text.empty() && text[0] == '/' ? text : dir + text;
     try {
       ReadFile(p);
     } catch (const std::exception& e) {

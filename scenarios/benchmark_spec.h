@@ -10,7 +10,7 @@
 //   reaching:        {scenario, quick_scenario, methods, options}  paper 004
 //   assumptions:     {participants: 1–1000}                        paper 000 Assumptions 1–7
 // Every section is optional (at least one is required). `study`/`quick_study` are study files
-// (scenarios/study.h) relative to this file; `--quick` uses `quick_study` (shorter protocols,
+// (scenarios/study.h), absolute or relative to this file; `--quick` uses `quick_study` (shorter protocols,
 // two participants). `methods` lists `fesim identify` names allowed for the section (default:
 // all of them). `options` are method options passed as `fesim identify` trial metadata
 // (`<prefix>.<key>: value`, e.g. `tremor.eps: 1.0e-5`). `full_model` sets the full-model fit's

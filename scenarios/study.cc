@@ -112,7 +112,9 @@ Study LoadStudy(const std::string& path, std::uint64_t noise_seed) {
   const Node top(root, "", &st.path);
   top.Keys({"study", "scenario", "repetitions", "cohort", "protocols"});
   st.name = top.Text("study");
-  const std::string base_path = Directory(path) + top.Text("scenario");
+  const std::string scenario_text = top.Text("scenario");
+  const std::string base_path =
+      scenario_text[0] == '/' ? scenario_text : Directory(path) + scenario_text;
   st.scenario_path = base_path;
   std::string base_text;
   try {

@@ -3,7 +3,7 @@
 // distributions with a seed, and lists protocols as scenario `stimulation` blocks:
 //
 //   study: text                                   (required)
-//   scenario: path of the base scenario, relative to the study file   (required)
+//   scenario: path of the base scenario, absolute or relative to the study file   (required)
 //   repetitions: 1–100                            (default 1)
 //   cohort:
 //     size: 1–1000, seed: integer                 (default 8 participants, seed 1)

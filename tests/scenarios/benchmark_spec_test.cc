@@ -1,0 +1,80 @@
+#include "scenarios/benchmark_spec.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "scenarios/trial.h"
+
+namespace fesim {
+namespace {
+
+const std::string kScenarios = std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/";
+
+std::string Write(const std::string& name, const std::string& text) {
+  const std::string path = ::testing::TempDir() + "_test_" + name + ".yaml";
+  WriteFileAtomic(path, text);
+  return path;
+}
+
+std::string LoadError(const std::string& name, const std::string& text) {
+  const std::string path = Write(name, text);
+  std::string what;
+  try {
+    LoadBenchmarkSpec(path);
+  } catch (const std::runtime_error& e) {
+    what = e.what();
+  }
+  return what;
+}
+
+TEST(BenchmarkSpec, DefaultStudyHasEverySection) {
+  const BenchmarkSpec s = LoadBenchmarkSpec(kScenarios + "default_study.yaml");
+  EXPECT_EQ(s.name, "default_study");
+  ASSERT_TRUE(s.hand_array && s.elbow_tests && s.tremor_wrist && s.shoulder && s.reaching);
+  EXPECT_EQ(s.hand_array->methods, (std::vector<std::string>{"full-model", "hammerstein-mimo"}));
+  EXPECT_EQ(s.elbow_tests->methods, (std::vector<std::string>{"spline-arx", "spline-oe"}));
+  EXPECT_EQ(s.shoulder->methods.size(), 3u);
+  EXPECT_NE(s.hand_array->quick_study_path, s.hand_array->study_path);
+  EXPECT_EQ(s.full_model.keep, 6);
+  EXPECT_EQ(s.quick_full_model.keep, 4);
+  EXPECT_TRUE(s.full_model.rank_once);
+  EXPECT_EQ(s.tremor_wrist->options.at("tremor.eps"), "1.0e-5");
+  EXPECT_EQ(s.assumption_participants, 2);
+}
+
+TEST(BenchmarkSpec, BadInputNamesFileKeyAndRange) {
+  const std::string base = "benchmark: b\n";
+  struct Case {
+    std::string name, text, expect;
+  };
+  const Case cases[] = {
+      {"unknown", base + "hand_arrays: {}\n", "hand_arrays: unknown key (allowed:"},
+      {"none", base, "needs at least one of hand_array"},
+      {"method",
+       base + "elbow_tests: {study: " + kScenarios + "bench_elbow.yaml, methods: [spline-xx]}\n",
+       "elbow_tests.methods: 'spline-xx' is not one of spline-arx|spline-oe"},
+      {"missing_study", base + "shoulder: {study: nope.yaml}\n", "shoulder.study: "},
+      {"keep",
+       base + "hand_array: {study: " + kScenarios +
+           "bench_hand_array.yaml, full_model: {keep: 40}}\n",
+       "hand_array.full_model.keep: 40 is outside [1, 39]"},
+      {"option",
+       base + "tremor_wrist: {study: " + kScenarios + "bench_tremor.yaml, options: {eps: 1}}\n",
+       "tremor_wrist.options.eps: expected <method prefix>.<option>"},
+      {"assumptions",
+       base + "shoulder: {study: " + kScenarios +
+           "bench_shoulder.yaml}\nassumptions: "
+           "{participants: 2}\n",
+       "assumptions: needs the hand_array section"},
+  };
+  for (const auto& c : cases) {
+    const std::string what = LoadError(c.name, c.text);
+    EXPECT_NE(what.find(c.expect), std::string::npos) << c.name << ": " << what;
+    EXPECT_NE(what.find("_test_" + c.name + ".yaml"), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+}
+
+}  // namespace
+}  // namespace fesim
