@@ -18,6 +18,7 @@
 #include <system_error>
 
 #include "render/renderer.h"
+#include "scenarios/trial.h"
 
 extern char** environ;
 
@@ -123,11 +124,13 @@ void WritePng(const std::string& path, const Image& image) {
     throw std::runtime_error("png: cannot create a temporary file for " + path + ": " +
                              ErrnoText(errno));
   }
+  const int slot = RegisterTempFile(tmp);
   int error = WriteAll(fd, png.data(), png.size());
   if (::close(fd) != 0 && error == 0) error = errno;
   // mkstemp creates 0600; give the file the usual permissions.
   if (error == 0) ::chmod(tmp.c_str(), 0644);
   if (error == 0 && std::rename(tmp.c_str(), path.c_str()) != 0) error = errno;
+  UnregisterTempFile(slot);
   if (error != 0) {
     ::unlink(tmp.c_str());
     throw std::runtime_error("png: cannot write " + path + ": " + ErrnoText(error));
@@ -245,6 +248,7 @@ Mp4Writer::Mp4Writer(const std::string& path, int width, int height, double fps,
   }
   ::close(tmp_fd);
   ::chmod(tmp_path_.c_str(), 0644);
+  tmp_slot_ = RegisterTempFile(tmp_path_);  // removed by the CLI's SIGINT/SIGTERM handler
 
   char fps_text[32];
   std::snprintf(fps_text, sizeof fps_text, "%.9g", fps);
@@ -322,6 +326,8 @@ void Mp4Writer::Abort() noexcept {
     ::unlink(tmp_path_.c_str());
     tmp_path_.clear();
   }
+  UnregisterTempFile(tmp_slot_);
+  tmp_slot_ = -1;
   if (log_fd_ >= 0) {
     ::close(log_fd_);
     log_fd_ = -1;

@@ -93,6 +93,7 @@ class Mp4Writer {
 
   std::string path_;
   std::string tmp_path_;
+  int tmp_slot_ = -1;  ///< RegisterTempFile slot of tmp_path_ (signal cleanup).
   int width_ = 0;
   int height_ = 0;
   int frames_ = 0;

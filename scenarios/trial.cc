@@ -13,6 +13,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <mutex>
 #include <sstream>
 #include <stdexcept>
 
@@ -283,6 +284,39 @@ void SetPendingTemp(const std::string& tmp) {
 }  // namespace
 
 const char* PendingAtomicWriteTempFile() { return g_pending_tmp; }
+
+namespace {
+// Registered temporary files (see RegisterTempFile); a slot is free when its first byte is 0.
+// The mutex orders registrations between threads; handlers only read.
+char g_registered_tmp[kMaxRegisteredTempFiles][4096] = {};
+std::mutex g_registered_mutex;
+}  // namespace
+
+int RegisterTempFile(const std::string& path) {
+  if (path.empty() || path.size() >= sizeof g_registered_tmp[0]) return -1;
+  std::lock_guard<std::mutex> lock(g_registered_mutex);
+  for (int k = 0; k < kMaxRegisteredTempFiles; ++k) {
+    char* slot = g_registered_tmp[k];
+    if (slot[0] != '\0') continue;
+    // Same publication order as SetPendingTemp: the first byte last.
+    std::memcpy(slot + 1, path.c_str() + 1, path.size());
+    std::atomic_signal_fence(std::memory_order_seq_cst);
+    slot[0] = path[0];
+    return k;
+  }
+  return -1;
+}
+
+void UnregisterTempFile(int slot) {
+  if (slot < 0 || slot >= kMaxRegisteredTempFiles) return;
+  std::lock_guard<std::mutex> lock(g_registered_mutex);
+  g_registered_tmp[slot][0] = '\0';
+}
+
+const char* RegisteredTempFile(int slot) {
+  if (slot < 0 || slot >= kMaxRegisteredTempFiles) return "";
+  return g_registered_tmp[slot];
+}
 
 void WriteFileAtomic(const std::string& path, const std::string& contents) {
   const std::string tmp = path + ".tmp." + std::to_string(::getpid());

@@ -67,6 +67,16 @@ void WriteFileAtomic(const std::string& path, const std::string& contents);
 /// interrupted run leaves no temporary file behind (apps/main.cc does).
 const char* PendingAtomicWriteTempFile();
 
+/// Temporary files written outside WriteFileAtomic (e.g. the movie ffmpeg is encoding) that a
+/// SIGINT/SIGTERM handler must remove: at most kMaxRegisteredTempFiles at once, paths shorter
+/// than 4096 bytes. RegisterTempFile returns a slot (−1 when full: the file is then not cleaned
+/// up on a signal, which is the only consequence); UnregisterTempFile(slot) frees it.
+inline constexpr int kMaxRegisteredTempFiles = 8;
+int RegisterTempFile(const std::string& path);
+void UnregisterTempFile(int slot);
+/// For signal handlers (async-signal-safe): the path in `slot`, or "".
+const char* RegisteredTempFile(int slot);
+
 /// FNV-1a 64-bit hash of `bytes` as 16 lower-case hex digits (cache keys, manifest hashes).
 std::string Fnv1a64Hex(const std::string& bytes);
 

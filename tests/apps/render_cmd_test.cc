@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -137,6 +139,44 @@ TEST_F(RenderCmdTest, Mp4DecodesWithRequestedSizeRateAndFrameCount) {
   EXPECT_NE(probe.find("nb_read_frames=" + std::to_string(kExpectedFrames) + "\n"),
             std::string::npos)
       << probe;
+}
+
+TEST_F(RenderCmdTest, InterruptedMp4LeavesNoTemporaryFile) {
+  // A 120 s trial at 30 fps (3 600 frames) is still encoding when the signal arrives.
+  Trial t;
+  const int n = 1201;
+  std::vector<double> q(n);
+  for (int i = 0; i < n; ++i) {
+    t.time.push_back(0.1 * i);
+    q[i] = 0.5 + 0.5 * std::sin(0.05 * i);
+  }
+  t.AddColumn("q.elbow_flexion", q);
+  const std::string trial = (root_ / "in" / "long.csv").string();
+  WriteFileAtomic(trial, FormatTrialCsv(t));
+  const std::string movie = (root_ / "out" / "movie.mp4").string();
+  for (const int sig : {SIGINT, SIGTERM}) {
+    const std::string cmd = "exec " + FesimBin() + " render " + trial + " --scenario " + scenario_ +
+                            " --out " + movie + " --fps 30 >/dev/null 2>&1";
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      ::setpgid(0, 0);  // like a terminal's foreground job: ffmpeg gets the signal too
+      ::execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    // Wait (at most 60 s) until the hidden temporary movie exists, then interrupt the group.
+    bool seen = false;
+    for (int k = 0; k < 600 && !seen; ++k) {
+      for (const auto& name : OutEntries()) seen = seen || name.find(".tmp-") != std::string::npos;
+      if (!seen) ::usleep(100000);
+    }
+    EXPECT_TRUE(seen) << "no temporary movie appeared";
+    ::kill(-pid, sig);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    EXPECT_TRUE(WIFSIGNALED(status)) << "signal " << sig;
+    EXPECT_TRUE(OutEntries().empty()) << "signal " << sig << ": " << OutEntries()[0];
+  }
 }
 
 TEST_F(RenderCmdTest, FramesWritesOnePngPerFrame) {

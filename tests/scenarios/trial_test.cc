@@ -89,5 +89,23 @@ TEST(TrialRecord, ColumnErrors) {
   EXPECT_EQ(t.NamesWithPrefix("q."), std::vector<std::string>{"q.wrist_flexion"});
 }
 
+TEST(RegisteredTempFiles, SlotsFillFreeAndReadBack) {
+  std::vector<int> slots;
+  for (int k = 0; k < kMaxRegisteredTempFiles; ++k) {
+    slots.push_back(RegisterTempFile("/tmp/x" + std::to_string(k)));
+    ASSERT_GE(slots.back(), 0);
+    EXPECT_STREQ(RegisteredTempFile(slots.back()), ("/tmp/x" + std::to_string(k)).c_str());
+  }
+  EXPECT_EQ(RegisterTempFile("/tmp/full"), -1);  // all slots taken
+  UnregisterTempFile(slots[3]);
+  EXPECT_STREQ(RegisteredTempFile(slots[3]), "");
+  EXPECT_EQ(RegisterTempFile("/tmp/again"), slots[3]);
+  EXPECT_EQ(RegisterTempFile(std::string(5000, 'a')), -1);  // too long for a slot
+  EXPECT_EQ(RegisterTempFile(""), -1);
+  for (int s : slots) UnregisterTempFile(s);
+  UnregisterTempFile(-1);  // no-op
+  for (int k = 0; k < kMaxRegisteredTempFiles; ++k) EXPECT_STREQ(RegisteredTempFile(k), "");
+}
+
 }  // namespace
 }  // namespace fesim
