@@ -230,7 +230,18 @@ Trial ParseTrialCsv(const std::string& text, const std::string& source) {
   return trial;
 }
 
-Trial ReadTrialCsv(const std::string& path) { return ParseTrialCsv(ReadFile(path), path); }
+Trial ReadTrialCsv(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode) &&
+      static_cast<std::uint64_t>(st.st_size) > kMaxTrialFileBytes) {
+    char size[32];
+    std::snprintf(size, sizeof size, "%.1f GiB", st.st_size / 1073741824.0);
+    throw std::runtime_error(path + ": " + size +
+                             " is larger than the 4 GiB limit for a trial file (loading takes "
+                             "about 1.5 times its size in memory); split the trial");
+  }
+  return ParseTrialCsv(ReadFile(path), path);
+}
 
 std::string FormatTrialCsv(const Trial& trial) {
   std::string out;

@@ -13,6 +13,7 @@
 // read trials without seeing Simbody.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
@@ -45,7 +46,10 @@ struct Trial {
 /// not a number, a wrong cell count, a duplicate column or non-increasing time is an error, and so
 /// are units that cannot be right: a `u.` value outside [0, 300] µs, a `q.` angle beyond ±2π rad.
 /// Throws std::runtime_error with a one-line message "FILE:LINE: column NAME: what is wrong".
+/// Files larger than kMaxTrialFileBytes are refused with that message before reading.
 Trial ReadTrialCsv(const std::string& path);
+/// Largest trial CSV ReadTrialCsv loads, bytes (4 GiB; the parse peaks at ≈ 1.5× the size).
+inline constexpr std::uint64_t kMaxTrialFileBytes = 4ull << 30;
 
 /// Parses trial CSV text; `source` names the origin in error messages.
 Trial ParseTrialCsv(const std::string& text, const std::string& source);

@@ -26,6 +26,24 @@ std::string ErrorOf(const std::string& text) {
   return "(no error)";
 }
 
+TEST(TrialBadInput, FileOverTheSizeLimitIsRefusedBeforeReading) {
+  // A sparse file: 5 GiB long, no disk blocks, never read.
+  const std::string path = ::testing::TempDir() + "huge_sparse.csv";
+  FILE* f = std::fopen(path.c_str(), "w");
+  ASSERT_NE(f, nullptr);
+  ASSERT_EQ(::ftruncate(::fileno(f), static_cast<off_t>(5ull << 30)), 0);
+  std::fclose(f);
+  try {
+    ReadTrialCsv(path);
+    ADD_FAILURE() << "accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(path + ": 5.0 GiB is larger than the 4 GiB limit"),
+              std::string::npos)
+        << e.what();
+  }
+  std::remove(path.c_str());
+}
+
 TEST(TrialBadInput, MalformedNumbers) {
   EXPECT_EQ(ErrorOf("time,q.a\n0,1.2.3\n"), "x.csv:2: column q.a: '1.2.3' is not a number");
   EXPECT_EQ(ErrorOf("time,q.a\n0,1e\n"), "x.csv:2: column q.a: '1e' is not a number");
