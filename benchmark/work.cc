@@ -247,7 +247,8 @@ FitRunner::FitRunner(std::string cache_dir, std::vector<identification::MethodEn
     : cache_dir_(std::move(cache_dir)), methods_(std::move(methods)) {}
 
 std::string FitRunner::Key(const std::vector<std::string>& parts) const {
-  std::string all = FESIM_VERSION;
+  // The cache layout is part of the key: a build with another layout misses instead of failing.
+  std::string all = std::string(FESIM_VERSION) + "\nfit-cache-2";
   for (const auto& p : parts) all += "\n" + p;
   return Fnv1a64Hex(all);
 }
