@@ -94,7 +94,8 @@ BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions&
   MakeDirs(options.out_dir + "/plots");
   MakeDirs(options.out_dir + "/cache");
   std::vector<identification::MethodEntry> methods = identification::BuiltinMethods();
-  FitRunner fits(options.out_dir + "/cache/fits", methods);
+  Timing timing_by_kind;
+  FitRunner fits(options.out_dir + "/cache/fits", methods, &timing_by_kind);
   Progress progress(options.progress);
   SectionContext ctx;
   ctx.spec = &spec;
@@ -105,6 +106,7 @@ BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions&
   ctx.plots_dir = options.out_dir + "/plots";
   ctx.fits = &fits;
   ctx.progress = &progress;
+  ctx.timing = &timing_by_kind;
 
   // Plan the work (studies are loaded, not simulated) so the bar and the time left cover it all.
   const auto study_weight = [&](const std::optional<BenchmarkSection>& s, int* participants,
@@ -210,6 +212,16 @@ BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions&
     jt.Set(t.key, t.wall_s);
   }
   md += "| **total** | **" + Fixed(wall, 1) + "** |\n\n";
+  md +=
+      "By kind of work in this run (thread-seconds summed over the worker threads; cached work "
+      "costs nothing):\n\n| work | s |\n|---|---|\n";
+  Json jk = Json::Object();
+  for (const auto& [what, s] : timing_by_kind.Totals()) {
+    md += "| " + what + " | " + Fixed(s, 1) + " |\n";
+    jk.Set(what, s);
+  }
+  md += "\n";
+  results.Set("thread_seconds_by_kind", jk);
   md += std::to_string(ctx.trials_simulated) + " trials simulated, " +
         std::to_string(fits.fits_run()) + " fits run, " + std::to_string(fits.fits_cached()) +
         " fits reused from `cache/` (cached fits keep the wall times of the run that made them); " +

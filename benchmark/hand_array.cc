@@ -122,8 +122,8 @@ std::vector<AssumptionSwitch> AssumptionSwitches() {
 
 SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx) {
   const std::string path = ctx->quick ? section.quick_study_path : section.study_path;
-  const StudyTrials data =
-      GenerateStudy(path, ctx->seed, ctx->cache_dir + "/trials", ctx->threads, ctx->progress);
+  const StudyTrials data = GenerateStudy(path, ctx->seed, ctx->cache_dir + "/trials", ctx->threads,
+                                         ctx->progress, ctx->timing);
   ctx->trials_simulated += data.simulated;
   const Study& st = data.study;
   // Item layout: participant-major, then protocol, then repetition.
@@ -221,7 +221,11 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
             o.fit_names = kept_names[p];
             o.rank = false;
           }
+          const auto t0 = std::chrono::steady_clock::now();
           const fm::FullModelFit fit = fm::FitFullModel(rig, train, o);
+          ctx->timing->Add(
+              "full-model (wall, " + std::to_string(ctx->threads) + " threads)",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
           FoldFigures f;
           for (std::size_t t = 0; t < test.size(); ++t) {
             const Trial pred = fm::SimulateLike(fit.model, test[t], budget.integrator_tolerance);

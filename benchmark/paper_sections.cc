@@ -2,6 +2,7 @@
 // `fesim benchmark`: the papers' validation schemes and table layouts, plus the same predictions
 // against the noiseless truth.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <complex>
 #include <map>
@@ -152,8 +153,8 @@ std::string Dir(const std::string& plots_dir, const std::string& file) {
 
 SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx) {
   const std::string path = ctx->quick ? section.quick_study_path : section.study_path;
-  const StudyTrials data =
-      GenerateStudy(path, ctx->seed, ctx->cache_dir + "/trials", ctx->threads, ctx->progress);
+  const StudyTrials data = GenerateStudy(path, ctx->seed, ctx->cache_dir + "/trials", ctx->threads,
+                                         ctx->progress, ctx->timing);
   ctx->trials_simulated += data.simulated;
   const Layout L = LayoutOf(data.study);
   const int np = L.participants, nr = L.reps, nt = static_cast<int>(L.protocols.size());
@@ -400,8 +401,8 @@ SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx
 
 SectionResult RunTremorWrist(const BenchmarkSection& section, SectionContext* ctx) {
   const std::string path = ctx->quick ? section.quick_study_path : section.study_path;
-  const StudyTrials data =
-      GenerateStudy(path, ctx->seed, ctx->cache_dir + "/trials", ctx->threads, ctx->progress);
+  const StudyTrials data = GenerateStudy(path, ctx->seed, ctx->cache_dir + "/trials", ctx->threads,
+                                         ctx->progress, ctx->timing);
   ctx->trials_simulated += data.simulated;
   const Layout L = LayoutOf(data.study);
   if (L.reps < 3)
@@ -553,8 +554,8 @@ SectionResult RunTremorWrist(const BenchmarkSection& section, SectionContext* ct
 
 SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) {
   const std::string path = ctx->quick ? section.quick_study_path : section.study_path;
-  const StudyTrials data =
-      GenerateStudy(path, ctx->seed, ctx->cache_dir + "/trials", ctx->threads, ctx->progress);
+  const StudyTrials data = GenerateStudy(path, ctx->seed, ctx->cache_dir + "/trials", ctx->threads,
+                                         ctx->progress, ctx->timing);
   ctx->trials_simulated += data.simulated;
   const Layout L = LayoutOf(data.study);
   if (L.reps < 2) throw std::runtime_error(path + ": repetitions: shoulder needs >= 2");
@@ -700,7 +701,10 @@ SectionResult RunReaching(const BenchmarkSection& section, SectionContext* ctx) 
   const std::string path = ctx->quick ? section.quick_study_path : section.study_path;
   const Scenario sc = LoadScenario(path);
   if (!sc.reaching) throw std::runtime_error(path + ": stimulation: reaching needs type reaching");
+  const auto t0 = std::chrono::steady_clock::now();
   std::vector<Trial> trials = sim::SimulateReaching(sc.model, *sc.reaching, {});
+  ctx->timing->Add("simulation",
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   ctx->trials_simulated += static_cast<int>(trials.size());
   for (auto& t : trials) {
     t.metadata["trial_hash"] = Fnv1a64Hex(FormatTrialCsv(t));

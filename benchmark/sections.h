@@ -20,6 +20,7 @@ struct SectionContext {
   std::string plots_dir;  ///< DIR/plots.
   FitRunner* fits = nullptr;
   Progress* progress = nullptr;
+  Timing* timing = nullptr;
   int trials_simulated = 0;  ///< summed by the sections.
 };
 

@@ -187,8 +187,19 @@ void Progress::Done(double weight, const std::string& stage) {
   report_(f, label);
 }
 
+void Timing::Add(const std::string& what, double seconds) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  totals_[what] += seconds;
+}
+
+std::map<std::string, double> Timing::Totals() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return totals_;
+}
+
 StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
-                          const std::string& cache_dir, int threads, Progress* progress) {
+                          const std::string& cache_dir, int threads, Progress* progress,
+                          Timing* timing) {
   StudyTrials out;
   out.study = LoadStudy(study_path, seed);
   const Study& st = out.study;
@@ -215,8 +226,13 @@ StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
       sim::TrialRequest req = item.scenario.trial;
       req.seed = item.noise_seed;
       req.name = item.file_stem;
+      const auto t0 = std::chrono::steady_clock::now();
       const sim::UpperLimbModel model(item.scenario.model);
       sim::TrialResult r = sim::RunTrial(model, req);
+      if (timing) {
+        timing->Add("simulation",
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      }
       Trial measured = SensorView(r.measured);
       Trial truth = TrimTruth(r.truth);
       for (Trial* t : {&measured, &truth}) {
@@ -243,8 +259,9 @@ StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
   return out;
 }
 
-FitRunner::FitRunner(std::string cache_dir, std::vector<identification::MethodEntry> methods)
-    : cache_dir_(std::move(cache_dir)), methods_(std::move(methods)) {}
+FitRunner::FitRunner(std::string cache_dir, std::vector<identification::MethodEntry> methods,
+                     Timing* timing)
+    : cache_dir_(std::move(cache_dir)), methods_(std::move(methods)), timing_(timing) {}
 
 std::string FitRunner::Key(const std::vector<std::string>& parts) const {
   // The cache layout is part of the key: a build with another layout misses instead of failing.
@@ -294,7 +311,12 @@ FitOutput FitRunner::Run(const std::string& method, const std::vector<Trial>& tr
   }
   std::vector<Trial> tr = train;
   for (const auto& [k, v] : options) tr[0].metadata[k] = v;
+  const auto t0 = std::chrono::steady_clock::now();
   identification::MethodResult r = entry->run(tr, test, {});
+  if (timing_) {
+    timing_->Add(method,
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
   out.model_yaml = std::move(r.model_yaml);
   // Round-trip through the cache's text so a fresh and a cached run read the same values
   // (non-finite numbers become NaN either way).

@@ -44,6 +44,18 @@ class Progress {
   std::chrono::steady_clock::time_point start_;
 };
 
+/// Thread-seconds spent per kind of work ("simulation", each method), summed over threads.
+/// Thread-safe.
+class Timing {
+ public:
+  void Add(const std::string& what, double seconds);
+  std::map<std::string, double> Totals() const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::map<std::string, double> totals_;
+};
+
 /// A generated study: every item's measured and noiseless truth trial.
 struct StudyTrials {
   Study study;
@@ -56,8 +68,10 @@ struct StudyTrials {
 /// run wrote it for the same study text, base scenario text, seed and fesim version. Trials get
 /// metadata `trial_hash` (hash of the content before it was added). Files are written
 /// atomically, so an interrupted run leaves complete trials or none.
+/// `timing` (may be null) receives the simulation time under "simulation".
 StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
-                          const std::string& cache_dir, int threads, Progress* progress);
+                          const std::string& cache_dir, int threads, Progress* progress,
+                          Timing* timing = nullptr);
 
 /// One identification fit's outputs (the `fesim identify` outputs).
 struct FitOutput {
@@ -71,7 +85,9 @@ struct FitOutput {
 /// method, its options and the trials' `trial_hash`es. Thread-safe.
 class FitRunner {
  public:
-  FitRunner(std::string cache_dir, std::vector<identification::MethodEntry> methods);
+  /// `timing` (may be null) receives each fit's wall time under the method's name.
+  FitRunner(std::string cache_dir, std::vector<identification::MethodEntry> methods,
+            Timing* timing = nullptr);
 
   /// Fits `method` on `train` with `options` (method options as trial metadata, e.g.
   /// "fullmodel.keep" → "8", set on a copy of train[0]) and evaluates on `test`.
@@ -91,6 +107,7 @@ class FitRunner {
   std::string Key(const std::vector<std::string>& parts) const;
   std::string cache_dir_;
   std::vector<identification::MethodEntry> methods_;
+  Timing* timing_ = nullptr;
   std::mutex mutex_;
   int fits_run_ = 0, fits_cached_ = 0;
 };
