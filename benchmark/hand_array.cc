@@ -142,7 +142,9 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
   const bool has_unseen = protocols.size() == 2;
   const int np = static_cast<int>(st.participants.size());
   const auto index = [&](int p, int proto, int r) {
-    return static_cast<std::size_t>((p * static_cast<int>(protocols.size()) + proto) * reps + r);
+    return (static_cast<std::size_t>(p) * protocols.size() + static_cast<std::size_t>(proto)) *
+               static_cast<std::size_t>(reps) +
+           static_cast<std::size_t>(r);
   };
   const std::vector<std::string> joints = data.measured[0].NamesWithPrefix("q.");
   const int nj = static_cast<int>(joints.size());
@@ -248,7 +250,7 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
           cached.Set("iterations", fit.runs.empty() ? 0 : fit.runs[0].iterations);
           ctx->fits->Store(key, cached);
         }
-        full[static_cast<std::size_t>(p * reps + k)] = FoldFromJson(cached);
+        full[static_cast<std::size_t>(p) * reps + k] = FoldFromJson(cached);
         if (k == 0) {
           for (const auto& n : cached.Find("kept")->Items()) kept_names[p].push_back(n.AsString());
         }

@@ -25,7 +25,9 @@ struct Layout {
   std::vector<std::string> protocols;
   int participants = 0, reps = 0;
   std::size_t Index(int p, int proto, int r) const {
-    return static_cast<std::size_t>((p * static_cast<int>(protocols.size()) + proto) * reps + r);
+    return (static_cast<std::size_t>(p) * protocols.size() + static_cast<std::size_t>(proto)) *
+               static_cast<std::size_t>(reps) +
+           static_cast<std::size_t>(r);
   }
 };
 
@@ -564,7 +566,7 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
   const int nm = static_cast<int>(methods.size());
   std::vector<std::vector<FitOutput>> fits(static_cast<std::size_t>(np),
                                            std::vector<FitOutput>(static_cast<std::size_t>(nm)));
-  ParallelFor(static_cast<std::size_t>(np * nm), ctx->threads, "shoulder fit", [&](std::size_t i) {
+  ParallelFor(static_cast<std::size_t>(np) * nm, ctx->threads, "shoulder fit", [&](std::size_t i) {
     const int p = static_cast<int>(i) / nm, m = static_cast<int>(i) % nm;
     const std::vector<Trial> train = {data.measured[L.Index(p, 0, 0)]};
     const std::vector<Trial> test = {data.measured[L.Index(p, 0, 1)]};

@@ -57,8 +57,10 @@ Trial SensorView(const Trial& t) {
   v.metadata = t.metadata;
   for (std::size_t i : rows) v.time.push_back(t.time[i]);
   const auto pick = [&](const std::string& n) {
+    const std::vector<double>& source = t.Column(n);
     std::vector<double> c;
-    for (std::size_t i : rows) c.push_back(t.Column(n)[i]);
+    c.reserve(rows.size());
+    for (std::size_t i : rows) c.push_back(source[i]);
     return c;
   };
   std::vector<std::string> driven;
@@ -152,6 +154,7 @@ void ParallelFor(std::size_t n, int threads, const std::string& label,
     worker();
   } else {
     std::vector<std::thread> pool;
+    pool.reserve(static_cast<std::size_t>(nt));
     for (int k = 0; k < nt; ++k) pool.emplace_back(worker);
     for (auto& t : pool) t.join();
   }
@@ -293,9 +296,9 @@ FitOutput FitRunner::Run(const std::string& method, const std::vector<Trial>& tr
   if (entry == nullptr) throw std::logic_error("benchmark: method " + method + " not registered");
   std::vector<std::string> parts = {"fit", method};
   for (const auto& [k, v] : options) parts.push_back(k + "=" + v);
-  parts.push_back("train");
+  parts.emplace_back("train");
   for (const auto& t : train) parts.push_back(TrialHash(t));
-  parts.push_back("test");
+  parts.emplace_back("test");
   for (const auto& t : test) parts.push_back(TrialHash(t));
   const std::string dir = cache_dir_ + "/" + Key(parts);
   FitOutput out;

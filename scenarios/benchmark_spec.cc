@@ -32,7 +32,7 @@ BenchmarkSection LoadSection(const Node& top, const std::string& key, const std:
   BenchmarkSection s;
   const auto resolve = [&](const std::string& k) {
     const std::string text = n.Text(k);
-    const std::string p = !text.empty() && text[0] == '/' ? text : dir + text;
+    std::string p = !text.empty() && text[0] == '/' ? text : dir + text;
     try {
       ReadFile(p);
     } catch (const std::exception& e) {
