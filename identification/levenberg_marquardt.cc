@@ -42,6 +42,31 @@ Eigen::MatrixXd Gram(const Eigen::MatrixXd& J) {
 
 }  // namespace
 
+const char* LmStopReasonName(LmStopReason reason) {
+  switch (reason) {
+    case LmStopReason::kRelativeDecrease:
+      return "relative_cost_decrease_below_tolerance";
+    case LmStopReason::kStepTolerance:
+      return "step_below_tolerance";
+    case LmStopReason::kZeroCost:
+      return "zero_cost";
+    case LmStopReason::kIterationLimit:
+      return "iteration_limit";
+    case LmStopReason::kNoDecrease:
+      return "damping_overflow_no_decrease_possible";
+  }
+  return "unknown";
+}
+
+bool LmConverged(LmStopReason reason) {
+  return reason == LmStopReason::kRelativeDecrease || reason == LmStopReason::kStepTolerance ||
+         reason == LmStopReason::kZeroCost;
+}
+
+Convergence ToConvergence(const LmResult& result) {
+  return {result.converged, LmStopReasonName(result.stop_reason), result.iterations};
+}
+
 LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
                             const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
                             const LmOptions& options, const ProjectionFn& project,
@@ -65,14 +90,23 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
   Eigen::VectorXd g = J.transpose() * res.residual;
   double lambda = options.initial_damping * std::max(jtj.diagonal().maxCoeff(), 1e-300);
   double nu = 2.0;
-  while (res.iterations < options.max_iterations) {
+  int rejected = 0;  // trial steps rejected since the last accepted one
+  res.stop_reason = LmStopReason::kIterationLimit;
+  if (res.cost == 0.0) res.stop_reason = LmStopReason::kZeroCost;
+  while (res.cost != 0.0 && res.iterations < options.max_iterations) {
     Eigen::MatrixXd A = jtj;
     for (int k = 0; k < p; ++k) A(k, k) += lambda * std::max(jtj(k, k), 1e-12);
     Eigen::VectorXd step = A.ldlt().solve(-g);
     Eigen::VectorXd x_new = res.x + step;
     Clamp(lower, upper, project, &x_new);
     const Eigen::VectorXd dx = x_new - res.x;
-    if (dx.norm() <= options.step_tolerance * (res.x.norm() + options.step_tolerance)) break;
+    if (dx.norm() <= options.step_tolerance * (res.x.norm() + options.step_tolerance)) {
+      // A step that vanished only because the damping grew over rejected trials, before any
+      // step was accepted, leaves the start point: that is no convergence.
+      res.stop_reason = res.iterations == 0 && rejected > 0 ? LmStopReason::kNoDecrease
+                                                            : LmStopReason::kStepTolerance;
+      break;
+    }
     const Eigen::VectorXd r_new = residual(x_new);
     ++res.evaluations;
     const double cost_new = r_new.squaredNorm();
@@ -85,17 +119,30 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
       ++res.iterations;
       lambda = std::max(lambda / 3.0, 1e-300);
       nu = 2.0;
+      rejected = 0;
       J = jac(res.x, res.residual);
       jtj = Gram(J);
       g = J.transpose() * res.residual;
-      if (decrease <= options.relative_tolerance * old_cost || res.cost == 0.0) break;
+      if (res.cost == 0.0) {
+        res.stop_reason = LmStopReason::kZeroCost;
+        break;
+      }
+      if (decrease <= options.relative_tolerance * old_cost) {
+        res.stop_reason = LmStopReason::kRelativeDecrease;
+        break;
+      }
     } else {
+      ++rejected;
       lambda *= nu;
       nu *= 2.0;
-      if (!std::isfinite(lambda) || lambda > 1e300) break;
+      if (!std::isfinite(lambda) || lambda > 1e300) {
+        res.stop_reason = LmStopReason::kNoDecrease;
+        break;
+      }
     }
   }
   res.jtj = jtj;
+  res.converged = LmConverged(res.stop_reason);
   return res;
 }
 

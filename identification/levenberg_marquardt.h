@@ -8,7 +8,13 @@
 #include <Eigen/Dense>
 #include <functional>
 
+#include "identification/method_support.h"
+
 namespace fesim::identification {
+
+struct LmResult;
+/// The run's converged flag, stop-reason name and accepted steps as a Convergence record.
+Convergence ToConvergence(const LmResult& result);
 
 struct LmOptions {
   int max_iterations = 200;           ///< accepted steps at most.
@@ -18,6 +24,24 @@ struct LmOptions {
   double fd_relative_step = 1e-7;  ///< forward-difference step, relative to max(|x_k|, 1e-3).
 };
 
+/// Why a Levenberg–Marquardt run stopped. The first three are convergence; the others are not.
+enum class LmStopReason {
+  kRelativeDecrease,  ///< an accepted step lowered the cost by ≤ relative_tolerance · cost.
+  kStepTolerance,  ///< the (clamped) step ‖Δx‖ fell to ≤ step_tolerance · (‖x‖ + step_tol.)
+                   ///< (after ≥ 1 accepted step, or at once: a stationary start).
+  kZeroCost,        ///< the cost reached exactly 0.
+  kIterationLimit,  ///< max_iterations accepted steps without meeting a tolerance.
+  kNoDecrease,      ///< no trial step lowered the cost: the damping grew past 1e300 (or
+                    ///< became non-finite), or, before any step was accepted, until the
+                    ///< step vanished below step_tolerance; x is the start point then.
+};
+
+/// Short snake_case name for metrics and YAML, e.g. "relative_cost_decrease_below_tolerance".
+const char* LmStopReasonName(LmStopReason reason);
+
+/// True for the tolerance-based stops (kRelativeDecrease, kStepTolerance, kZeroCost).
+bool LmConverged(LmStopReason reason);
+
 struct LmResult {
   Eigen::VectorXd x;         ///< the minimiser (within bounds).
   Eigen::VectorXd residual;  ///< r(x).
@@ -25,6 +49,8 @@ struct LmResult {
   int iterations = 0;        ///< accepted steps.
   int evaluations = 0;       ///< residual evaluations (including the Jacobian's).
   Eigen::MatrixXd jtj;       ///< Jᵀ J at x (for confidence intervals).
+  bool converged = false;    ///< LmConverged(stop_reason).
+  LmStopReason stop_reason = LmStopReason::kIterationLimit;
 };
 
 /// r(x) → residual vector (fixed length).

@@ -657,8 +657,11 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     run.iterations = res.iterations;
     run.evaluations = res.evaluations;
     run.wall_s = Seconds(t_run);
+    run.converged = res.converged;
+    run.stop_reason = LmStopReasonName(res.stop_reason);
     fit.runs.push_back(run);
     if (res.cost < best_cost) {
+      fit.best_run = fit.runs.size() - 1;
       best_cost = res.cost;
       best = std::move(res);
     }
@@ -772,8 +775,15 @@ MethodResult RunFullModel(const std::string& default_scenario, const std::vector
        "sensitivity:\n";
   for (const auto& e : fit.ranking) y += "  " + e.name + ": " + Num(e.sensitivity) + "\n";
 
+  std::vector<Convergence> convergence;
+  for (const auto& r : fit.runs) convergence.push_back({r.converged, r.stop_reason, r.iterations});
+  y += "# how each local Levenberg-Marquardt run stopped (best_run: the one kept)\n";
+  y += ConvergenceYaml("convergence", convergence, fit.best_run, 0);
   MethodResult result;
   result.model_yaml = y;
+  const std::string warning =
+      NotConvergedWarning("full-model local optimisation", convergence, fit.best_run);
+  if (!warning.empty()) result.warnings.push_back(warning);
   if (progress) progress(0.97, "evaluation");
   Json m = Json::Object();
   m.Set("method", "full-model");
@@ -793,6 +803,7 @@ MethodResult RunFullModel(const std::string& default_scenario, const std::vector
   m.Set("local_step_iterations", iters);
   m.Set("local_step_evaluations", evals);
   m.Set("local_step_cost_rad2", costs);
+  m.Set("convergence", ConvergenceJson(convergence, fit.best_run));
   m.Set("sensitivity_wall_s", fit.sensitivity_wall_s);
   m.Set("total_wall_s", fit.total_wall_s);
   m.Set("threads", threads);

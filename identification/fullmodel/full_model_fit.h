@@ -113,12 +113,14 @@ struct SensitivityEntry {
 };
 
 struct LocalRun {
-  Eigen::VectorXd start;  ///< kept parameters at the start, in their units.
-  Eigen::VectorXd x;      ///< at the end.
-  double cost = 0.0;      ///< Σ‖y − ŷ‖², rad².
-  int iterations = 0;     ///< accepted LM steps.
-  int evaluations = 0;    ///< residual evaluations (trial-set simulations).
-  double wall_s = 0.0;    ///< wall time of this local optimisation step, s.
+  Eigen::VectorXd start;    ///< kept parameters at the start, in their units.
+  Eigen::VectorXd x;        ///< at the end.
+  double cost = 0.0;        ///< Σ‖y − ŷ‖², rad².
+  int iterations = 0;       ///< accepted LM steps.
+  int evaluations = 0;      ///< residual evaluations (trial-set simulations).
+  double wall_s = 0.0;      ///< wall time of this local optimisation step, s.
+  bool converged = false;   ///< LM met a tolerance (see LmStopReason).
+  std::string stop_reason;  ///< LmStopReasonName, e.g. "iteration_limit".
 };
 
 struct FullModelFit {
@@ -131,6 +133,7 @@ struct FullModelFit {
   double cost = 0.0;                      ///< Σ‖y − ŷ‖² at the best values, rad².
   long residuals = 0;                     ///< number of residuals N.
   std::vector<LocalRun> runs;             ///< one per start.
+  std::size_t best_run = 0;               ///< index in `runs` of the values kept.
   double sensitivity_wall_s = 0.0;        ///< ranking, s.
   double total_wall_s = 0.0;              ///< ranking + all starts, s.
 };
