@@ -129,6 +129,42 @@ void BM_SimulateDataSet(benchmark::State& state) {
 }
 BENCHMARK(BM_SimulateDataSet)->Arg(4)->Arg(6)->Unit(benchmark::kMillisecond)->Iterations(3);
 
+/// The same data set integrated with sim::RunTrial directly: integrator work per simulation
+/// (steps, right-hand sides, Jacobians) and the cost of the 40 Hz report grid (range(1) = 0:
+/// angles only at the end, no per-sample observation).
+void BM_SimulateDataSetStats(benchmark::State& state) {
+  const Study s = MakeStudy();
+  const double tol = std::pow(10.0, -static_cast<double>(state.range(0)));
+  fesim::protocols::StepGridParams grid;
+  grid.u_max_us = 300.0;
+  const auto program = fesim::protocols::StepGridDataSets(grid, 1).front();
+  const sim::UpperLimbModel limb(s.participant);
+  sim::TrialRequest req;
+  req.duration_s = program.duration_s;
+  for (std::size_t k = 0; k < program.times_s.size(); ++k) {
+    std::vector<double> u(s.participant.channels.size(), 0.0);
+    u[0] = program.values_us[k][0];
+    u[1] = program.values_us[k][1];
+    req.stimulation.times.push_back(program.times_s[k]);
+    req.stimulation.values.push_back(u);
+  }
+  req.integrator.tolerance = tol;
+  req.sensors.angles.rate_hz = state.range(1) ? kRateHz : 1.0 / program.duration_s;
+  req.sensors.angles.coordinates = {sim::kWristFlexion, sim::kMcpFlexion, sim::kPipFlexion};
+  req.sensors.truth_rate_hz = 1.0 / program.duration_s;
+  sim::IntegrationStats stats;
+  for (auto _ : state) stats = sim::RunTrial(limb, req).stats;
+  state.counters["steps"] = static_cast<double>(stats.steps);
+  state.counters["rhs"] = static_cast<double>(stats.rhs_evaluations);
+  state.counters["jacobians"] = static_cast<double>(stats.jacobian_evaluations);
+}
+BENCHMARK(BM_SimulateDataSetStats)
+    ->Args({4, 1})
+    ->Args({4, 0})
+    ->Args({3, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
+
 /// The full-model fit: sensitivity ranking of all candidates, then `starts` local optimisations
 /// of the 29 most influential, each capped at range(0) LM iterations.
 void BM_FullModelFit(benchmark::State& state) {

@@ -82,12 +82,20 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
   res.cost = res.residual.squaredNorm();
   const int p = static_cast<int>(x0.size());
   const auto jac = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& r) {
+    ++res.jacobian_evaluations;
     return jacobian ? jacobian(x, r, &res.evaluations)
                     : Jacobian(residual, x, r, upper, options.fd_relative_step, &res.evaluations);
   };
   Eigen::MatrixXd J = jac(res.x, res.residual);
   Eigen::MatrixXd jtj = Gram(J);
   Eigen::VectorXd g = J.transpose() * res.residual;
+  bool fresh = true;  // J was evaluated at res.x (not a secant update)
+  const auto refresh = [&] {
+    J = jac(res.x, res.residual);
+    jtj = Gram(J);
+    g = J.transpose() * res.residual;
+    fresh = true;
+  };
   double lambda = options.initial_damping * std::max(jtj.diagonal().maxCoeff(), 1e-300);
   double nu = 2.0;
   int rejected = 0;  // trial steps rejected since the last accepted one
@@ -101,6 +109,10 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
     Clamp(lower, upper, project, &x_new);
     const Eigen::VectorXd dx = x_new - res.x;
     if (dx.norm() <= options.step_tolerance * (res.x.norm() + options.step_tolerance)) {
+      if (!fresh) {  // only a secant J says so: check with a real one
+        refresh();
+        continue;
+      }
       // A step that vanished only because the damping grew over rejected trials, before any
       // step was accepted, leaves the start point: that is no convergence.
       res.stop_reason = res.iterations == 0 && rejected > 0 ? LmStopReason::kNoDecrease
@@ -112,6 +124,12 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
     const double cost_new = r_new.squaredNorm();
     if (std::isfinite(cost_new) && cost_new < res.cost) {
       const double decrease = res.cost - cost_new;
+      if (options.broyden) {
+        // Broyden's rank-one secant update: J_new Δx = r(x + Δx) − r(x) exactly, J unchanged
+        // on the directions orthogonal to Δx.
+        J += ((r_new - res.residual) - J * dx) * (dx.transpose() / dx.squaredNorm());
+        fresh = false;
+      }
       res.x = x_new;
       res.residual = r_new;
       const double old_cost = res.cost;
@@ -120,19 +138,30 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
       lambda = std::max(lambda / 3.0, 1e-300);
       nu = 2.0;
       rejected = 0;
-      J = jac(res.x, res.residual);
-      jtj = Gram(J);
-      g = J.transpose() * res.residual;
+      if (options.broyden) {
+        jtj = Gram(J);
+        g = J.transpose() * res.residual;
+      } else {
+        refresh();
+      }
       if (res.cost == 0.0) {
         res.stop_reason = LmStopReason::kZeroCost;
         break;
       }
       if (decrease <= options.relative_tolerance * old_cost) {
+        if (!fresh) {  // a small decrease along a secant step: go on with a real Jacobian
+          refresh();
+          continue;
+        }
         res.stop_reason = LmStopReason::kRelativeDecrease;
         break;
       }
     } else {
       ++rejected;
+      if (!fresh) {  // the secant Jacobian failed: re-evaluate it, same damping
+        refresh();
+        continue;
+      }
       lambda *= nu;
       nu *= 2.0;
       if (!std::isfinite(lambda) || lambda > 1e300) {
@@ -141,6 +170,7 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
       }
     }
   }
+  if (options.broyden && !fresh) refresh();  // iteration limit on a secant J: real JᵀJ for CIs
   res.jtj = jtj;
   res.converged = LmConverged(res.stop_reason);
   return res;

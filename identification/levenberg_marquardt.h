@@ -22,6 +22,14 @@ struct LmOptions {
   double step_tolerance = 1e-12;   ///< stop when ‖Δx‖ ≤ this · (‖x‖ + step_tolerance).
   double initial_damping = 1e-3;   ///< λ₀ relative to max diag(JᵀJ).
   double fd_relative_step = 1e-7;  ///< forward-difference step, relative to max(|x_k|, 1e-3).
+  /// Secant Jacobian: after an accepted step Δx, Broyden's rank-one update
+  ///   J ← J + (r(x + Δx) − r(x) − J Δx) Δxᵀ / ‖Δx‖²
+  /// replaces the Jacobian evaluation (forward differences or `jacobian`). J is evaluated again
+  /// only when a step taken with an updated J is rejected, when such a step meets the relative
+  /// or step tolerance (a stop is only declared on an evaluated J), and at an iteration-limit
+  /// stop (so `jtj` is always from an evaluated J). For residuals whose Jacobian costs many
+  /// expensive evaluations (the full-model fit: one simulation per column and data set).
+  bool broyden = false;
 };
 
 /// Why a Levenberg–Marquardt run stopped. The first three are convergence; the others are not.
@@ -43,13 +51,14 @@ const char* LmStopReasonName(LmStopReason reason);
 bool LmConverged(LmStopReason reason);
 
 struct LmResult {
-  Eigen::VectorXd x;         ///< the minimiser (within bounds).
-  Eigen::VectorXd residual;  ///< r(x).
-  double cost = 0.0;         ///< ‖r(x)‖².
-  int iterations = 0;        ///< accepted steps.
-  int evaluations = 0;       ///< residual evaluations (including the Jacobian's).
-  Eigen::MatrixXd jtj;       ///< Jᵀ J at x (for confidence intervals).
-  bool converged = false;    ///< LmConverged(stop_reason).
+  Eigen::VectorXd x;             ///< the minimiser (within bounds).
+  Eigen::VectorXd residual;      ///< r(x).
+  double cost = 0.0;             ///< ‖r(x)‖².
+  int iterations = 0;            ///< accepted steps.
+  int evaluations = 0;           ///< residual evaluations (including the Jacobian's).
+  int jacobian_evaluations = 0;  ///< evaluated (not secant-updated) Jacobians.
+  Eigen::MatrixXd jtj;           ///< Jᵀ J at x (for confidence intervals).
+  bool converged = false;        ///< LmConverged(stop_reason).
   LmStopReason stop_reason = LmStopReason::kIterationLimit;
 };
 

@@ -36,6 +36,24 @@ TEST(LevenbergMarquardt, ConvergesOnRosenbrockFromTheStandardStart) {
   EXPECT_EQ(c.iterations, r.iterations);
 }
 
+TEST(LevenbergMarquardt, BroydenUpdatesReachTheSameMinimumWithFewerJacobians) {
+  LmOptions o;
+  o.broyden = true;
+  const LmResult b =
+      LevenbergMarquardt(Rosenbrock, Eigen::Vector2d(-1.2, 1.0), Unbounded(-1), Unbounded(1), o);
+  const LmResult f =
+      LevenbergMarquardt(Rosenbrock, Eigen::Vector2d(-1.2, 1.0), Unbounded(-1), Unbounded(1));
+  EXPECT_TRUE(b.converged) << LmStopReasonName(b.stop_reason);
+  EXPECT_LT((b.x - Eigen::Vector2d(1.0, 1.0)).norm(), kRosenbrockTol);
+  EXPECT_LT(b.jacobian_evaluations, b.iterations);
+  EXPECT_LT(b.jacobian_evaluations, f.jacobian_evaluations);
+  EXPECT_EQ(f.jacobian_evaluations, f.iterations + 1);  // one per accepted step and the start
+  // The stop was declared on an evaluated Jacobian: JᵀJ is the one at the minimiser,
+  // J = [[−20 x₁, 10], [−1, 0]] at (1, 1).
+  const Eigen::Matrix2d J_min = (Eigen::Matrix2d() << -20.0, 10.0, -1.0, 0.0).finished();
+  EXPECT_LT((b.jtj - J_min.transpose() * J_min).norm(), 1e-4 * (J_min.transpose() * J_min).norm());
+}
+
 TEST(LevenbergMarquardt, OneIterationIsReportedAsTheIterationLimitNotConvergence) {
   LmOptions o;
   o.max_iterations = 1;

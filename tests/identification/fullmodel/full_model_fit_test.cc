@@ -135,6 +135,24 @@ double RelativeError(const FullModelFit& fit, const PlantedProblem& p, const std
   return 1.0;
 }
 
+TEST(FullModelFitTest, SimulateLikeReproducesTheTrialRunner) {
+  // SimulateLike integrates without sim::RunTrial's sensor bookkeeping; on a noiseless trial
+  // recorded by RunTrial at the same tolerance it must give the same angles (same report times,
+  // same integrator path, same electromechanical delay).
+  const sim::ModelParams rig = DefaultHandRig();
+  const Trial trial = MakeTrial(rig, Staircase(rig), 7.0, 0.0, 1);
+  const Trial sim = SimulateLike(rig, trial, kIntegratorTol);
+  ASSERT_EQ(sim.time, trial.time);
+  for (const auto& name : trial.NamesWithPrefix("q.")) {
+    const auto& a = trial.Column(name);
+    const auto& b = sim.Column(name);
+    double worst = 0.0;
+    for (std::size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::abs(a[i] - b[i]));
+    EXPECT_LT(worst, 1e-12) << name;
+  }
+  EXPECT_EQ(sim.Column("u.ext"), trial.Column("u.ext"));
+}
+
 TEST(FullModelFitTest, RecoversPlantedParametersFromNoiselessData) {
   const PlantedProblem p = MakePlanted();
   const Trial data = MakeTrial(p.truth_model, Staircase(p.rig), 7.0, 0.0, 1);
