@@ -166,7 +166,8 @@ BENCHMARK(BM_SimulateDataSetStats)
     ->Iterations(3);
 
 /// The full-model fit: sensitivity ranking of all candidates, then `starts` local optimisations
-/// of the 29 most influential, each capped at range(0) LM iterations.
+/// of the 29 most influential, each capped at range(0) LM iterations; range(1) = 1: Broyden
+/// secant Jacobian updates, 0: a finite-difference Jacobian per accepted step.
 void BM_FullModelFit(benchmark::State& state) {
   const Study s = MakeStudy();
   fm::FullModelFitOptions o;
@@ -177,6 +178,7 @@ void BM_FullModelFit(benchmark::State& state) {
   o.fd_relative_step = 1e-2;
   o.relative_tolerance = 1e-4;
   o.threads = 2;
+  o.broyden = state.range(1) != 0;
   fm::FullModelFit fit;
   for (auto _ : state) fit = fm::FitFullModel(s.rig, s.train, o);
   const auto& run = fit.runs.front();
@@ -184,9 +186,15 @@ void BM_FullModelFit(benchmark::State& state) {
   state.counters["fitted"] = static_cast<double>(fit.kept.size());
   state.counters["sensitivity_s"] = fit.sensitivity_wall_s;
   state.counters["local_step_s"] = run.wall_s;
+  state.counters["local_step_cpu_s"] = run.cpu_s;
   state.counters["lm_iterations"] = run.iterations;
   state.counters["per_iteration_s"] = run.wall_s / std::max(1, run.iterations);
   state.counters["evaluations"] = run.evaluations;
+  state.counters["fd_jacobians"] = run.jacobians;
+  state.counters["converged"] = run.converged ? 1.0 : 0.0;
+  state.counters["distinct_sims"] = fit.distinct_simulations;
+  state.counters["cost"] = run.cost;
+  state.SetLabel(run.stop_reason);
   state.counters["total_s"] = fit.total_wall_s;
   // Fit measures of Table 1: normalised error, train (mean of the three sets) and validation.
   double start_ne = MeanNormalisedError(s.validation, fm::SimulateLike(s.rig, s.validation, 1e-6));
@@ -194,7 +202,11 @@ void BM_FullModelFit(benchmark::State& state) {
   state.counters["validation_ne"] =
       MeanNormalisedError(s.validation, fm::SimulateLike(fit.model, s.validation, 1e-6));
 }
-BENCHMARK(BM_FullModelFit)->Arg(50)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_FullModelFit)
+    ->Args({50, 1})  // Broyden secant updates (the default)
+    ->Args({50, 0})  // a finite-difference Jacobian per accepted step (before issue 4's fix)
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1);
 
 /// The Hammerstein two-step fit on the same three data sets (20 static + 3 dynamic starts).
 void BM_HammersteinTwoStep(benchmark::State& state) {

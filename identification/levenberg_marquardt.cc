@@ -30,6 +30,9 @@ Eigen::MatrixXd Jacobian(const ResidualFn& residual, const Eigen::VectorXd& x,
   return J;
 }
 
+/// Consecutive rejected trial steps on a secant Jacobian before it is re-evaluated.
+constexpr int kSecantRejectionsBeforeRefresh = 3;
+
 /// JᵀJ as column dot products (cheaper than a packed GEMM for tall, thin J).
 Eigen::MatrixXd Gram(const Eigen::MatrixXd& J) {
   const Eigen::Index p = J.cols();
@@ -99,6 +102,7 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
   double lambda = options.initial_damping * std::max(jtj.diagonal().maxCoeff(), 1e-300);
   double nu = 2.0;
   int rejected = 0;  // trial steps rejected since the last accepted one
+  int cycle = 0;     // next coordinate of the secant column refresh
   res.stop_reason = LmStopReason::kIterationLimit;
   if (res.cost == 0.0) res.stop_reason = LmStopReason::kZeroCost;
   while (res.cost != 0.0 && res.iterations < options.max_iterations) {
@@ -119,17 +123,33 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
                                                             : LmStopReason::kStepTolerance;
       break;
     }
+    if (options.broyden) {
+      // Keep the secant J from degenerating (Madsen, Nielsen & Tingleff 2004, Alg. 3.34): when
+      // the step hardly moves along the next coordinate of a cycle, re-evaluate that column by
+      // a forward difference (one residual evaluation).
+      const int j = cycle;
+      cycle = (cycle + 1) % p;
+      if (std::abs(dx(j)) < 0.8 * dx.norm()) {
+        double h = options.fd_relative_step * std::max(std::abs(res.x(j)), 1e-3);
+        if (res.x(j) + h > upper(j)) h = -h;
+        Eigen::VectorXd xj = res.x;
+        xj(j) += h;
+        J.col(j) = (residual(xj) - res.residual) / h;
+        ++res.evaluations;
+        fresh = false;
+      }
+    }
     const Eigen::VectorXd r_new = residual(x_new);
     ++res.evaluations;
     const double cost_new = r_new.squaredNorm();
+    if (options.broyden && r_new.allFinite()) {
+      // Broyden's rank-one secant update after every trial step, accepted or not:
+      // J_new Δx = r(x + Δx) − r(x) exactly, J unchanged on the directions orthogonal to Δx.
+      J += ((r_new - res.residual) - J * dx) * (dx.transpose() / dx.squaredNorm());
+      fresh = false;
+    }
     if (std::isfinite(cost_new) && cost_new < res.cost) {
       const double decrease = res.cost - cost_new;
-      if (options.broyden) {
-        // Broyden's rank-one secant update: J_new Δx = r(x + Δx) − r(x) exactly, J unchanged
-        // on the directions orthogonal to Δx.
-        J += ((r_new - res.residual) - J * dx) * (dx.transpose() / dx.squaredNorm());
-        fresh = false;
-      }
       res.x = x_new;
       res.residual = r_new;
       const double old_cost = res.cost;
@@ -158,9 +178,13 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
       }
     } else {
       ++rejected;
-      if (!fresh) {  // the secant Jacobian failed: re-evaluate it, same damping
-        refresh();
+      if (!fresh && rejected >= kSecantRejectionsBeforeRefresh) {
+        refresh();  // the secant Jacobian keeps failing: re-evaluate it, same damping
         continue;
+      }
+      if (!fresh) {  // J now holds the rejected step's secant information
+        jtj = Gram(J);
+        g = J.transpose() * res.residual;
       }
       lambda *= nu;
       nu *= 2.0;

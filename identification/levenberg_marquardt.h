@@ -22,13 +22,16 @@ struct LmOptions {
   double step_tolerance = 1e-12;   ///< stop when ‖Δx‖ ≤ this · (‖x‖ + step_tolerance).
   double initial_damping = 1e-3;   ///< λ₀ relative to max diag(JᵀJ).
   double fd_relative_step = 1e-7;  ///< forward-difference step, relative to max(|x_k|, 1e-3).
-  /// Secant Jacobian: after an accepted step Δx, Broyden's rank-one update
+  /// Secant Jacobian (Madsen, Nielsen & Tingleff 2004, "Methods for non-linear least squares
+  /// problems", §3.4): after every trial step Δx, accepted or rejected, Broyden's rank-one update
   ///   J ← J + (r(x + Δx) − r(x) − J Δx) Δxᵀ / ‖Δx‖²
-  /// replaces the Jacobian evaluation (forward differences or `jacobian`). J is evaluated again
-  /// only when a step taken with an updated J is rejected, when such a step meets the relative
-  /// or step tolerance (a stop is only declared on an evaluated J), and at an iteration-limit
-  /// stop (so `jtj` is always from an evaluated J). For residuals whose Jacobian costs many
-  /// expensive evaluations (the full-model fit: one simulation per column and data set).
+  /// replaces the Jacobian evaluation (forward differences or `jacobian`), and one column per
+  /// iteration (cyclically, when the step hardly moves along it) is re-evaluated by a forward
+  /// difference. J is evaluated in full only at the start, after 3 consecutive rejected steps on
+  /// a secant J, when a secant step meets the relative or step tolerance (a stop is only declared
+  /// on an evaluated J), and at an iteration-limit stop (so `jtj` is always from an evaluated J).
+  /// For residuals whose Jacobian costs many expensive evaluations (the full-model fit: one
+  /// simulation per column and data set).
   bool broyden = false;
 };
 

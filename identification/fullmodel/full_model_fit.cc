@@ -1,5 +1,7 @@
 #include "identification/fullmodel/full_model_fit.h"
 
+#include <time.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -31,6 +33,13 @@ using Clock = std::chrono::steady_clock;
 
 double Seconds(Clock::time_point since) {
   return std::chrono::duration<double>(Clock::now() - since).count();
+}
+
+/// CPU time of the whole process (all threads), s.
+double ProcessCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
 /// The forearm muscles whose A entries, β and γ are candidates (paper 000 §5.1).
@@ -681,6 +690,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
                    std::to_string(options.starts) + " of " + std::to_string(p) + " parameters");
     }
     const auto t_run = Clock::now();
+    const double cpu_run = ProcessCpuSeconds();
     LmResult res = LevenbergMarquardt(residual, x0, lower, upper, lm, {}, jacobian);
     LocalRun run;
     run.start = x0;
@@ -689,6 +699,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     run.iterations = res.iterations;
     run.evaluations = res.evaluations;
     run.wall_s = Seconds(t_run);
+    run.cpu_s = ProcessCpuSeconds() - cpu_run;
     run.jacobians = res.jacobian_evaluations;
     run.converged = res.converged;
     run.stop_reason = LmStopReasonName(res.stop_reason);
@@ -826,15 +837,17 @@ MethodResult RunFullModel(const std::string& default_scenario, const std::vector
   m.Set("fitted_parameters", static_cast<int>(fit.kept.size()));
   m.Set("residuals", fit.residuals);
   m.Set("cost_rad2", fit.cost);
-  std::vector<double> walls, iters, evals, costs, jacs;
+  std::vector<double> walls, cpus, iters, evals, costs, jacs;
   for (const auto& r : fit.runs) {
     walls.push_back(r.wall_s);
+    cpus.push_back(r.cpu_s);
     iters.push_back(r.iterations);
     jacs.push_back(r.jacobians);
     evals.push_back(r.evaluations);
     costs.push_back(r.cost);
   }
   m.Set("local_step_wall_s", MeanSd(walls));
+  m.Set("local_step_cpu_s", MeanSd(cpus));
   m.Set("local_step_iterations", iters);
   m.Set("local_step_evaluations", evals);
   m.Set("local_step_jacobians", jacs);
