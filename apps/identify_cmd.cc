@@ -33,7 +33,8 @@ int RunIdentify(int argc, char** argv) {
     PrintHelp(methods);
     return 0;
   }
-  if (!args.positional.empty()) throw std::runtime_error("unexpected argument '" + args.positional[0] + "'");
+  if (!args.positional.empty())
+    throw std::runtime_error("unexpected argument '" + args.positional[0] + "'");
   if (!args.Has("method")) throw std::runtime_error("--method is required (see --help)");
   if (!args.Has("train")) throw std::runtime_error("--train is required (see --help)");
   const std::string name = args.Get("method");
@@ -67,6 +68,11 @@ int RunIdentify(int argc, char** argv) {
   }
   WriteFileAtomic(out + "/metrics.json", result.metrics.Dump());
   std::fprintf(stderr, "fesim identify: %s written to %s\n", name.c_str(), out.c_str());
+  // Issue 10: a fit whose best local optimisation did not converge says so (one line each; the
+  // reason is also in metrics.json and model.yaml).
+  for (const auto& w : result.warnings) {
+    std::fprintf(stderr, "fesim identify: warning: %s\n", w.c_str());
+  }
   return 0;
 }
 

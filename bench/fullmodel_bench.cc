@@ -129,8 +129,45 @@ void BM_SimulateDataSet(benchmark::State& state) {
 }
 BENCHMARK(BM_SimulateDataSet)->Arg(4)->Arg(6)->Unit(benchmark::kMillisecond)->Iterations(3);
 
+/// The same data set integrated with sim::RunTrial directly: integrator work per simulation
+/// (steps, right-hand sides, Jacobians) and the cost of the 40 Hz report grid (range(1) = 0:
+/// angles only at the end, no per-sample observation).
+void BM_SimulateDataSetStats(benchmark::State& state) {
+  const Study s = MakeStudy();
+  const double tol = std::pow(10.0, -static_cast<double>(state.range(0)));
+  fesim::protocols::StepGridParams grid;
+  grid.u_max_us = 300.0;
+  const auto program = fesim::protocols::StepGridDataSets(grid, 1).front();
+  const sim::UpperLimbModel limb(s.participant);
+  sim::TrialRequest req;
+  req.duration_s = program.duration_s;
+  for (std::size_t k = 0; k < program.times_s.size(); ++k) {
+    std::vector<double> u(s.participant.channels.size(), 0.0);
+    u[0] = program.values_us[k][0];
+    u[1] = program.values_us[k][1];
+    req.stimulation.times.push_back(program.times_s[k]);
+    req.stimulation.values.push_back(u);
+  }
+  req.integrator.tolerance = tol;
+  req.sensors.angles.rate_hz = state.range(1) ? kRateHz : 1.0 / program.duration_s;
+  req.sensors.angles.coordinates = {sim::kWristFlexion, sim::kMcpFlexion, sim::kPipFlexion};
+  req.sensors.truth_rate_hz = 1.0 / program.duration_s;
+  sim::IntegrationStats stats;
+  for (auto _ : state) stats = sim::RunTrial(limb, req).stats;
+  state.counters["steps"] = static_cast<double>(stats.steps);
+  state.counters["rhs"] = static_cast<double>(stats.rhs_evaluations);
+  state.counters["jacobians"] = static_cast<double>(stats.jacobian_evaluations);
+}
+BENCHMARK(BM_SimulateDataSetStats)
+    ->Args({4, 1})
+    ->Args({4, 0})
+    ->Args({3, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
+
 /// The full-model fit: sensitivity ranking of all candidates, then `starts` local optimisations
-/// of the 29 most influential, each capped at range(0) LM iterations.
+/// of the 29 most influential, each capped at range(0) LM iterations; range(1) = 1: Broyden
+/// secant Jacobian updates, 0: a finite-difference Jacobian per accepted step.
 void BM_FullModelFit(benchmark::State& state) {
   const Study s = MakeStudy();
   fm::FullModelFitOptions o;
@@ -141,6 +178,7 @@ void BM_FullModelFit(benchmark::State& state) {
   o.fd_relative_step = 1e-2;
   o.relative_tolerance = 1e-4;
   o.threads = 2;
+  o.broyden = state.range(1) != 0;
   fm::FullModelFit fit;
   for (auto _ : state) fit = fm::FitFullModel(s.rig, s.train, o);
   const auto& run = fit.runs.front();
@@ -148,9 +186,15 @@ void BM_FullModelFit(benchmark::State& state) {
   state.counters["fitted"] = static_cast<double>(fit.kept.size());
   state.counters["sensitivity_s"] = fit.sensitivity_wall_s;
   state.counters["local_step_s"] = run.wall_s;
+  state.counters["local_step_cpu_s"] = run.cpu_s;
   state.counters["lm_iterations"] = run.iterations;
   state.counters["per_iteration_s"] = run.wall_s / std::max(1, run.iterations);
   state.counters["evaluations"] = run.evaluations;
+  state.counters["fd_jacobians"] = run.jacobians;
+  state.counters["converged"] = run.converged ? 1.0 : 0.0;
+  state.counters["distinct_sims"] = fit.distinct_simulations;
+  state.counters["cost"] = run.cost;
+  state.SetLabel(run.stop_reason);
   state.counters["total_s"] = fit.total_wall_s;
   // Fit measures of Table 1: normalised error, train (mean of the three sets) and validation.
   double start_ne = MeanNormalisedError(s.validation, fm::SimulateLike(s.rig, s.validation, 1e-6));
@@ -158,7 +202,11 @@ void BM_FullModelFit(benchmark::State& state) {
   state.counters["validation_ne"] =
       MeanNormalisedError(s.validation, fm::SimulateLike(fit.model, s.validation, 1e-6));
 }
-BENCHMARK(BM_FullModelFit)->Arg(50)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_FullModelFit)
+    ->Args({50, 1})  // Broyden secant updates (the default)
+    ->Args({50, 0})  // a finite-difference Jacobian per accepted step (before issue 4's fix)
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1);
 
 /// The Hammerstein two-step fit on the same three data sets (20 static + 3 dynamic starts).
 void BM_HammersteinTwoStep(benchmark::State& state) {

@@ -123,7 +123,7 @@ LogMarginalLikelihood GpLogMarginalLikelihood(const SeArdHyperParams& hp, const 
 SeArdHyperParams FitHyperParameters(const SeArdHyperParams& initial, const Eigen::MatrixXd& X,
                                     const Eigen::VectorXd& y, const GpHyperFitOptions& options,
                                     const Eigen::VectorXd& mean, const Eigen::MatrixXd& extra_cov,
-                                    int* iterations) {
+                                    int* iterations, Convergence* convergence) {
   CheckInputs(X, y, initial);
   const Eigen::Index D = X.cols(), P = D + 2;
   Eigen::VectorXd mask = Eigen::VectorXd::Zero(P);
@@ -147,8 +147,14 @@ SeArdHyperParams FitHyperParameters(const SeArdHyperParams& initial, const Eigen
   if (!std::isfinite(f)) throw std::runtime_error("GP: kernel matrix not positive definite");
   Eigen::MatrixXd H = Eigen::MatrixXd::Identity(P, P);
   int it = 0;
+  std::string stop_reason = "iteration_limit";
+  bool converged = false;
   for (; it < options.max_iterations; ++it) {
-    if (g.lpNorm<Eigen::Infinity>() < kGradTol) break;
+    if (g.lpNorm<Eigen::Infinity>() < kGradTol) {
+      stop_reason = "gradient_below_tolerance";
+      converged = true;
+      break;
+    }
     Eigen::VectorXd p = -(H * g).cwiseProduct(mask);
     if (g.dot(p) >= 0.0) {  // not a descent direction: restart with steepest descent
       H.setIdentity();
@@ -168,7 +174,10 @@ SeArdHyperParams FitHyperParameters(const SeArdHyperParams& initial, const Eigen
       }
       step *= 0.5;
     }
-    if (!ok) break;
+    if (!ok) {
+      stop_reason = "line_search_failed";
+      break;
+    }
     const Eigen::VectorXd s = theta_new - theta, yk = g_new - g;
     const double sy = s.dot(yk);
     const double f_old = f;
@@ -181,9 +190,14 @@ SeArdHyperParams FitHyperParameters(const SeArdHyperParams& initial, const Eigen
       H = (I - rho * s * yk.transpose()) * H * (I - rho * yk * s.transpose()) +
           rho * s * s.transpose();
     }
-    if (std::abs(f_old - f) <= kRelFTol * std::max(1.0, std::abs(f))) break;
+    if (std::abs(f_old - f) <= kRelFTol * std::max(1.0, std::abs(f))) {
+      stop_reason = "relative_objective_change_below_tolerance";
+      converged = true;
+      break;
+    }
   }
   if (iterations != nullptr) *iterations = it;
+  if (convergence != nullptr) *convergence = {converged, stop_reason, it};
   return FromLogVector(theta);
 }
 

@@ -21,6 +21,8 @@
 
 #include <Eigen/Dense>
 
+#include "identification/method_support.h"
+
 namespace fesim::identification {
 
 /// Squared-exponential ARD hyper-parameters.
@@ -61,12 +63,14 @@ struct GpHyperFitOptions {
 };
 
 /// Maximises the log marginal likelihood from `initial` by BFGS on θ with backtracking line
-/// search; the analytic gradient is used. Returns the optimum (and the iteration count).
+/// search; the analytic gradient is used. Returns the optimum (and the iteration count, and how
+/// it stopped: converged on "gradient_below_tolerance" or "relative_objective_change_below_
+/// tolerance"; not converged on "line_search_failed" or "iteration_limit").
 SeArdHyperParams FitHyperParameters(const SeArdHyperParams& initial, const Eigen::MatrixXd& X,
                                     const Eigen::VectorXd& y, const GpHyperFitOptions& options,
                                     const Eigen::VectorXd& mean = Eigen::VectorXd(),
                                     const Eigen::MatrixXd& extra_cov = Eigen::MatrixXd(),
-                                    int* iterations = nullptr);
+                                    int* iterations = nullptr, Convergence* convergence = nullptr);
 
 /// Prediction of the latent function: mean (output unit) and variance (output unit²).
 struct GpPrediction {

@@ -243,7 +243,11 @@ HammersteinMimoFit FitHammersteinStatic(const SteadyStateSet& set, const Eigen::
     LmResult r = LevenbergMarquardt(residual, x0, lower, upper, lo, project);
     fit.static_step_wall_s.push_back(Seconds(ts));
     fit.static_step_iterations.push_back(r.iterations);
-    if (r.cost < best.cost) best = std::move(r);
+    fit.static_step_convergence.push_back(ToConvergence(r));
+    if (r.cost < best.cost) {
+      fit.static_best_run = fit.static_step_convergence.size() - 1;
+      best = std::move(r);
+    }
   }
   // Sort muscle units by u^db_{j,1} (the model is invariant to their order).
   std::vector<CutoffParams> psi = UnpackCutoffs(best.x, n);
@@ -367,7 +371,11 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
     LmResult r = LevenbergMarquardt(residual, x0, lower, upper, lo, {}, jacobian);
     fit->dynamic_step_wall_s.push_back(Seconds(ts));
     fit->dynamic_step_iterations.push_back(r.iterations);
-    if (r.cost < best.cost) best = std::move(r);
+    fit->dynamic_step_convergence.push_back(ToConvergence(r));
+    if (r.cost < best.cost) {
+      fit->dynamic_best_run = fit->dynamic_step_convergence.size() - 1;
+      best = std::move(r);
+    }
   }
   fit->params.omega_rad_s = best.x(0);
   fit->params.mu_s = best.x.tail(q);
@@ -486,6 +494,9 @@ MethodResult RunHammersteinMimo(const std::vector<Trial>& train, const std::vect
                    fit.psi_ci95(j * (n + 1) + n), 4);
     y += YamlParam("gamma", phi[j].gamma, "1", NAN, 4);
   }
+  y += "# how each local Levenberg-Marquardt run stopped (best_run: the one kept)\nconvergence:\n";
+  y += ConvergenceYaml("static_step", fit.static_step_convergence, fit.static_best_run, 2);
+  y += ConvergenceYaml("dynamic_step", fit.dynamic_step_convergence, fit.dynamic_best_run, 2);
   MethodResult result;
   result.model_yaml = y;
 
@@ -548,8 +559,19 @@ MethodResult RunHammersteinMimo(const std::vector<Trial>& train, const std::vect
   m.Set("dynamic_local_step_wall_s", mean_sd(fit.dynamic_step_wall_s));
   std::vector<double> iters(fit.static_step_iterations.begin(), fit.static_step_iterations.end());
   m.Set("static_local_step_iterations", iters);
+  m.Set("static_step_convergence",
+        ConvergenceJson(fit.static_step_convergence, fit.static_best_run));
+  m.Set("dynamic_step_convergence",
+        ConvergenceJson(fit.dynamic_step_convergence, fit.dynamic_best_run));
   m.Set("total_wall_s", fit.total_wall_s);
   result.metrics = m;
+  for (const std::string& w :
+       {NotConvergedWarning("hammerstein-mimo static step", fit.static_step_convergence,
+                            fit.static_best_run),
+        NotConvergedWarning("hammerstein-mimo dynamic step", fit.dynamic_step_convergence,
+                            fit.dynamic_best_run)}) {
+    if (!w.empty()) result.warnings.push_back(w);
+  }
   if (progress) progress(1.0, "done");
   return result;
 }

@@ -39,6 +39,7 @@
 #include <vector>
 
 #include "identification/method.h"
+#include "identification/method_support.h"
 #include "identification/recruitment_bijection.h"
 
 namespace fesim::identification {
@@ -90,8 +91,12 @@ struct HammersteinMimoFit {
   std::vector<double> dynamic_step_wall_s;   ///< wall time of each dynamic local optimisation, s.
   std::vector<int> static_step_iterations;   ///< LM iterations per static start.
   std::vector<int> dynamic_step_iterations;  ///< LM iterations per dynamic start.
-  double static_cost = 0.0;                  ///< Σ‖ỹ − D h‖² on 𝒳, rad².
-  double dynamic_cost = 0.0;                 ///< Σ‖y − ŷ‖² on the dynamic data, rad².
+  std::vector<Convergence> static_step_convergence;   ///< per static start: converged, why.
+  std::vector<Convergence> dynamic_step_convergence;  ///< per dynamic start: converged, why.
+  std::size_t static_best_run = 0;   ///< index of the static start whose Ψ is kept.
+  std::size_t dynamic_best_run = 0;  ///< index of the dynamic start whose Θ is kept.
+  double static_cost = 0.0;          ///< Σ‖ỹ − D h‖² on 𝒳, rad².
+  double dynamic_cost = 0.0;         ///< Σ‖y − ŷ‖² on the dynamic data, rad².
   double total_wall_s = 0.0;
   Eigen::VectorXd psi_ci95;    ///< half-widths of Ψ in the order of PackCutoffs, µs.
   Eigen::MatrixXd d_ci95;      ///< half-widths of D (conditional on Ψ), rad.

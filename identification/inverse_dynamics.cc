@@ -7,6 +7,7 @@
 #include <map>
 #include <stdexcept>
 
+#include "identification/method_support.h"
 #include "identification/metrics.h"
 
 namespace fesim::identification {
@@ -14,12 +15,6 @@ namespace {
 
 constexpr double kZ95 = 1.959963984540054;
 constexpr double kMinNoiseFraction = 1e-4;  // σ_n ≥ this × std(τ)
-
-std::string Num(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.10g", v);
-  return buf;
-}
 
 std::vector<double> CheckedColumn(const Trial& trial, const std::string& name) {
   if (!trial.Has(name)) throw std::runtime_error("reaching trial: column " + name + " missing");
@@ -211,7 +206,9 @@ InvDynModel FitInvDyn(InvDynKind kind, const std::vector<std::string>& joints,
       if (fixed_hyper != nullptr) {
         hp = (*fixed_hyper)[j];
       } else {
-        hp = FitHyperParameters(hp, Xs, y, fo);
+        Convergence c;
+        hp = FitHyperParameters(hp, Xs, y, fo, Eigen::VectorXd(), Eigen::MatrixXd(), nullptr, &c);
+        m.hyper_convergence.push_back(c);
       }
       m.gp[j].emplace(hp, Xs, y);
     } else {
@@ -228,7 +225,9 @@ InvDynModel FitInvDyn(InvDynKind kind, const std::vector<std::string>& joints,
       } else {
         fo.fit_length_scales = false;  // chosen a priori (paper 004 §II-B3)
         fo.min_noise_sd = kMinNoiseFraction * res_sd;
-        hp = FitHyperParameters(hp, Xs, y, fo, Phi * b, Phi * B * Phi.transpose());
+        Convergence c;
+        hp = FitHyperParameters(hp, Xs, y, fo, Phi * b, Phi * B * Phi.transpose(), nullptr, &c);
+        m.hyper_convergence.push_back(c);
       }
       m.spgp[j].emplace(hp, Xs, y, Phi, b, B);
     }
@@ -348,6 +347,16 @@ MethodResult RunInvDynMethod(InvDynKind kind, const std::vector<Trial>& train,
   result.metrics.Set("training_samples", static_cast<unsigned long>(data.X.rows()));
   if (kind != InvDynKind::kParametric) {
     result.metrics.Set("gp_training_points", static_cast<unsigned long>(model.training_points));
+    // One BFGS hyper-parameter optimisation per joint; each is its own "best run".
+    Json conv = Json::Object();
+    for (std::size_t j = 0; j < model.hyper_convergence.size(); ++j) {
+      const std::vector<Convergence> one = {model.hyper_convergence[j]};
+      conv.Set(data.joints[j], ConvergenceJson(one, 0));
+      const std::string w =
+          NotConvergedWarning(name + " hyper-parameters of " + data.joints[j], one, 0);
+      if (!w.empty()) result.warnings.push_back(w);
+    }
+    result.metrics.Set("hyper_parameter_convergence", std::move(conv));
   }
   if (kind == InvDynKind::kGp) {
     // Closed-form leave-one-sample-out residuals of each joint's GP on its training points
@@ -471,6 +480,13 @@ MethodResult RunInvDynMethod(InvDynKind kind, const std::vector<Trial>& train,
   }
   if (kind != InvDynKind::kParametric) {
     yaml += "gp_training_points: " + std::to_string(model.training_points) + "\n";
+    if (!model.hyper_convergence.empty()) yaml += "# how BFGS stopped per joint\nconvergence:\n";
+    for (std::size_t j = 0; j < model.hyper_convergence.size(); ++j) {
+      const Convergence& c = model.hyper_convergence[j];
+      yaml += "  " + data.joints[j] + ": {converged: " + (c.converged ? "true" : "false") +
+              ", stop_reason: " + c.stop_reason + ", iterations: " + std::to_string(c.iterations) +
+              "}\n";
+    }
   }
   result.model_yaml = yaml;
   if (progress) progress(1.0, "done");

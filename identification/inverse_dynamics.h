@@ -34,6 +34,7 @@
 
 #include "identification/gaussian_process.h"
 #include "identification/method.h"
+#include "identification/method_support.h"
 #include "scenarios/trial.h"
 
 namespace fesim::identification {
@@ -91,9 +92,11 @@ struct InvDynOptions {
 struct InvDynModel {
   InvDynKind kind = InvDynKind::kParametric;
   std::vector<std::string> joints;
-  std::vector<ParametricJointModel> parametric;    ///< per joint (all kinds: the GP prior/baseline)
-  std::vector<SeArdHyperParams> hyper;             ///< per joint (GP kinds)
-  std::vector<std::optional<GaussianProcess>> gp;  ///< per joint (kGp)
+  std::vector<ParametricJointModel> parametric;  ///< per joint (all kinds: the GP prior/baseline)
+  std::vector<SeArdHyperParams> hyper;           ///< per joint (GP kinds)
+  /// per joint (GP kinds, when the hyper-parameters were optimised): how BFGS stopped.
+  std::vector<Convergence> hyper_convergence;
+  std::vector<std::optional<GaussianProcess>> gp;     ///< per joint (kGp)
   std::vector<std::optional<SemiparametricGp>> spgp;  ///< per joint (kSemiparametric)
   std::size_t training_points = 0;                    ///< GP training samples used
 };

@@ -30,6 +30,9 @@ Eigen::MatrixXd Jacobian(const ResidualFn& residual, const Eigen::VectorXd& x,
   return J;
 }
 
+/// Consecutive rejected trial steps on a secant Jacobian before it is re-evaluated.
+constexpr int kSecantRejectionsBeforeRefresh = 3;
+
 /// JᵀJ as column dot products (cheaper than a packed GEMM for tall, thin J).
 Eigen::MatrixXd Gram(const Eigen::MatrixXd& J) {
   const Eigen::Index p = J.cols();
@@ -41,6 +44,31 @@ Eigen::MatrixXd Gram(const Eigen::MatrixXd& J) {
 }
 
 }  // namespace
+
+const char* LmStopReasonName(LmStopReason reason) {
+  switch (reason) {
+    case LmStopReason::kRelativeDecrease:
+      return "relative_cost_decrease_below_tolerance";
+    case LmStopReason::kStepTolerance:
+      return "step_below_tolerance";
+    case LmStopReason::kZeroCost:
+      return "zero_cost";
+    case LmStopReason::kIterationLimit:
+      return "iteration_limit";
+    case LmStopReason::kNoDecrease:
+      return "damping_overflow_no_decrease_possible";
+  }
+  return "unknown";
+}
+
+bool LmConverged(LmStopReason reason) {
+  return reason == LmStopReason::kRelativeDecrease || reason == LmStopReason::kStepTolerance ||
+         reason == LmStopReason::kZeroCost;
+}
+
+Convergence ToConvergence(const LmResult& result) {
+  return {result.converged, LmStopReasonName(result.stop_reason), result.iterations};
+}
 
 LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
                             const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
@@ -57,25 +85,69 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
   res.cost = res.residual.squaredNorm();
   const int p = static_cast<int>(x0.size());
   const auto jac = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& r) {
+    ++res.jacobian_evaluations;
     return jacobian ? jacobian(x, r, &res.evaluations)
                     : Jacobian(residual, x, r, upper, options.fd_relative_step, &res.evaluations);
   };
   Eigen::MatrixXd J = jac(res.x, res.residual);
   Eigen::MatrixXd jtj = Gram(J);
   Eigen::VectorXd g = J.transpose() * res.residual;
+  bool fresh = true;  // J was evaluated at res.x (not a secant update)
+  const auto refresh = [&] {
+    J = jac(res.x, res.residual);
+    jtj = Gram(J);
+    g = J.transpose() * res.residual;
+    fresh = true;
+  };
   double lambda = options.initial_damping * std::max(jtj.diagonal().maxCoeff(), 1e-300);
   double nu = 2.0;
-  while (res.iterations < options.max_iterations) {
+  int rejected = 0;  // trial steps rejected since the last accepted one
+  int cycle = 0;     // next coordinate of the secant column refresh
+  res.stop_reason = LmStopReason::kIterationLimit;
+  if (res.cost == 0.0) res.stop_reason = LmStopReason::kZeroCost;
+  while (res.cost != 0.0 && res.iterations < options.max_iterations) {
     Eigen::MatrixXd A = jtj;
     for (int k = 0; k < p; ++k) A(k, k) += lambda * std::max(jtj(k, k), 1e-12);
     Eigen::VectorXd step = A.ldlt().solve(-g);
     Eigen::VectorXd x_new = res.x + step;
     Clamp(lower, upper, project, &x_new);
     const Eigen::VectorXd dx = x_new - res.x;
-    if (dx.norm() <= options.step_tolerance * (res.x.norm() + options.step_tolerance)) break;
+    if (dx.norm() <= options.step_tolerance * (res.x.norm() + options.step_tolerance)) {
+      if (!fresh) {  // only a secant J says so: check with a real one
+        refresh();
+        continue;
+      }
+      // A step that vanished only because the damping grew over rejected trials, before any
+      // step was accepted, leaves the start point: that is no convergence.
+      res.stop_reason = res.iterations == 0 && rejected > 0 ? LmStopReason::kNoDecrease
+                                                            : LmStopReason::kStepTolerance;
+      break;
+    }
+    if (options.broyden) {
+      // Keep the secant J from degenerating (Madsen, Nielsen & Tingleff 2004, Alg. 3.34): when
+      // the step hardly moves along the next coordinate of a cycle, re-evaluate that column by
+      // a forward difference (one residual evaluation).
+      const int j = cycle;
+      cycle = (cycle + 1) % p;
+      if (std::abs(dx(j)) < 0.8 * dx.norm()) {
+        double h = options.fd_relative_step * std::max(std::abs(res.x(j)), 1e-3);
+        if (res.x(j) + h > upper(j)) h = -h;
+        Eigen::VectorXd xj = res.x;
+        xj(j) += h;
+        J.col(j) = (residual(xj) - res.residual) / h;
+        ++res.evaluations;
+        fresh = false;
+      }
+    }
     const Eigen::VectorXd r_new = residual(x_new);
     ++res.evaluations;
     const double cost_new = r_new.squaredNorm();
+    if (options.broyden && r_new.allFinite()) {
+      // Broyden's rank-one secant update after every trial step, accepted or not:
+      // J_new Δx = r(x + Δx) − r(x) exactly, J unchanged on the directions orthogonal to Δx.
+      J += ((r_new - res.residual) - J * dx) * (dx.transpose() / dx.squaredNorm());
+      fresh = false;
+    }
     if (std::isfinite(cost_new) && cost_new < res.cost) {
       const double decrease = res.cost - cost_new;
       res.x = x_new;
@@ -85,17 +157,46 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
       ++res.iterations;
       lambda = std::max(lambda / 3.0, 1e-300);
       nu = 2.0;
-      J = jac(res.x, res.residual);
-      jtj = Gram(J);
-      g = J.transpose() * res.residual;
-      if (decrease <= options.relative_tolerance * old_cost || res.cost == 0.0) break;
+      rejected = 0;
+      if (options.broyden) {
+        jtj = Gram(J);
+        g = J.transpose() * res.residual;
+      } else {
+        refresh();
+      }
+      if (res.cost == 0.0) {
+        res.stop_reason = LmStopReason::kZeroCost;
+        break;
+      }
+      if (decrease <= options.relative_tolerance * old_cost) {
+        if (!fresh) {  // a small decrease along a secant step: go on with a real Jacobian
+          refresh();
+          continue;
+        }
+        res.stop_reason = LmStopReason::kRelativeDecrease;
+        break;
+      }
     } else {
+      ++rejected;
+      if (!fresh && rejected >= kSecantRejectionsBeforeRefresh) {
+        refresh();  // the secant Jacobian keeps failing: re-evaluate it, same damping
+        continue;
+      }
+      if (!fresh) {  // J now holds the rejected step's secant information
+        jtj = Gram(J);
+        g = J.transpose() * res.residual;
+      }
       lambda *= nu;
       nu *= 2.0;
-      if (!std::isfinite(lambda) || lambda > 1e300) break;
+      if (!std::isfinite(lambda) || lambda > 1e300) {
+        res.stop_reason = LmStopReason::kNoDecrease;
+        break;
+      }
     }
   }
+  if (options.broyden && !fresh) refresh();  // iteration limit on a secant J: real JᵀJ for CIs
   res.jtj = jtj;
+  res.converged = LmConverged(res.stop_reason);
   return res;
 }
 

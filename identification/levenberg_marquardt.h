@@ -8,7 +8,13 @@
 #include <Eigen/Dense>
 #include <functional>
 
+#include "identification/method_support.h"
+
 namespace fesim::identification {
+
+struct LmResult;
+/// The run's converged flag, stop-reason name and accepted steps as a Convergence record.
+Convergence ToConvergence(const LmResult& result);
 
 struct LmOptions {
   int max_iterations = 200;           ///< accepted steps at most.
@@ -16,15 +22,47 @@ struct LmOptions {
   double step_tolerance = 1e-12;   ///< stop when ‖Δx‖ ≤ this · (‖x‖ + step_tolerance).
   double initial_damping = 1e-3;   ///< λ₀ relative to max diag(JᵀJ).
   double fd_relative_step = 1e-7;  ///< forward-difference step, relative to max(|x_k|, 1e-3).
+  /// Secant Jacobian (Madsen, Nielsen & Tingleff 2004, "Methods for non-linear least squares
+  /// problems", §3.4): after every trial step Δx, accepted or rejected, Broyden's rank-one update
+  ///   J ← J + (r(x + Δx) − r(x) − J Δx) Δxᵀ / ‖Δx‖²
+  /// replaces the Jacobian evaluation (forward differences or `jacobian`), and one column per
+  /// iteration (cyclically, when the step hardly moves along it) is re-evaluated by a forward
+  /// difference. J is evaluated in full only at the start, after 3 consecutive rejected steps on
+  /// a secant J, when a secant step meets the relative or step tolerance (a stop is only declared
+  /// on an evaluated J), and at an iteration-limit stop (so `jtj` is always from an evaluated J).
+  /// For residuals whose Jacobian costs many expensive evaluations (the full-model fit: one
+  /// simulation per column and data set).
+  bool broyden = false;
 };
 
+/// Why a Levenberg–Marquardt run stopped. The first three are convergence; the others are not.
+enum class LmStopReason {
+  kRelativeDecrease,  ///< an accepted step lowered the cost by ≤ relative_tolerance · cost.
+  kStepTolerance,  ///< the (clamped) step ‖Δx‖ fell to ≤ step_tolerance · (‖x‖ + step_tol.)
+                   ///< (after ≥ 1 accepted step, or at once: a stationary start).
+  kZeroCost,        ///< the cost reached exactly 0.
+  kIterationLimit,  ///< max_iterations accepted steps without meeting a tolerance.
+  kNoDecrease,      ///< no trial step lowered the cost: the damping grew past 1e300 (or
+                    ///< became non-finite), or, before any step was accepted, until the
+                    ///< step vanished below step_tolerance; x is the start point then.
+};
+
+/// Short snake_case name for metrics and YAML, e.g. "relative_cost_decrease_below_tolerance".
+const char* LmStopReasonName(LmStopReason reason);
+
+/// True for the tolerance-based stops (kRelativeDecrease, kStepTolerance, kZeroCost).
+bool LmConverged(LmStopReason reason);
+
 struct LmResult {
-  Eigen::VectorXd x;         ///< the minimiser (within bounds).
-  Eigen::VectorXd residual;  ///< r(x).
-  double cost = 0.0;         ///< ‖r(x)‖².
-  int iterations = 0;        ///< accepted steps.
-  int evaluations = 0;       ///< residual evaluations (including the Jacobian's).
-  Eigen::MatrixXd jtj;       ///< Jᵀ J at x (for confidence intervals).
+  Eigen::VectorXd x;             ///< the minimiser (within bounds).
+  Eigen::VectorXd residual;      ///< r(x).
+  double cost = 0.0;             ///< ‖r(x)‖².
+  int iterations = 0;            ///< accepted steps.
+  int evaluations = 0;           ///< residual evaluations (including the Jacobian's).
+  int jacobian_evaluations = 0;  ///< evaluated (not secant-updated) Jacobians.
+  Eigen::MatrixXd jtj;           ///< Jᵀ J at x (for confidence intervals).
+  bool converged = false;        ///< LmConverged(stop_reason).
+  LmStopReason stop_reason = LmStopReason::kIterationLimit;
 };
 
 /// r(x) → residual vector (fixed length).

@@ -20,6 +20,9 @@ struct MethodResult {
   std::vector<Trial> predictions;
   /// Fit measures (Best Fit %, normalised error per output, wall times, iterations, ...).
   Json metrics = Json::Object();
+  /// One line each, printed on stderr by `fesim identify` (e.g. the best local optimisation did
+  /// not converge; the reason is also in `metrics` and `model_yaml`).
+  std::vector<std::string> warnings;
 };
 
 /// Reports progress in [0, 1] with a short stage label (printed on stderr by the CLI).

@@ -95,6 +95,49 @@ void MetadataOptions::RejectUnknown() const {
   }
 }
 
+Json ConvergenceJson(const std::vector<Convergence>& runs, std::size_t best) {
+  if (best >= runs.size()) throw std::invalid_argument("ConvergenceJson: best run out of range");
+  Json j = Json::Object();
+  j.Set("best_run", static_cast<int>(best));
+  j.Set("converged", runs[best].converged);
+  j.Set("stop_reason", runs[best].stop_reason);
+  Json all = Json::Array();
+  for (const auto& r : runs) {
+    Json o = Json::Object();
+    o.Set("converged", r.converged);
+    o.Set("stop_reason", r.stop_reason);
+    o.Set("iterations", r.iterations);
+    all.Push(o);
+  }
+  j.Set("runs", all);
+  return j;
+}
+
+std::string ConvergenceYaml(const std::string& key, const std::vector<Convergence>& runs,
+                            std::size_t best, int indent) {
+  if (best >= runs.size()) throw std::invalid_argument("ConvergenceYaml: best run out of range");
+  const std::string pad(static_cast<std::size_t>(indent), ' ');
+  std::string s = pad + key + ":\n";
+  s += pad + "  best_run: " + std::to_string(best) + "\n";
+  s += pad + "  converged: " + (runs[best].converged ? "true" : "false") + "\n";
+  s += pad + "  stop_reason: " + runs[best].stop_reason + "\n";
+  s += pad + "  runs:\n";
+  for (const auto& r : runs) {
+    s += pad + "    - {converged: " + (r.converged ? "true" : "false") +
+         ", stop_reason: " + r.stop_reason + ", iterations: " + std::to_string(r.iterations) +
+         "}\n";
+  }
+  return s;
+}
+
+std::string NotConvergedWarning(const std::string& what, const std::vector<Convergence>& runs,
+                                std::size_t best) {
+  if (best >= runs.size() || runs[best].converged) return "";
+  return what + ": the best local run (" + std::to_string(best + 1) + " of " +
+         std::to_string(runs.size()) + ") did not converge (" + runs[best].stop_reason + " after " +
+         std::to_string(runs[best].iterations) + " iterations)";
+}
+
 std::string Num(double v) {
   if (std::isnan(v)) return ".nan";
   if (std::isinf(v)) return v > 0 ? ".inf" : "-.inf";

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "scenarios/json.h"
 #include "scenarios/trial.h"
 
 namespace fesim::identification {
@@ -48,6 +49,30 @@ class MetadataOptions {
 /// spaces; the interval is omitted when `ci_half_width` is NaN.
 std::string YamlParam(const std::string& name, double value, const std::string& unit,
                       double ci_half_width, int indent);
+
+/// How one iterative optimisation (one local run) ended, for metrics and the model YAML (issue 10:
+/// an optimiser that fails to converge says so, never silently returns its start point).
+struct Convergence {
+  bool converged = false;
+  /// snake_case reason, e.g. "relative_cost_decrease_below_tolerance", "step_below_tolerance",
+  /// "iteration_limit", "damping_overflow_no_decrease_possible", "line_search_failed".
+  std::string stop_reason;
+  int iterations = 0;  ///< iterations (accepted steps) the run took.
+};
+
+/// {"best_run": best, "converged": …, "stop_reason": …, "runs": [{converged, stop_reason,
+/// iterations} …]} — the best run's flag and reason at the top. `best` < runs.size().
+Json ConvergenceJson(const std::vector<Convergence>& runs, std::size_t best);
+
+/// YAML mapping `key:` with best_run, converged, stop_reason and one flow mapping per run,
+/// indented by `indent` spaces.
+std::string ConvergenceYaml(const std::string& key, const std::vector<Convergence>& runs,
+                            std::size_t best, int indent);
+
+/// "" when runs[best] converged, else one line "<what>: the best local run (k of n) did not
+/// converge (<reason> after <iterations> iterations)" for `fesim identify` to print.
+std::string NotConvergedWarning(const std::string& what, const std::vector<Convergence>& runs,
+                                std::size_t best);
 
 /// Formats a double with 10 significant digits (C locale).
 std::string Num(double v);

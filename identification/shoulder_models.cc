@@ -17,7 +17,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kRestVelocity = 1e-3;
 constexpr int kMaxLmIterations = 200;
 constexpr double kLmMaxLambda = 1e12;
-constexpr double kLmStepTolerance = 1e-9;       // stop when ‖Δp‖ ≤ this × ‖p‖
+constexpr double kLmStepTolerance = 1e-9;      // stop when ‖Δp‖ ≤ this × ‖p‖
 constexpr double kLmRelativeTolerance = 1e-8;  // stop when a step gains less than this × cost
 constexpr double kFdRelativeStep = 1e-6;
 constexpr double kZ95 = 1.959963984540054;
@@ -321,6 +321,7 @@ ShoulderFit FitShoulderModel(ShoulderModel model, const std::vector<ShoulderData
   Eigen::MatrixXd J = jacobian(p, r);
   int it = 0;
   bool converged = false;
+  std::string stop_reason = "iteration_limit";
   for (; it < kMaxLmIterations && !converged; ++it) {
     const Eigen::MatrixXd A = J.transpose() * J;
     const Eigen::VectorXd g = J.transpose() * r;
@@ -342,19 +343,28 @@ ShoulderFit FitShoulderModel(ShoulderModel model, const std::vector<ShoulderData
         cost = c_new;
         lambda = std::max(lambda / 3.0, 1e-12);
         accepted = true;
-        converged = gain <= kLmRelativeTolerance * cost ||
-                    moved <= kLmStepTolerance * (p.norm() + kLmStepTolerance);
+        const bool small_gain = gain <= kLmRelativeTolerance * cost;
+        const bool small_step = moved <= kLmStepTolerance * (p.norm() + kLmStepTolerance);
+        converged = small_gain || small_step;
+        if (converged) {
+          stop_reason =
+              small_gain ? "relative_cost_decrease_below_tolerance" : "step_below_tolerance";
+        }
       } else {
         lambda *= 4.0;
       }
     }
     if (!accepted) {
-      converged = true;  // no descent step left at this resolution: a local minimum
+      // No descent step left at this resolution: a local minimum — unless not a single step
+      // was accepted, in which case the start point would be returned as the fit.
+      converged = it > 0;
+      stop_reason = "no_decrease_at_damping_limit";
       break;
     }
     J = jacobian(p, r);
   }
   fit.converged = converged;
+  fit.stop_reason = stop_reason;
   fit.iterations = it;
   fit.p = p;
   fit.cost = cost;
@@ -434,6 +444,9 @@ MethodResult RunShoulderModelMethod(ShoulderModel model, const std::vector<Trial
     yaml += "fixed:\n  theta_max_ant: {value: " + Num(tm_ant) + ", unit: rad}\n";
     yaml += "  theta_max_post: {value: " + Num(tm_post) + ", unit: rad}\n";
   }
+  yaml += "convergence: {converged: " + std::string(fit.converged ? "true" : "false") +
+          ", stop_reason: " + fit.stop_reason + ", iterations: " + std::to_string(fit.iterations) +
+          "}\n";
 
   MethodResult result;
   result.model_yaml = yaml;
@@ -461,6 +474,11 @@ MethodResult RunShoulderModelMethod(ShoulderModel model, const std::vector<Trial
   result.metrics.Set("training_cost_sum_J_L_velocity", fit.cost);
   result.metrics.Set("iterations", fit.iterations);
   result.metrics.Set("converged", fit.converged);
+  result.metrics.Set("stop_reason", fit.stop_reason);
+  if (!fit.converged) {
+    result.warnings.push_back(name + " fit: did not converge (" + fit.stop_reason + " after " +
+                              std::to_string(fit.iterations) + " iterations)");
+  }
   result.metrics.Set("fit_wall_time_s", wall);
   if (progress) progress(1.0, "done");
   return result;

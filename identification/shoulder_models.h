@@ -139,6 +139,10 @@ struct ShoulderFit {
   double cost = 0.0;            ///< Σ J_L(ω) over trials at the optimum.
   int iterations = 0;           ///< Levenberg–Marquardt iterations.
   bool converged = false;       ///< false when the iteration limit stopped the fit.
+  /// "relative_cost_decrease_below_tolerance", "step_below_tolerance", "iteration_limit", or
+  /// "no_decrease_at_damping_limit" (converged after ≥ 1 accepted step; not converged when no
+  /// step from the start point lowered the cost, so the start is never returned as a fit).
+  std::string stop_reason;
 };
 
 /// Offline nonlinear least squares on angular velocity (paper 003 §III-A). `initial` (optional,

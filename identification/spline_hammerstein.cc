@@ -13,6 +13,9 @@
 namespace fesim::identification {
 namespace {
 
+/// Stop reason of an alternation that met its ε test.
+constexpr const char* kCostChangeBelowEps = "cost_change_below_eps";
+
 using Clock = std::chrono::steady_clock;
 
 double Seconds(Clock::time_point t0) {
@@ -283,10 +286,14 @@ SplineFitReport FitSplineArx(const SisoData& data, const Eigen::VectorXd& knots_
     Normalise(&m);
     const double v = SplineArxCost(data, m);
     rep.cost_history.push_back(v);
-    if (std::abs(v - v_prev) < options.tolerance_eps * scale) break;
+    if (std::abs(v - v_prev) < options.tolerance_eps * scale) {
+      rep.convergence = {true, kCostChangeBelowEps, rep.iterations};
+      break;
+    }
     v_prev = v;
   }
   rep.iterations = std::min(rep.iterations, options.max_iterations);
+  if (!rep.convergence.converged) rep.convergence = {false, "iteration_limit", rep.iterations};
   rep.beta_ci95 = ArxNonlinearStep(data, knots_us, o, m.linear).ci95_half_width;
   const Eigen::VectorXd ci_l = ArxLinearStep(data, knots_us, o, m.beta).ci95_half_width;
   rep.a_ci95 = ci_l.head(o.poles_l);
@@ -338,15 +345,20 @@ SplineFitReport FitSplineOe(const SisoData& data, const Eigen::VectorXd& knots_u
     lm = LevenbergMarquardt(residual, m.linear.a, bounds.lower, bounds.upper, lo);
     rep.step_wall_s.push_back(Seconds(ts));
     rep.lm_iterations += lm.iterations;
+    rep.step_convergence.push_back(ToConvergence(lm));
     m.linear.a = lm.x;
     m.linear.b = OeNumeratorStep(data, fu, o, m.linear.a).theta;
     Normalise(&m);
     const double v = SplineOeCost(data, m);
     rep.cost_history.push_back(v);
-    if (std::abs(v - v_prev) < options.tolerance_eps * scale) break;
+    if (std::abs(v - v_prev) < options.tolerance_eps * scale) {
+      rep.convergence = {true, kCostChangeBelowEps, rep.iterations};
+      break;
+    }
     v_prev = v;
   }
   rep.iterations = std::min(rep.iterations, options.max_iterations);
+  if (!rep.convergence.converged) rep.convergence = {false, "iteration_limit", rep.iterations};
   rep.beta_ci95 = OeNonlinearStep(data, knots_us, o, m.linear).ci95_half_width;
   std::vector<Eigen::VectorXd> fu;
   for (const auto& u : data.u_us) fu.push_back(SplineValues(knots_us, m.beta, u));
@@ -461,6 +473,12 @@ std::string ModelYaml(const std::string& method, const SplineFitReport& rep,
 Json FitMetrics(const SplineFitReport& rep) {
   Json j = Json::Object();
   j.Set("iterations", rep.iterations);
+  j.Set("converged", rep.convergence.converged);
+  j.Set("stop_reason", rep.convergence.stop_reason);
+  if (!rep.step_convergence.empty()) {
+    j.Set("local_step_convergence",
+          ConvergenceJson(rep.step_convergence, rep.step_convergence.size() - 1));
+  }
   j.Set("lm_iterations", rep.lm_iterations);
   j.Set("cost_history", rep.cost_history);
   j.Set("local_step_wall_s", rep.step_wall_s);
@@ -505,6 +523,31 @@ MethodResult RunSpline(bool oe, const std::vector<Trial>& train, const std::vect
   const std::string unit = cols.output.rfind("tau.", 0) == 0 ? "N m" : "rad";
   MethodResult result;
   result.model_yaml = ModelYaml(method, final_rep, cols, unit);
+  result.model_yaml += "# how the alternation stopped (Algorithm 1" +
+                       std::string(oe ? " and 2" : "") + ")\nconvergence:\n";
+  const auto add_convergence = [&](const std::string& key, const SplineFitReport& rep) {
+    result.model_yaml += "  " + key +
+                         ": {converged: " + (rep.convergence.converged ? "true" : "false") +
+                         ", stop_reason: " + rep.convergence.stop_reason +
+                         ", iterations: " + std::to_string(rep.convergence.iterations) + "}\n";
+    if (!rep.convergence.converged) {
+      result.warnings.push_back(method + " " + key + ": did not converge (" +
+                                rep.convergence.stop_reason + " after " +
+                                std::to_string(rep.convergence.iterations) + " iterations)");
+    }
+  };
+  add_convergence("algorithm1", alg1);
+  if (oe) {
+    add_convergence("algorithm2", final_rep);
+    if (!final_rep.step_convergence.empty()) {
+      const std::size_t last = final_rep.step_convergence.size() - 1;
+      result.model_yaml +=
+          ConvergenceYaml("algorithm2_lm_runs", final_rep.step_convergence, last, 2);
+      const std::string w = NotConvergedWarning(method + " algorithm 2 theta_a (last LM run)",
+                                                final_rep.step_convergence, last);
+      if (!w.empty()) result.warnings.push_back(w);
+    }
+  }
   const bool has_test = !test.empty();
   const std::vector<Trial>& eval = has_test ? test : train;
   if (has_test) PickColumns(test[0], "test trial 0");

@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "identification/method.h"
+#include "identification/method_support.h"
 
 namespace fesim::identification {
 
@@ -76,7 +77,12 @@ struct SplineFitReport {
   int lm_iterations = 0;             ///< accepted Levenberg–Marquardt steps (Algorithm 2).
   std::vector<double> cost_history;  ///< V_N after each iteration.
   std::vector<double> step_wall_s;   ///< wall time of each local (LM) optimisation, s.
-  double wall_s = 0.0;               ///< total wall time, s.
+  /// The outer alternation (Alg. 1 or 2): converged when |V_j − V_{j−1}| < ε Σ y²
+  /// ("cost_change_below_eps"), else "iteration_limit" after max_iterations.
+  Convergence convergence;
+  /// Algorithm 2: how each θ_a Levenberg–Marquardt run stopped (the last one is kept).
+  std::vector<Convergence> step_convergence;
+  double wall_s = 0.0;                        ///< total wall time, s.
   Eigen::VectorXd beta_ci95, a_ci95, b_ci95;  ///< 95 % half-widths (conditional), NaN if none.
 };
 

@@ -184,6 +184,7 @@ double Cost(const Problem& P, const Eigen::VectorXd& beta, const Eigen::VectorXd
 struct RunResult {
   Eigen::VectorXd beta, a, b, lam, beta_ci, l_ci;
   int iterations = 0;
+  Convergence convergence;
   std::vector<double> history;
   double cost = 0.0;
 };
@@ -211,10 +212,14 @@ RunResult Algorithm1(const Problem& P, const TremorOptions& opt) {
     }
     rr.cost = Cost(P, rr.beta, rr.a, rr.b, rr.lam);
     rr.history.push_back(rr.cost);
-    if (std::abs(rr.cost - v_prev) < opt.tolerance_eps * scale) break;
+    if (std::abs(rr.cost - v_prev) < opt.tolerance_eps * scale) {
+      rr.convergence = {true, "cost_change_below_eps", rr.iterations};
+      break;
+    }
     v_prev = rr.cost;
   }
   rr.iterations = std::min(rr.iterations, opt.max_iterations);
+  if (!rr.convergence.converged) rr.convergence = {false, "iteration_limit", rr.iterations};
   rr.beta_ci = NonlinearStep(P, rr.a, rr.b, rr.lam).ci95_half_width;
   rr.l_ci = LinearStep(P, rr.beta).ci95_half_width;
   return rr;
@@ -409,6 +414,7 @@ TremorFit FitTremorArx(const TremorData& data, const TremorOptions& options, dou
   m.s_min = P.s_min;
   m.s_max = P.s_max;
   fit.iterations = rr.iterations;
+  fit.convergence = rr.convergence;
   fit.cost_history = rr.history;
   fit.beta_ci95 = rr.beta_ci;
   fit.theta_l_ci95 = rr.l_ci;
@@ -601,7 +607,16 @@ MethodResult RunTremor(const std::vector<Trial>& train, const std::vector<Trial>
   y += YamlParam("lambda1", m.lambda1, "rad", fit.theta_l_ci95(li), 0);
   y += YamlParam("lambda2", m.lambda2, "rad", fit.theta_l_ci95(li + 1), 0);
   MethodResult result;
+  y += "# how the iterative algorithm stopped\nconvergence: {converged: " +
+       std::string(fit.convergence.converged ? "true" : "false") +
+       ", stop_reason: " + fit.convergence.stop_reason +
+       ", iterations: " + std::to_string(fit.convergence.iterations) + "}\n";
   result.model_yaml = y;
+  if (!fit.convergence.converged) {
+    result.warnings.push_back("tremor-arx iterative algorithm: did not converge (" +
+                              fit.convergence.stop_reason + " after " +
+                              std::to_string(fit.convergence.iterations) + " iterations)");
+  }
   const bool has_test = !test.empty();
   if (has_test) PickTremorColumns(test[0], "test trial 0");
   const TremorData ev = has_test ? to_data(test, "test") : tr;
@@ -628,6 +643,8 @@ MethodResult RunTremor(const std::vector<Trial>& train, const std::vector<Trial>
   metrics.Set(has_test ? "test" : "train", fits);
   metrics.Set("prediction", "simulation from the first max(l_P, m_P + n_P) measured samples");
   metrics.Set("iterations", fit.iterations);
+  metrics.Set("converged", fit.convergence.converged);
+  metrics.Set("stop_reason", fit.convergence.stop_reason);
   metrics.Set("cost_history", fit.cost_history);
   metrics.Set("wall_s", fit.wall_s);
   metrics.Set("min_recruitment_slope_rad_per_us",

@@ -44,6 +44,7 @@
 #include <vector>
 
 #include "identification/method.h"
+#include "identification/method_support.h"
 
 namespace fesim::identification {
 
@@ -97,6 +98,9 @@ struct TremorData {
 struct TremorFit {
   TremorModel model;
   int iterations = 0;
+  /// The iterative algorithm (§3.3.4): converged when |V_j − V_{j−1}| < ε Σ y²
+  /// ("cost_change_below_eps"), else "iteration_limit".
+  Convergence convergence;
   std::vector<double> cost_history;
   double wall_s = 0.0;
   Eigen::VectorXd beta_ci95, theta_l_ci95;  ///< conditional 95 % half-widths.

@@ -42,7 +42,8 @@ using Observer = std::function<void(const SimTK::State&)>;
 /// Advances `state` (at its current time) through `report_times` (sorted, ≥ state time),
 /// applying the schedule's stimulation changes, and calls `observer` at each report time with
 /// the state realised to `observe_stage` (Velocity suffices for kinematics and muscle forces;
-/// Acceleration is needed for sensor torques). Throws std::runtime_error naming the simulated
+/// Acceleration is needed for sensor torques; Stage::Time suffices to read q and u, and saves the
+/// kinematics at every report time). Throws std::runtime_error naming the simulated
 /// time and the integrator's reason on failure.
 IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorParams& params,
                                 const StimulationSchedule& schedule,

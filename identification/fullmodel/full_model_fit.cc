@@ -1,5 +1,7 @@
 #include "identification/fullmodel/full_model_fit.h"
 
+#include <time.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -19,6 +21,7 @@
 #include "identification/metrics.h"
 #include "scenarios/scenario.h"
 #include "sim/default_model.h"
+#include "sim/integrator.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
 #include "tendons/tendon_network.h"
@@ -30,6 +33,13 @@ using Clock = std::chrono::steady_clock;
 
 double Seconds(Clock::time_point since) {
   return std::chrono::duration<double>(Clock::now() - since).count();
+}
+
+/// CPU time of the whole process (all threads), s.
+double ProcessCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
 /// The forearm muscles whose A entries, β and γ are candidates (paper 000 §5.1).
@@ -92,12 +102,94 @@ void ParallelFor(int count, int threads, const std::function<void(int)>& task) {
   if (error) std::rethrow_exception(error);
 }
 
+/// What one simulation of a trial needs, prepared once: the recorded stimulation as a
+/// zero-order-hold schedule in the model's channel order (a breakpoint wherever some channel
+/// changes), the sample times and the coordinates of the trial's q.<joint> columns.
+struct SimPlan {
+  sim::StimulationSchedule schedule;  // µs per model channel, as recorded (before the delay)
+  std::vector<double> times;          // s, the trial's sample times
+  std::vector<int> coords;            // sim::Coordinate of each q.<joint> column, in order
+
+  bool operator==(const SimPlan& o) const {
+    return schedule.times == o.schedule.times && schedule.values == o.schedule.values &&
+           times == o.times && coords == o.coords;
+  }
+};
+
+SimPlan PlanFor(const sim::ModelParams& model, const Trial& trial) {
+  const int nc = static_cast<int>(model.channels.size());
+  std::vector<int> channel_of_column;
+  const auto inputs = trial.NamesWithPrefix("u.");
+  for (const auto& name : inputs) {
+    const int k = ChannelIndex(model, name.substr(2));
+    if (k < 0) {
+      throw std::runtime_error("column " + name + ": no such channel in the rig (" +
+                               ChannelList(model) + ")");
+    }
+    channel_of_column.push_back(k);
+  }
+  SimPlan plan;
+  for (const auto& name : trial.NamesWithPrefix("q.")) {
+    const int c = sim::CoordinateIndex(name.substr(2));
+    if (c < 0) throw std::runtime_error("column " + name + ": unknown joint");
+    plan.coords.push_back(c);
+  }
+  if (trial.size() < 2) throw std::runtime_error("trial needs at least 2 samples");
+  if (trial.time.front() < 0.0) throw std::runtime_error("trial time must start at >= 0 s");
+  std::vector<double> previous;
+  for (std::size_t i = 0; i < trial.size(); ++i) {
+    std::vector<double> u(nc, 0.0);
+    for (std::size_t c = 0; c < inputs.size(); ++c) {
+      u[channel_of_column[c]] = trial.Column(inputs[c])[i];
+    }
+    bool changed = previous.empty();
+    for (int k = 0; k < nc && !changed; ++k) {
+      changed = std::abs(u[k] - previous[k]) > kScheduleChangeUs;
+    }
+    if (!changed) continue;
+    plan.schedule.times.push_back(i == 0 ? 0.0 : trial.time[i]);
+    plan.schedule.values.push_back(u);
+    previous = u;
+  }
+  plan.times = trial.time;
+  return plan;
+}
+
+/// Simulated angles q[column][sample] (rad) of `plan` on `model`: the rig's initial state at
+/// t = 0, the schedule delayed by the electromechanical delay (as sim::RunTrial does), CVODES at
+/// `tolerance`, q read at exactly the sample times from a state realised only to Stage::Time
+/// (no kinematics per sample: 173 → 129 ms CPU for a 140 s, 40 Hz data set, bench/
+/// fullmodel_bench.cc BM_SimulateDataSet/4), without RunTrial's sensor and truth records.
+std::vector<std::vector<double>> SimulatePlan(const sim::ModelParams& model, const SimPlan& plan,
+                                              double tolerance) {
+  const sim::UpperLimbModel limb(model);
+  sim::StimulationSchedule delayed = plan.schedule;
+  for (double& t : delayed.times) t += model.mechanisms.electromechanical_delay_s;
+  sim::IntegratorParams integrator;
+  integrator.tolerance = tolerance;
+  SimTK::State state = limb.MakeInitialState();
+  std::vector<std::vector<double>> q(plan.coords.size());
+  for (auto& column : q) column.reserve(plan.times.size());
+  sim::IntegrateTrial(
+      limb, integrator, delayed, plan.times, &state,
+      [&](const SimTK::State& s) {
+        for (std::size_t k = 0; k < plan.coords.size(); ++k) {
+          q[k].push_back(limb.GetQ(s, plan.coords[k]));
+        }
+      },
+      SimTK::Stage::Time);
+  return q;
+}
+
 /// Training data in a form the residual needs: per trial, the q columns and where they are
-/// valid.
+/// valid, and the distinct simulations (trials with the same stimulation, times and joints — e.g.
+/// repeats of one step-grid order — share one simulation, which is deterministic).
 struct TrainingData {
   std::vector<std::string> joints;                  // q.<joint> names (same in every trial)
   std::vector<std::vector<std::vector<double>>> y;  // [trial][joint][sample]
   long residuals = 0;
+  std::vector<SimPlan> plans;  // distinct simulations
+  std::vector<int> plan_of;    // [trial] → index in plans
 };
 
 void CheckTrials(const sim::ModelParams& rig, const std::vector<Trial>& trials,
@@ -157,62 +249,65 @@ TrainingData ReadTraining(const sim::ModelParams& rig, const std::vector<Trial>&
       for (double v : cols.back()) d.residuals += std::isnan(v) ? 0 : 1;
     }
     d.y.push_back(std::move(cols));
+    SimPlan plan = PlanFor(rig, tr);
+    const auto same = std::find(d.plans.begin(), d.plans.end(), plan);
+    d.plan_of.push_back(static_cast<int>(same - d.plans.begin()));
+    if (same == d.plans.end()) d.plans.push_back(std::move(plan));
   }
   return d;
 }
 
-/// Linear interpolation of (t, v) at x (clamped at the ends); t increasing.
-double Interpolate(const std::vector<double>& t, const std::vector<double>& v, double x) {
-  if (x <= t.front()) return v.front();
-  if (x >= t.back()) return v.back();
-  const auto it = std::upper_bound(t.begin(), t.end(), x);
-  const std::size_t i = static_cast<std::size_t>(it - t.begin());
-  const double w = (x - t[i - 1]) / (t[i] - t[i - 1]);
-  return v[i - 1] + w * (v[i] - v[i - 1]);
+/// Appends y − ŷ of every training trial to r at k (NaN samples skipped); `sims[plan]` the
+/// simulated columns of each distinct plan, or nullptr where its simulation failed.
+void FillResiduals(const TrainingData& data,
+                   const std::vector<const std::vector<std::vector<double>>*>& sims,
+                   Eigen::VectorXd* r) {
+  Eigen::Index k = 0;
+  for (std::size_t t = 0; t < data.y.size(); ++t) {
+    const auto* yh = sims[static_cast<std::size_t>(data.plan_of[t])];
+    for (std::size_t j = 0; j < data.joints.size(); ++j) {
+      const auto& y = data.y[t][j];
+      for (std::size_t i = 0; i < y.size(); ++i) {
+        if (std::isnan(y[i])) continue;
+        (*r)(k++) = yh ? y[i] - (*yh)[j][i] : kFailedResidualRad;
+      }
+    }
+  }
 }
 
 /// Residuals y − ŷ of all training trials for one parameter vector (NaN samples skipped).
-/// `threads` workers share the trials.
+/// `threads` workers share the distinct simulations.
 Eigen::VectorXd Residuals(const sim::ModelParams& base, const std::vector<FitParameter>& params,
-                          const Eigen::VectorXd& x, const std::vector<Trial>& train,
-                          const TrainingData& data, double tolerance, int threads,
-                          bool throw_on_failure) {
+                          const Eigen::VectorXd& x, const TrainingData& data, double tolerance,
+                          int threads, bool throw_on_failure) {
   const sim::ModelParams model = ApplyParameters(base, params, x);
-  std::vector<Trial> sims(train.size());
-  std::vector<char> ok(train.size(), 1);
-  ParallelFor(static_cast<int>(train.size()), threads, [&](int t) {
+  const int np = static_cast<int>(data.plans.size());
+  std::vector<std::vector<std::vector<double>>> sims(np);
+  std::vector<char> ok(np, 1);
+  ParallelFor(np, threads, [&](int t) {
     try {
-      sims[t] = SimulateLike(model, train[t], tolerance);
+      sims[t] = SimulatePlan(model, data.plans[t], tolerance);
     } catch (const std::exception&) {
       if (throw_on_failure) throw;
       ok[t] = 0;
     }
   });
+  std::vector<const std::vector<std::vector<double>>*> views(np);
+  for (int t = 0; t < np; ++t) views[t] = ok[t] ? &sims[t] : nullptr;
   Eigen::VectorXd r(data.residuals);
-  Eigen::Index k = 0;
-  for (std::size_t t = 0; t < train.size(); ++t) {
-    for (std::size_t j = 0; j < data.joints.size(); ++j) {
-      const auto& y = data.y[t][j];
-      const std::vector<double>* yh = ok[t] ? &sims[t].Column(data.joints[j]) : nullptr;
-      for (std::size_t i = 0; i < y.size(); ++i) {
-        if (std::isnan(y[i])) continue;
-        r(k++) = yh ? y[i] - (*yh)[i] : kFailedResidualRad;
-      }
-    }
-  }
+  FillResiduals(data, views, &r);
   return r;
 }
 
-/// Forward-difference Jacobian ∂r/∂x = −∂ŷ/∂x, one model + simulation per (column, trial),
-/// all on `threads` workers. A column whose perturbed simulation fails is zero.
+/// Forward-difference Jacobian ∂r/∂x = −∂ŷ/∂x, one model + simulation per (column, distinct
+/// simulation), all on `threads` workers. A column whose perturbed simulation fails is zero.
 Eigen::MatrixXd ParallelJacobian(const sim::ModelParams& base,
                                  const std::vector<FitParameter>& params, const Eigen::VectorXd& x,
                                  const Eigen::VectorXd& r0, const Eigen::VectorXd& upper,
-                                 const std::vector<Trial>& train, const TrainingData& data,
-                                 double tolerance, double rel_step, int threads,
-                                 const std::function<void(double)>& progress = {}) {
+                                 const TrainingData& data, double tolerance, double rel_step,
+                                 int threads, const std::function<void(double)>& progress = {}) {
   const int p = static_cast<int>(x.size());
-  const int nt = static_cast<int>(train.size());
+  const int nt = static_cast<int>(data.plans.size());
   std::vector<double> h(p);
   std::vector<sim::ModelParams> models;
   models.reserve(p);
@@ -224,14 +319,14 @@ Eigen::MatrixXd ParallelJacobian(const sim::ModelParams& base,
     xp(c) += step;
     models.push_back(ApplyParameters(base, params, xp));
   }
-  std::vector<Trial> sims(static_cast<std::size_t>(p) * nt);
+  std::vector<std::vector<std::vector<double>>> sims(static_cast<std::size_t>(p) * nt);
   std::vector<char> ok(sims.size(), 1);
   std::mutex progress_mutex;
   int done = 0;
   ParallelFor(p * nt, threads, [&](int task) {
     const int c = task / nt, t = task % nt;
     try {
-      sims[task] = SimulateLike(models[c], train[t], tolerance);
+      sims[task] = SimulatePlan(models[c], data.plans[t], tolerance);
     } catch (const std::exception&) {
       ok[task] = 0;
     }
@@ -241,22 +336,17 @@ Eigen::MatrixXd ParallelJacobian(const sim::ModelParams& base,
     }
   });
   Eigen::MatrixXd J = Eigen::MatrixXd::Zero(r0.size(), p);
+  Eigen::VectorXd r(r0.size());
   for (int c = 0; c < p; ++c) {
     bool column_ok = true;
-    for (int t = 0; t < nt; ++t) column_ok = column_ok && ok[c * nt + t];
-    if (!column_ok) continue;
-    Eigen::Index k = 0;
+    std::vector<const std::vector<std::vector<double>>*> views(nt);
     for (int t = 0; t < nt; ++t) {
-      for (std::size_t j = 0; j < data.joints.size(); ++j) {
-        const auto& y = data.y[t][j];
-        const auto& yh = sims[c * nt + t].Column(data.joints[j]);
-        for (std::size_t i = 0; i < y.size(); ++i) {
-          if (std::isnan(y[i])) continue;
-          J(k, c) = ((y[i] - yh[i]) - r0(k)) / h[c];
-          ++k;
-        }
-      }
+      column_ok = column_ok && ok[c * nt + t];
+      views[t] = &sims[c * nt + t];
     }
+    if (!column_ok) continue;
+    FillResiduals(data, views, &r);
+    J.col(c) = (r - r0) / h[c];
   }
   return J;
 }
@@ -447,63 +537,13 @@ sim::ModelParams DefaultHandRig() {
 }
 
 Trial SimulateLike(const sim::ModelParams& model, const Trial& trial, double integrator_tolerance) {
-  const sim::UpperLimbModel limb(model);
-  const int nc = limb.num_channels();
-  std::vector<int> channel_of_column;
-  const auto inputs = trial.NamesWithPrefix("u.");
-  for (const auto& name : inputs) {
-    const int k = ChannelIndex(model, name.substr(2));
-    if (k < 0) {
-      throw std::runtime_error("column " + name + ": no such channel in the rig (" +
-                               ChannelList(model) + ")");
-    }
-    channel_of_column.push_back(k);
-  }
-  std::vector<int> coords;
-  for (const auto& name : trial.NamesWithPrefix("q.")) {
-    const int c = sim::CoordinateIndex(name.substr(2));
-    if (c < 0) throw std::runtime_error("column " + name + ": unknown joint");
-    coords.push_back(c);
-  }
-  if (trial.size() < 2) throw std::runtime_error("trial needs at least 2 samples");
-  sim::TrialRequest req;
-  req.name = "full-model-fit";
-  req.integrator.tolerance = integrator_tolerance;
-  // Zero-order hold of the recorded stimulation: a breakpoint wherever some channel changes.
-  std::vector<double> previous;
-  for (std::size_t i = 0; i < trial.size(); ++i) {
-    std::vector<double> u(nc, 0.0);
-    for (std::size_t c = 0; c < inputs.size(); ++c) {
-      u[channel_of_column[c]] = trial.Column(inputs[c])[i];
-    }
-    bool changed = previous.empty();
-    for (int k = 0; k < nc && !changed; ++k) {
-      changed = std::abs(u[k] - previous[k]) > kScheduleChangeUs;
-    }
-    if (!changed) continue;
-    req.stimulation.times.push_back(i == 0 ? 0.0 : trial.time[i]);
-    req.stimulation.values.push_back(u);
-    previous = u;
-  }
-  const double dt =
-      (trial.time.back() - trial.time.front()) / static_cast<double>(trial.size() - 1);
-  req.duration_s = trial.time.back() + 0.5 * dt;
-  req.sensors.angles.rate_hz = 1.0 / dt;
-  req.sensors.angles.noise_std = 0.0;
-  req.sensors.angles.coordinates = coords;
-  req.sensors.truth_rate_hz = 1.0 / req.duration_s;  // two truth rows: not needed here
-  const sim::TrialResult res = sim::RunTrial(limb, req);
+  const SimPlan plan = PlanFor(model, trial);
+  std::vector<std::vector<double>> q = SimulatePlan(model, plan, integrator_tolerance);
   Trial out;
   out.time = trial.time;
-  for (const auto& name : inputs) out.AddColumn(name, trial.Column(name));
-  for (std::size_t k = 0; k < coords.size(); ++k) {
-    const std::string name = "q." + sim::CoordinateNames()[coords[k]];
-    const auto& v = res.measured.Column(name);
-    std::vector<double> y(trial.size());
-    for (std::size_t i = 0; i < trial.size(); ++i) {
-      y[i] = Interpolate(res.measured.time, v, trial.time[i]);
-    }
-    out.AddColumn(name, std::move(y));
+  for (const auto& name : trial.NamesWithPrefix("u.")) out.AddColumn(name, trial.Column(name));
+  for (std::size_t k = 0; k < plan.coords.size(); ++k) {
+    out.AddColumn("q." + sim::CoordinateNames()[plan.coords[k]], std::move(q[k]));
   }
   return out;
 }
@@ -532,6 +572,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
   const int nc = static_cast<int>(fit.candidates.size());
   if (nc == 0) throw std::runtime_error("full-model: the rig offers no candidate parameter");
   fit.residuals = data.residuals;
+  fit.distinct_simulations = static_cast<int>(data.plans.size());
 
   // 1. Sensitivity ranking at the nominal point (one forward difference per candidate, parallel),
   // skipped when the caller names the parameters and asks for no ranking.
@@ -545,11 +586,10 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
       x_nom(i) = fit.candidates[i].nominal;
       upper_all(i) = fit.candidates[i].upper;
     }
-    const Eigen::VectorXd r_nom =
-        Residuals(base, fit.candidates, x_nom, train, data, tol, threads, true);
+    const Eigen::VectorXd r_nom = Residuals(base, fit.candidates, x_nom, data, tol, threads, true);
     const std::string sens_label = "sensitivity ranking of " + std::to_string(nc) + " parameters";
     const Eigen::MatrixXd J_nom =
-        ParallelJacobian(base, fit.candidates, x_nom, r_nom, upper_all, train, data, tol,
+        ParallelJacobian(base, fit.candidates, x_nom, r_nom, upper_all, data, tol,
                          options.fd_relative_step, threads, [&](double f) {
                            if (progress) progress(0.1 * f, sens_label);
                          });
@@ -606,7 +646,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
   std::mt19937_64 rng(options.seed);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   const ResidualFn residual = [&](const Eigen::VectorXd& x) {
-    return Residuals(base, fit.kept, x, train, data, tol, threads, false);
+    return Residuals(base, fit.kept, x, data, tol, threads, false);
   };
   int current_start = 0, jacobians = 0;
   const JacobianFn jacobian = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& r,
@@ -616,7 +656,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     const std::string label = "start " + std::to_string(current_start + 1) + "/" +
                               std::to_string(options.starts) + ", Jacobian " +
                               std::to_string(jacobians);
-    return ParallelJacobian(base, fit.kept, x, r, upper, train, data, tol, options.fd_relative_step,
+    return ParallelJacobian(base, fit.kept, x, r, upper, data, tol, options.fd_relative_step,
                             threads, [&](double f) {
                               if (progress) {
                                 progress(0.1 + 0.85 * (current_start + f) / options.starts, label);
@@ -628,6 +668,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
   lm.relative_tolerance = options.relative_tolerance;
   lm.step_tolerance = 1e-9;
   lm.fd_relative_step = options.fd_relative_step;
+  lm.broyden = options.broyden;
   double best_cost = std::numeric_limits<double>::infinity();
   LmResult best;
   for (int sidx = 0; sidx < options.starts; ++sidx) {
@@ -649,6 +690,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
                    std::to_string(options.starts) + " of " + std::to_string(p) + " parameters");
     }
     const auto t_run = Clock::now();
+    const double cpu_run = ProcessCpuSeconds();
     LmResult res = LevenbergMarquardt(residual, x0, lower, upper, lm, {}, jacobian);
     LocalRun run;
     run.start = x0;
@@ -657,8 +699,13 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     run.iterations = res.iterations;
     run.evaluations = res.evaluations;
     run.wall_s = Seconds(t_run);
+    run.cpu_s = ProcessCpuSeconds() - cpu_run;
+    run.jacobians = res.jacobian_evaluations;
+    run.converged = res.converged;
+    run.stop_reason = LmStopReasonName(res.stop_reason);
     fit.runs.push_back(run);
     if (res.cost < best_cost) {
+      fit.best_run = fit.runs.size() - 1;
       best_cost = res.cost;
       best = std::move(res);
     }
@@ -743,6 +790,7 @@ MethodResult RunFullModel(const std::string& default_scenario, const std::vector
   o.relative_tolerance = md.Real("tolerance", o.relative_tolerance, 0.0, 1.0);
   o.integrator_tolerance = md.Real("integrator_tolerance", o.integrator_tolerance, 1e-12, 1e-2);
   o.threads = md.Int("threads", 0, 0, 256);
+  o.broyden = md.Int("broyden", o.broyden ? 1 : 0, 0, 1) == 1;
   md.RejectUnknown();
 
   const FullModelFit fit = FitFullModel(rig, train, o, progress);
@@ -772,8 +820,15 @@ MethodResult RunFullModel(const std::string& default_scenario, const std::vector
        "sensitivity:\n";
   for (const auto& e : fit.ranking) y += "  " + e.name + ": " + Num(e.sensitivity) + "\n";
 
+  std::vector<Convergence> convergence;
+  for (const auto& r : fit.runs) convergence.push_back({r.converged, r.stop_reason, r.iterations});
+  y += "# how each local Levenberg-Marquardt run stopped (best_run: the one kept)\n";
+  y += ConvergenceYaml("convergence", convergence, fit.best_run, 0);
   MethodResult result;
   result.model_yaml = y;
+  const std::string warning =
+      NotConvergedWarning("full-model local optimisation", convergence, fit.best_run);
+  if (!warning.empty()) result.warnings.push_back(warning);
   if (progress) progress(0.97, "evaluation");
   Json m = Json::Object();
   m.Set("method", "full-model");
@@ -782,17 +837,24 @@ MethodResult RunFullModel(const std::string& default_scenario, const std::vector
   m.Set("fitted_parameters", static_cast<int>(fit.kept.size()));
   m.Set("residuals", fit.residuals);
   m.Set("cost_rad2", fit.cost);
-  std::vector<double> walls, iters, evals, costs;
+  std::vector<double> walls, cpus, iters, evals, costs, jacs;
   for (const auto& r : fit.runs) {
     walls.push_back(r.wall_s);
+    cpus.push_back(r.cpu_s);
     iters.push_back(r.iterations);
+    jacs.push_back(r.jacobians);
     evals.push_back(r.evaluations);
     costs.push_back(r.cost);
   }
   m.Set("local_step_wall_s", MeanSd(walls));
+  m.Set("local_step_cpu_s", MeanSd(cpus));
   m.Set("local_step_iterations", iters);
   m.Set("local_step_evaluations", evals);
+  m.Set("local_step_jacobians", jacs);
+  m.Set("broyden", o.broyden);
+  m.Set("distinct_simulations_per_evaluation", fit.distinct_simulations);
   m.Set("local_step_cost_rad2", costs);
+  m.Set("convergence", ConvergenceJson(convergence, fit.best_run));
   m.Set("sensitivity_wall_s", fit.sensitivity_wall_s);
   m.Set("total_wall_s", fit.total_wall_s);
   m.Set("threads", threads);

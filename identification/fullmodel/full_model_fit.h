@@ -27,7 +27,9 @@
 // Departures from §5.1, stated:
 // * Local optimiser: bounded Levenberg–Marquardt (identification/levenberg_marquardt.h) instead
 //   of MATLAB's interior point; Jacobians by forward differences evaluated in parallel threads
-//   (one model build + simulation per perturbed parameter and trial), not CVODES sensitivities.
+//   (one model build + simulation per perturbed parameter and distinct trial), not CVODES
+//   sensitivities; optionally Broyden secant updates between them (FullModelFitOptions::
+//   broyden). Trials with identical stimulation and sample times share one simulation.
 // * Sensitivity measure (the paper does not give one): S_j = ‖∂ŷ/∂θ_j‖ · s_j / √N with s_j the
 //   nominal |θ_j| (half the bound range when θ_j = 0), one forward difference per parameter at
 //   the start point — a local, one-at-a-time ranking.
@@ -104,6 +106,12 @@ struct FullModelFitOptions {
   double fd_relative_step = 1e-3;      ///< forward-difference step relative to max(|θ|, 1e-3).
   double integrator_tolerance = 1e-6;  ///< CVODES relative/absolute accuracy of every simulation.
   int threads = 0;  ///< worker threads for simulations; 0 = hardware concurrency.
+  /// Secant (Broyden) Jacobian updates between finite-difference Jacobians (LmOptions::broyden):
+  /// a finite-difference Jacobian at the start, after 3 rejected secant steps and to confirm a
+  /// stop. Off (default): one finite-difference Jacobian per accepted LM step. Opt-in because with
+  /// tight tolerances (relative 1e-10) the secant steps and the confirming Jacobians can cycle for
+  /// many more evaluations than the plain method (seen in the planted-parameter tests).
+  bool broyden = false;
 };
 
 /// One ranked candidate.
@@ -113,12 +121,16 @@ struct SensitivityEntry {
 };
 
 struct LocalRun {
-  Eigen::VectorXd start;  ///< kept parameters at the start, in their units.
-  Eigen::VectorXd x;      ///< at the end.
-  double cost = 0.0;      ///< Σ‖y − ŷ‖², rad².
-  int iterations = 0;     ///< accepted LM steps.
-  int evaluations = 0;    ///< residual evaluations (trial-set simulations).
-  double wall_s = 0.0;    ///< wall time of this local optimisation step, s.
+  Eigen::VectorXd start;    ///< kept parameters at the start, in their units.
+  Eigen::VectorXd x;        ///< at the end.
+  double cost = 0.0;        ///< Σ‖y − ŷ‖², rad².
+  int iterations = 0;       ///< accepted LM steps.
+  int evaluations = 0;      ///< residual evaluations (trial-set simulations).
+  int jacobians = 0;        ///< finite-difference Jacobians evaluated (not secant-updated).
+  double wall_s = 0.0;      ///< wall time of this local optimisation step, s.
+  double cpu_s = 0.0;       ///< process CPU time (all threads) of this step, s.
+  bool converged = false;   ///< LM met a tolerance (see LmStopReason).
+  std::string stop_reason;  ///< LmStopReasonName, e.g. "iteration_limit".
 };
 
 struct FullModelFit {
@@ -130,15 +142,20 @@ struct FullModelFit {
   sim::ModelParams model;                 ///< the rig with the best values applied.
   double cost = 0.0;                      ///< Σ‖y − ŷ‖² at the best values, rad².
   long residuals = 0;                     ///< number of residuals N.
-  std::vector<LocalRun> runs;             ///< one per start.
-  double sensitivity_wall_s = 0.0;        ///< ranking, s.
-  double total_wall_s = 0.0;              ///< ranking + all starts, s.
+  /// Simulations per residual evaluation: the training trials with distinct stimulation, times
+  /// and joints (identical ones share one deterministic simulation).
+  int distinct_simulations = 0;
+  std::vector<LocalRun> runs;       ///< one per start.
+  std::size_t best_run = 0;         ///< index in `runs` of the values kept.
+  double sensitivity_wall_s = 0.0;  ///< ranking, s.
+  double total_wall_s = 0.0;        ///< ranking + all starts, s.
 };
 
 /// Simulates `trial`'s stimulation (u.<channel> columns, zero-order hold between samples) on
-/// `model` and returns the simulated q.<joint> columns of `trial` (same names, same times;
-/// linear interpolation of the simulation's own grid). Throws std::runtime_error on an unknown
-/// channel or joint, or integration failure.
+/// `model` from its initial state, the stimulation delayed by the electromechanical delay as in
+/// sim::RunTrial, and returns the u.* and simulated q.<joint> columns of `trial` (same names,
+/// q read at exactly the trial's times, no sensor noise). Throws std::runtime_error on an unknown
+/// channel or joint, time before 0, fewer than 2 samples, or integration failure.
 Trial SimulateLike(const sim::ModelParams& model, const Trial& trial, double integrator_tolerance);
 
 /// Sensitivity ranking + multi-start local optimisation on `train` (the q.* columns; NaN samples
@@ -150,7 +167,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
 /// CLI entry "full-model". `scenario_path` empty: DefaultHandRig(); else the scenario's model.
 /// Trials' metadata key `scenario_path` (set by `fesim identify --scenario`) overrides it.
 /// Options from the first training trial's metadata: fullmodel.keep, .starts, .seed, .spread,
-/// .max_iterations, .tolerance, .integrator_tolerance, .threads.
+/// .max_iterations, .tolerance, .integrator_tolerance, .threads, .broyden (0 or 1).
 MethodEntry FullModelMethod(const std::string& scenario_path = "");
 
 }  // namespace fesim::identification::fullmodel

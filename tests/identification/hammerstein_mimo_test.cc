@@ -173,6 +173,15 @@ TEST(HammersteinMimo, MethodEntryFitsTrialsAndReportsPerJointMetrics) {
   EXPECT_GT(BestFitPercent(y, yhat), 99.9);
   EXPECT_NE(r.model_yaml.find("Omega: {value: 4"), std::string::npos) << r.model_yaml;
   EXPECT_NE(r.metrics.Dump().find("static_local_step_wall_s"), std::string::npos);
+  // Noiseless planted data: the kept static and dynamic runs converged, and say so.
+  const std::string m = r.metrics.Dump(0);
+  for (const char* step : {"static_step_convergence", "dynamic_step_convergence"}) {
+    const auto at = m.find(std::string("\"") + step + "\":{\"best_run\":");
+    ASSERT_NE(at, std::string::npos) << step;
+    EXPECT_NE(m.find("\"converged\":true", at), std::string::npos) << step;
+  }
+  EXPECT_NE(r.model_yaml.find("convergence:\n  static_step:\n"), std::string::npos);
+  EXPECT_TRUE(r.warnings.empty());
 }
 
 }  // namespace

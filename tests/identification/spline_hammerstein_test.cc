@@ -165,6 +165,23 @@ TEST(SplineHammerstein, MethodEntriesUseTorqueColumnAndRejectBadInput) {
   // The CLI places knots on the data range, not on the planted ones: a close, not exact, fit.
   EXPECT_GT(BestFitPercent(t.Column("tau.elbow"), r.predictions[0].Column("tau.elbow")), 99.5);
   EXPECT_NE(r.model_yaml.find("output: tau.elbow"), std::string::npos);
+  EXPECT_TRUE(r.warnings.empty()) << r.warnings.front();
+  EXPECT_NE(r.metrics.Dump(0).find("\"converged\":true"), std::string::npos);
+
+  // One alternation is not enough: the result says so in the metrics, the YAML and a warning.
+  Trial one = t;
+  one.metadata["spline.max_iterations"] = "1";
+  const MethodResult r1 = SplineArxMethod().run({one}, {}, nullptr);
+  const std::string m1 = r1.metrics.Dump(0);
+  EXPECT_NE(m1.find("\"converged\":false,\"stop_reason\":\"iteration_limit\""), std::string::npos)
+      << m1;
+  EXPECT_NE(r1.model_yaml.find("algorithm1: {converged: false, stop_reason: iteration_limit"),
+            std::string::npos)
+      << r1.model_yaml;
+  ASSERT_EQ(r1.warnings.size(), 1u);
+  EXPECT_NE(r1.warnings[0].find("did not converge (iteration_limit after 1 iterations)"),
+            std::string::npos)
+      << r1.warnings[0];
 
   Trial bad = t;
   bad.metadata["spline.poles"] = "2";  // unknown option

@@ -135,6 +135,24 @@ double RelativeError(const FullModelFit& fit, const PlantedProblem& p, const std
   return 1.0;
 }
 
+TEST(FullModelFitTest, SimulateLikeReproducesTheTrialRunner) {
+  // SimulateLike integrates without sim::RunTrial's sensor bookkeeping; on a noiseless trial
+  // recorded by RunTrial at the same tolerance it must give the same angles (same report times,
+  // same integrator path, same electromechanical delay).
+  const sim::ModelParams rig = DefaultHandRig();
+  const Trial trial = MakeTrial(rig, Staircase(rig), 7.0, 0.0, 1);
+  const Trial sim = SimulateLike(rig, trial, kIntegratorTol);
+  ASSERT_EQ(sim.time, trial.time);
+  for (const auto& name : trial.NamesWithPrefix("q.")) {
+    const auto& a = trial.Column(name);
+    const auto& b = sim.Column(name);
+    double worst = 0.0;
+    for (std::size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::abs(a[i] - b[i]));
+    EXPECT_LT(worst, 1e-12) << name;
+  }
+  EXPECT_EQ(sim.Column("u.ext"), trial.Column("u.ext"));
+}
+
 TEST(FullModelFitTest, RecoversPlantedParametersFromNoiselessData) {
   const PlantedProblem p = MakePlanted();
   const Trial data = MakeTrial(p.truth_model, Staircase(p.rig), 7.0, 0.0, 1);
@@ -348,6 +366,8 @@ TEST(FullModelFitTest, IdentifyCommandWritesModelPredictionsAndMetrics) {
   Trial train = MakeTrial(rig, Staircase(rig), 3.0, 0.0, 1);
   train.metadata["fullmodel.keep"] = "2";
   train.metadata["fullmodel.max_iterations"] = "2";
+  train.metadata["fullmodel.tolerance"] =
+      "0";  // no relative-decrease stop: 2 steps cannot converge
   train.metadata["fullmodel.starts"] = "1";
   train.metadata["fullmodel.integrator_tolerance"] = "1e-4";
   WriteFileAtomic(dir + "/train.csv", FormatTrialCsv(train));
@@ -361,7 +381,21 @@ TEST(FullModelFitTest, IdentifyCommandWritesModelPredictionsAndMetrics) {
   const Trial prediction = ReadTrialCsv(dir + "/out/prediction_0.csv");
   EXPECT_EQ(prediction.size(), train.size());
   EXPECT_TRUE(prediction.Has("q.wrist_flexion"));
-  EXPECT_NE(ReadFile(dir + "/out/metrics.json").find("local_step_wall_s"), std::string::npos);
+  const std::string metrics = ReadFile(dir + "/out/metrics.json");
+  EXPECT_NE(metrics.find("local_step_wall_s"), std::string::npos);
+  // Issue 10: the unconverged local run says so in the metrics, the YAML and on stderr.
+  EXPECT_NE(metrics.find("\"converged\": false,\n    \"stop_reason\": \"iteration_limit\""),
+            std::string::npos)
+      << metrics;
+  EXPECT_NE(yaml.find("convergence:\n  best_run: 0\n  converged: false\n  stop_reason: "
+                      "iteration_limit\n"),
+            std::string::npos)
+      << yaml;
+  EXPECT_NE(ReadFile(dir + "/stderr.txt")
+                .find("fesim identify: warning: full-model local optimisation: the best local run "
+                      "(1 of 1) did not converge (iteration_limit after 2 iterations)"),
+            std::string::npos)
+      << ReadFile(dir + "/stderr.txt");
   // A scenario that does not exist is a one-line error and a non-zero exit.
   const std::string bad = std::string(FESIM_BIN_PATH) + " identify --method full-model --train '" +
                           dir + "/train.csv' --scenario /nonexistent.yaml --out '" + dir +

@@ -1,0 +1,123 @@
+// Bounded Levenberg–Marquardt (identification/levenberg_marquardt.h): convergence on a
+// well-posed problem and an honest stop reason when it does not converge (issue 10).
+#include "identification/levenberg_marquardt.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+namespace fesim::identification {
+namespace {
+
+/// Distance of the Rosenbrock minimiser (1, 1) reached from the standard start.
+constexpr double kRosenbrockTol = 1e-6;
+
+/// Rosenbrock's function as least squares: r = [10 (x₂ − x₁²), 1 − x₁], minimum 0 at (1, 1).
+Eigen::VectorXd Rosenbrock(const Eigen::VectorXd& x) {
+  return Eigen::Vector2d(10.0 * (x(1) - x(0) * x(0)), 1.0 - x(0));
+}
+
+Eigen::VectorXd Unbounded(double sign) {
+  return Eigen::VectorXd::Constant(2, sign * std::numeric_limits<double>::infinity());
+}
+
+TEST(LevenbergMarquardt, ConvergesOnRosenbrockFromTheStandardStart) {
+  const LmResult r =
+      LevenbergMarquardt(Rosenbrock, Eigen::Vector2d(-1.2, 1.0), Unbounded(-1), Unbounded(1));
+  EXPECT_TRUE(r.converged) << LmStopReasonName(r.stop_reason);
+  EXPECT_TRUE(LmConverged(r.stop_reason));
+  EXPECT_NE(r.stop_reason, LmStopReason::kIterationLimit);
+  EXPECT_LT((r.x - Eigen::Vector2d(1.0, 1.0)).norm(), kRosenbrockTol);
+  EXPECT_LT(r.iterations, LmOptions{}.max_iterations);
+  const Convergence c = ToConvergence(r);
+  EXPECT_TRUE(c.converged);
+  EXPECT_EQ(c.stop_reason, LmStopReasonName(r.stop_reason));
+  EXPECT_EQ(c.iterations, r.iterations);
+}
+
+TEST(LevenbergMarquardt, BroydenUpdatesReachTheSameMinimumWithFewerJacobians) {
+  LmOptions o;
+  o.broyden = true;
+  const LmResult b =
+      LevenbergMarquardt(Rosenbrock, Eigen::Vector2d(-1.2, 1.0), Unbounded(-1), Unbounded(1), o);
+  const LmResult f =
+      LevenbergMarquardt(Rosenbrock, Eigen::Vector2d(-1.2, 1.0), Unbounded(-1), Unbounded(1));
+  EXPECT_TRUE(b.converged) << LmStopReasonName(b.stop_reason);
+  EXPECT_LT((b.x - Eigen::Vector2d(1.0, 1.0)).norm(), kRosenbrockTol);
+  EXPECT_LT(b.jacobian_evaluations, b.iterations);
+  EXPECT_LT(b.jacobian_evaluations, f.jacobian_evaluations);
+  EXPECT_EQ(f.jacobian_evaluations, f.iterations + 1);  // one per accepted step and the start
+  // The stop was declared on an evaluated Jacobian: JᵀJ is the one at the minimiser,
+  // J = [[−20 x₁, 10], [−1, 0]] at (1, 1).
+  const Eigen::Matrix2d J_min = (Eigen::Matrix2d() << -20.0, 10.0, -1.0, 0.0).finished();
+  EXPECT_LT((b.jtj - J_min.transpose() * J_min).norm(), 1e-4 * (J_min.transpose() * J_min).norm());
+}
+
+TEST(LevenbergMarquardt, OneIterationIsReportedAsTheIterationLimitNotConvergence) {
+  LmOptions o;
+  o.max_iterations = 1;
+  const Eigen::Vector2d start(-1.2, 1.0);
+  const LmResult r = LevenbergMarquardt(Rosenbrock, start, Unbounded(-1), Unbounded(1), o);
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.stop_reason, LmStopReason::kIterationLimit);
+  EXPECT_STREQ(LmStopReasonName(r.stop_reason), "iteration_limit");
+  EXPECT_EQ(r.iterations, 1);
+  EXPECT_LT(r.cost, Rosenbrock(start).squaredNorm());  // one accepted step was taken
+}
+
+TEST(LevenbergMarquardt, NoDecreasePossibleIsReportedAndKeepsTheStart) {
+  // The cost is finite only at the start: every trial step is rejected and the damping grows
+  // until the step vanishes. LM must not call the start point a converged fit.
+  const Eigen::VectorXd start = Eigen::VectorXd::Constant(1, 1.0);
+  const ResidualFn r = [&](const Eigen::VectorXd& x) {
+    return Eigen::VectorXd::Constant(
+        1, x(0) == start(0) ? 1.0 : std::numeric_limits<double>::quiet_NaN());
+  };
+  const JacobianFn jac = [](const Eigen::VectorXd&, const Eigen::VectorXd&, int*) {
+    return Eigen::MatrixXd::Ones(1, 1);
+  };
+  LmOptions o;
+  const Eigen::VectorXd inf = Eigen::VectorXd::Constant(1, std::numeric_limits<double>::infinity());
+  const LmResult res = LevenbergMarquardt(r, start, -inf, inf, o, {}, jac);
+  EXPECT_FALSE(res.converged);
+  EXPECT_EQ(res.stop_reason, LmStopReason::kNoDecrease);
+  EXPECT_EQ(res.iterations, 0);
+  EXPECT_EQ(res.x(0), start(0));
+}
+
+TEST(LevenbergMarquardt, ExactFitStopsOnZeroCost) {
+  // A linear residual: one Gauss–Newton step reaches r = 0 exactly.
+  const ResidualFn r = [](const Eigen::VectorXd& x) {
+    return Eigen::VectorXd::Constant(1, 2.0 * x(0) - 4.0);
+  };
+  const JacobianFn jac = [](const Eigen::VectorXd&, const Eigen::VectorXd&, int*) {
+    return Eigen::MatrixXd::Constant(1, 1, 2.0);
+  };
+  LmOptions o;
+  o.initial_damping = 0.0;
+  const Eigen::VectorXd inf = Eigen::VectorXd::Constant(1, std::numeric_limits<double>::infinity());
+  const LmResult res = LevenbergMarquardt(r, Eigen::VectorXd::Zero(1), -inf, inf, o, {}, jac);
+  EXPECT_TRUE(res.converged);
+  EXPECT_EQ(res.stop_reason, LmStopReason::kZeroCost);
+  EXPECT_DOUBLE_EQ(res.x(0), 2.0);
+}
+
+TEST(ConvergenceReport, JsonYamlAndWarningNameTheBestRun) {
+  const std::vector<Convergence> runs = {{true, "step_below_tolerance", 7},
+                                         {false, "iteration_limit", 30}};
+  const std::string json = ConvergenceJson(runs, 1).Dump(0);
+  EXPECT_NE(json.find("\"best_run\":1"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"converged\":false,\"stop_reason\":\"iteration_limit\""), std::string::npos)
+      << json;
+  const std::string yaml = ConvergenceYaml("convergence", runs, 1, 0);
+  EXPECT_NE(yaml.find("  converged: false\n  stop_reason: iteration_limit\n"), std::string::npos)
+      << yaml;
+  EXPECT_EQ(NotConvergedWarning("fit", runs, 0), "");
+  EXPECT_EQ(NotConvergedWarning("fit", runs, 1),
+            "fit: the best local run (2 of 2) did not converge (iteration_limit after 30 "
+            "iterations)");
+}
+
+}  // namespace
+}  // namespace fesim::identification
