@@ -5,7 +5,7 @@
 
 #include "apps/cli.h"
 #include "apps/commands.h"
-#include "benchmark/benchmark.h"
+#include "benchmark/run.h"
 #include "scenarios/benchmark_spec.h"
 
 namespace fesim {
@@ -39,7 +39,6 @@ int RunBenchmark(int argc, char** argv) {
   }
   const std::string path =
       args.positional.empty() ? std::string("scenarios/default_study.yaml") : args.positional[0];
-  const BenchmarkSpec spec = LoadBenchmarkSpec(path);
   benchmark::BenchmarkOptions o;
   o.quick = args.Has("quick");
   o.out_dir = args.Get("out", o.quick ? "out/benchmark-quick" : "out/benchmark");
@@ -50,6 +49,7 @@ int RunBenchmark(int argc, char** argv) {
   if (seed < 0) throw std::runtime_error("--seed: must be >= 0");
   o.seed = static_cast<std::uint64_t>(seed);
   o.progress = cli::ShowProgress;
+  const BenchmarkSpec spec = LoadBenchmarkSpec(path);  // after the options: cheap errors first
   const auto outcome = benchmark::RunBenchmark(spec, o);
   cli::ShowProgress(1.0, "done");
   std::fprintf(stderr, "fesim benchmark: %s in %.1f s -> %s/report.md\n", spec.name.c_str(),

@@ -204,6 +204,7 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
                                         std::to_string(budget.max_iterations),
                                         std::to_string(budget.integrator_tolerance),
                                         std::to_string(budget.fd_relative_step),
+                                        budget.broyden ? "broyden" : "fd",
                                         budget.rank_once ? "rank_once" : "rank_each",
                                         ReadFile(st.scenario_path)};
         for (const auto& t : train) key.push_back(TrialHash(t));
@@ -220,6 +221,7 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
           o.max_iterations = budget.max_iterations;
           o.integrator_tolerance = budget.integrator_tolerance;
           o.fd_relative_step = budget.fd_relative_step;
+          o.broyden = budget.broyden;
           o.threads = ctx->threads;
           if (budget.rank_once && k > 0) {
             o.fit_names = kept_names[p];

@@ -1,4 +1,4 @@
-// The sections of `fesim benchmark` (see benchmark.h); internal to benchmark/.
+// The sections of `fesim benchmark` (see run.h); internal to benchmark/.
 #pragma once
 
 #include <string>
@@ -45,7 +45,7 @@ inline constexpr double kTremorParticipantWeight = 2.0;
 inline constexpr double kShoulderFitWeight = 0.5;
 inline constexpr double kReachingWeight = 5.0;
 inline double FullModelFitWeight(const FullModelBudget& b) {
-  return 0.3 * b.keep * (b.max_iterations + 1);
+  return 0.3 * b.keep + 0.4 * b.max_iterations;
 }
 
 // Small shared helpers.

@@ -72,13 +72,14 @@ BenchmarkSection LoadSection(const Node& top, const std::string& key, const std:
 
 FullModelBudget LoadBudget(const Node& h, const std::string& key, FullModelBudget m) {
   const Node f = h.Child(key);
-  f.Keys({"keep", "starts", "max_iterations", "integrator_tolerance", "fd_relative_step",
+  f.Keys({"keep", "starts", "max_iterations", "integrator_tolerance", "fd_relative_step", "broyden",
           "rank_once"});
   if (f.Has("keep")) m.keep = f.Integer("keep", 1, 39);
   if (f.Has("starts")) m.starts = f.Integer("starts", 1, 100);
   if (f.Has("max_iterations")) m.max_iterations = f.Integer("max_iterations", 1, 1000);
   f.Number("integrator_tolerance", 1e-8, 1e-2, &m.integrator_tolerance);
   f.Number("fd_relative_step", 1e-8, 0.1, &m.fd_relative_step);
+  if (f.Has("broyden")) m.broyden = f.Choice("broyden", {"true", "false"}) == "true";
   if (f.Has("rank_once")) m.rank_once = f.Choice("rank_once", {"true", "false"}) == "true";
   return m;
 }

@@ -16,10 +16,10 @@
 // (`<prefix>.<key>: value`, e.g. `tremor.eps: 1.0e-5`). `full_model` sets the full-model fit's
 // budget (`quick_full_model` the one --quick uses; default: full_model's):
 //   {keep: 1–39, starts: 1–100, max_iterations: 1–1000, integrator_tolerance: 1e-8–1e-2,
-//    fd_relative_step: 1e-8–0.1, rank_once: true|false}  (the forward-difference step must be
-//    well above the integrator's relative error, else the Jacobian is integration noise)  (rank
-//    once per participant on the first fold, then fit the same K parameters in every fold; default
-//    true)
+//    fd_relative_step: 1e-8–0.1, broyden: true|false, rank_once: true|false}  (the
+//    forward-difference step must be well above the integrator's relative error, else the Jacobian
+//    is integration noise)  (rank once per participant on the first fold, then fit the same K
+//    parameters in every fold; default true)
 // The hand_array study's first protocol is the paper's step grid (the cross-validation folds
 // are its repetitions); an optional second protocol is an input the models never see in
 // training, used for the prediction error against the noiseless truth.
@@ -45,6 +45,7 @@ struct FullModelBudget {
   int max_iterations = 4;
   double integrator_tolerance = 1e-4;
   double fd_relative_step = 1e-2;
+  bool broyden = true;  ///< secant Jacobian updates (FullModelFitOptions::broyden).
   bool rank_once = true;
 };
 

@@ -1,8 +1,6 @@
 // `fesim benchmark --quick` end to end: every section's table in results.json, planted ground
 // truth reported back, the report's figures equal to the JSON's, a killed run resumed from the
 // cache, a rerun that fits nothing, and bad input.
-#include "benchmark/benchmark.h"
-
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -14,6 +12,7 @@
 #include <string>
 #include <thread>
 
+#include "benchmark/run.h"
 #include "benchmark/sections.h"
 #include "scenarios/json.h"
 #include "scenarios/trial.h"
@@ -176,9 +175,9 @@ TEST(BenchmarkCli, BadInputIsOneLineAndNonZero) {
             1);
   const std::string e = ReadFile(err);
   EXPECT_NE(e.find("/nonexistent/study.yaml"), std::string::npos) << e;
-  EXPECT_EQ(RunFesim("benchmark --threads -3", err), 1);
+  EXPECT_EQ(RunFesim("benchmark " + kSrc + "/scenarios/default_study.yaml --threads -3", err), 1);
   EXPECT_NE(ReadFile(err).find("--threads"), std::string::npos);
-  EXPECT_EQ(RunFesim("benchmark --bogus", err), 1);
+  EXPECT_EQ(RunFesim("benchmark " + kSrc + "/scenarios/default_study.yaml --bogus", err), 1);
   EXPECT_NE(ReadFile(err).find("--bogus"), std::string::npos);
   EXPECT_EQ(RunFesim("benchmark --help", err), 0);
 }

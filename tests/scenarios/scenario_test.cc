@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "scenarios/benchmark_spec.h"
 #include "scenarios/study.h"
 #include "sim/reaching.h"
 #include "sim/upper_limb_model.h"
@@ -201,6 +202,12 @@ TEST(Scenario, EveryShippedScenarioLoadsAndSimulates) {
     if (f.size() < 5 || f.substr(f.size() - 5) != ".yaml") continue;
     if (IsStudy(ReadFile(dir + "/" + f))) {  // a study: its items must load
       EXPECT_FALSE(LoadStudy(dir + "/" + f, 1).items.empty()) << f;
+      continue;
+    }
+    if (ReadFile(dir + "/" + f).find("\nbenchmark:") != std::string::npos ||
+        ReadFile(dir + "/" + f).rfind("benchmark:", 0) == 0) {  // a benchmark study: it loads
+      const BenchmarkSpec b = LoadBenchmarkSpec(dir + "/" + f);
+      EXPECT_FALSE(b.name.empty()) << f;
       continue;
     }
     Scenario sc = LoadScenario(dir + "/" + f);

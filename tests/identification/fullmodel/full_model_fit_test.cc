@@ -278,7 +278,9 @@ TEST(FullModelFitTest, HammersteinStaticGainSignsMatchTendonMatrix) {
             << ": tendon moment and Hammerstein gain disagree in sign";
       }
       // Extensors extend the wrist, flexors flex it.
-      if (joints[i] == sim::kWristFlexion) EXPECT_EQ(deflection < 0.0, k == 0);
+      if (joints[i] == sim::kWristFlexion) {
+        EXPECT_EQ(deflection < 0.0, k == 0);
+      }
     }
   }
   // One unit per channel.
