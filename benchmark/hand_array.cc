@@ -121,31 +121,19 @@ std::vector<AssumptionSwitch> AssumptionSwitches() {
 }  // namespace
 
 SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx) {
-  const std::string path = ctx->quick ? section.quick_study_path : section.study_path;
-  const StudyTrials data = GenerateStudy(path, ctx->seed, ctx->cache_dir + "/trials", ctx->threads,
-                                         ctx->progress, ctx->timing);
-  ctx->trials_simulated += data.simulated;
+  const std::string& path = ctx->quick ? section.quick_study_path : section.study_path;
+  const StudyTrials data = SectionStudy(section, ctx);
   const Study& st = data.study;
-  // Item layout: participant-major, then protocol, then repetition.
-  std::vector<std::string> protocols;
-  for (const auto& item : st.items) {
-    if (std::find(protocols.begin(), protocols.end(), item.protocol) == protocols.end()) {
-      protocols.push_back(item.protocol);
-    }
-  }
-  int reps = 0;
-  for (const auto& item : st.items) reps = std::max(reps, item.repetition + 1);
+  const StudyLayout layout = LayoutOf(st);
+  const std::vector<std::string>& protocols = layout.protocols;
+  const int reps = layout.reps;
   if (reps < 2) throw std::runtime_error(path + ": repetitions: needs >= 2 data sets (folds)");
   if (protocols.size() > 2) {
     throw std::runtime_error(path + ": protocols: at most 2 (the step grid and an unseen input)");
   }
   const bool has_unseen = protocols.size() == 2;
-  const int np = static_cast<int>(st.participants.size());
-  const auto index = [&](int p, int proto, int r) {
-    return (static_cast<std::size_t>(p) * protocols.size() + static_cast<std::size_t>(proto)) *
-               static_cast<std::size_t>(reps) +
-           static_cast<std::size_t>(r);
-  };
+  const int np = layout.participants;
+  const auto index = [&](int p, int proto, int r) { return layout.Index(p, proto, r); };
   const std::vector<std::string> joints = data.measured[0].NamesWithPrefix("q.");
   const int nj = static_cast<int>(joints.size());
   const bool do_full = std::count(section.methods.begin(), section.methods.end(), "full-model");

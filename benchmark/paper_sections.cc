@@ -20,29 +20,6 @@
 namespace fesim::benchmark {
 namespace {
 
-/// Items of a study grouped as [participant][protocol][repetition] → item index.
-struct Layout {
-  std::vector<std::string> protocols;
-  int participants = 0, reps = 0;
-  std::size_t Index(int p, int proto, int r) const {
-    return (static_cast<std::size_t>(p) * protocols.size() + static_cast<std::size_t>(proto)) *
-               static_cast<std::size_t>(reps) +
-           static_cast<std::size_t>(r);
-  }
-};
-
-Layout LayoutOf(const Study& st) {
-  Layout l;
-  for (const auto& item : st.items) {
-    if (std::find(l.protocols.begin(), l.protocols.end(), item.protocol) == l.protocols.end()) {
-      l.protocols.push_back(item.protocol);
-    }
-    l.reps = std::max(l.reps, item.repetition + 1);
-  }
-  l.participants = static_cast<int>(st.participants.size());
-  return l;
-}
-
 /// Best Fit % of prediction column `col` against `reference` resampled at the prediction times.
 double FitAgainst(const Trial& prediction, const Trial& reference, const std::string& col) {
   return identification::BestFitPercent(Resample(reference, col, prediction.time),
@@ -154,11 +131,8 @@ std::string Dir(const std::string& plots_dir, const std::string& file) {
 }  // namespace
 
 SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx) {
-  const std::string path = ctx->quick ? section.quick_study_path : section.study_path;
-  const StudyTrials data = GenerateStudy(path, ctx->seed, ctx->cache_dir + "/trials", ctx->threads,
-                                         ctx->progress, ctx->timing);
-  ctx->trials_simulated += data.simulated;
-  const Layout L = LayoutOf(data.study);
+  const StudyTrials data = SectionStudy(section, ctx);
+  const StudyLayout L = LayoutOf(data.study);
   const int np = L.participants, nr = L.reps, nt = static_cast<int>(L.protocols.size());
   const std::vector<std::string>& methods = section.methods;
   const int nm = static_cast<int>(methods.size());
@@ -402,11 +376,9 @@ SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx
 }
 
 SectionResult RunTremorWrist(const BenchmarkSection& section, SectionContext* ctx) {
-  const std::string path = ctx->quick ? section.quick_study_path : section.study_path;
-  const StudyTrials data = GenerateStudy(path, ctx->seed, ctx->cache_dir + "/trials", ctx->threads,
-                                         ctx->progress, ctx->timing);
-  ctx->trials_simulated += data.simulated;
-  const Layout L = LayoutOf(data.study);
+  const std::string& path = ctx->quick ? section.quick_study_path : section.study_path;
+  const StudyTrials data = SectionStudy(section, ctx);
+  const StudyLayout L = LayoutOf(data.study);
   if (L.reps < 3)
     throw std::runtime_error(path +
                              ": repetitions: tremor_wrist needs >= 3 (two "
@@ -555,11 +527,9 @@ SectionResult RunTremorWrist(const BenchmarkSection& section, SectionContext* ct
 }
 
 SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) {
-  const std::string path = ctx->quick ? section.quick_study_path : section.study_path;
-  const StudyTrials data = GenerateStudy(path, ctx->seed, ctx->cache_dir + "/trials", ctx->threads,
-                                         ctx->progress, ctx->timing);
-  ctx->trials_simulated += data.simulated;
-  const Layout L = LayoutOf(data.study);
+  const std::string& path = ctx->quick ? section.quick_study_path : section.study_path;
+  const StudyTrials data = SectionStudy(section, ctx);
+  const StudyLayout L = LayoutOf(data.study);
   if (L.reps < 2) throw std::runtime_error(path + ": repetitions: shoulder needs >= 2");
   const int np = L.participants;
   const std::vector<std::string>& methods = section.methods;

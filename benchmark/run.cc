@@ -74,6 +74,26 @@ std::vector<double> ModelYamlList(const std::string& model_yaml, const std::stri
   return out;
 }
 
+StudyTrials SectionStudy(const BenchmarkSection& section, SectionContext* ctx) {
+  const std::string& path = ctx->quick ? section.quick_study_path : section.study_path;
+  StudyTrials data = GenerateStudy(path, ctx->seed, ctx->cache_dir + "/trials", ctx->threads,
+                                   ctx->progress, ctx->timing);
+  ctx->trials_simulated += data.simulated;
+  return data;
+}
+
+StudyLayout LayoutOf(const Study& study) {
+  StudyLayout l;
+  for (const auto& item : study.items) {
+    if (std::find(l.protocols.begin(), l.protocols.end(), item.protocol) == l.protocols.end()) {
+      l.protocols.push_back(item.protocol);
+    }
+    l.reps = std::max(l.reps, item.repetition + 1);
+  }
+  l.participants = static_cast<int>(study.participants.size());
+  return l;
+}
+
 Json Finding(const std::string& claim, bool holds, const std::string& margin) {
   Json j = Json::Object();
   j.Set("claim", claim).Set("holds", holds).Set("margin", margin);

@@ -30,6 +30,23 @@ struct SectionResult {
   std::string markdown;
 };
 
+/// The section's study (its quick one with --quick), generated or read back from the cache; adds
+/// the trials simulated to ctx->trials_simulated.
+StudyTrials SectionStudy(const BenchmarkSection& section, SectionContext* ctx);
+
+/// Items of a study as [participant][protocol][repetition] → item index (Study::items order:
+/// participant-major, then protocol, then repetition).
+struct StudyLayout {
+  std::vector<std::string> protocols;  ///< in first-appearance order.
+  int participants = 0, reps = 0;
+  std::size_t Index(int p, int proto, int r) const {
+    return (static_cast<std::size_t>(p) * protocols.size() + static_cast<std::size_t>(proto)) *
+               static_cast<std::size_t>(reps) +
+           static_cast<std::size_t>(r);
+  }
+};
+StudyLayout LayoutOf(const Study& study);
+
 SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx);
 SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx);
 SectionResult RunTremorWrist(const BenchmarkSection& section, SectionContext* ctx);
