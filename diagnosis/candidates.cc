@@ -65,6 +65,9 @@ std::vector<int> WristGroup(const sim::ModelParams& m, bool extensors) {
   return out;
 }
 
+/// κ of the broad passive-nonlinearity probe, 1/rad.
+constexpr double kBroadSharpness = 8.0;
+
 std::vector<double> RestPosture(const sim::ModelParams& m) {
   std::vector<double> rest(sim::kNumCoordinates);
   for (int c = 0; c < sim::kNumCoordinates; ++c) rest[c] = m.coordinates[c].passive.rest_angle_rad;
@@ -306,8 +309,25 @@ std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const Libra
                              [j](double v, sim::ModelParams* m) {
                                m->coordinates[j].passive.limit_sharpness_per_rad = v;
                              }));
-    c.probes = {ProbeAt(c.params, 0, 2.0), ProbeAt(c.params, 1, 0.7 * kappa)};
+    // Probe 1: a broad extra nonlinearity (κ = 8/rad, K_L × 5), felt across the range of
+    // motion rather than only at its ends; probe 2: the nominal shape made broader. The start
+    // takes probe 1's shape when its coefficient is positive (the torque is linear in K_L at a
+    // fixed κ), else the linear map.
+    Eigen::VectorXd broad = Starts(c.params);
+    broad << 5.0, kBroadSharpness;
+    c.probes = {broad, ProbeAt(c.params, 1, 0.7 * kappa)};
     c.one_sided = {false, false};
+    const std::vector<ModelParameter> params = c.params;
+    c.start_from_step = [params, kappa](const Eigen::VectorXd& theta) {
+      Eigen::VectorXd x(2);
+      if (theta(0) > 0.2) {
+        x << 1.0 + 4.0 * theta(0), kBroadSharpness;
+      } else {
+        x << 1.0 + 4.0 * theta(0), kappa - 0.3 * kappa * theta(1);
+      }
+      for (int k = 0; k < 2; ++k) x(k) = std::clamp(x(k), params[k].lower, params[k].upper);
+      return x;
+    };
     add(c);
   }
   {

@@ -545,8 +545,9 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     std::vector<int> second;
     for (std::size_t k = 0; k < round1.size(); ++k) {
       const int c = round1[k].cands[0];
-      if (static_cast<int>(k) != best && passes(out.candidates[c]) &&
-          library[c].id != library[c1].id) {
+      // Its own held-out gain is not required: the first mechanism may mask it.
+      if (static_cast<int>(k) != best && out.candidates[c].fitted &&
+          out.candidates[c].lr_p_adjusted < options.alpha && library[c].id != library[c1].id) {
         second.push_back(static_cast<int>(k));
       }
     }

@@ -23,7 +23,10 @@
 //    held-out gain g = (x − y)/x of the held-out NRMSE. Accepted when p_adj(LR) < alpha and
 //    g > min_heldout_gain; greedily, the best g first (then refitted with the subject
 //    parameters), then a second mechanism on top by the same test relative to the extended
-//    model, and the whole refitted again.
+//    model, and the whole refitted again. A second-round candidate needs only its training LR
+//    test from the first round (the first mechanism may mask its held-out gain there).
+//    Subject parameters are held during a candidate's own fit (screening) and refitted with the
+//    accepted extension.
 // 5. Verdict. Nothing accepted: `none`, unless the held-out residual of the baseline keeps
 //    structure (StructuredVarianceFraction > max_structure on some output): `unexplained`.
 //    Otherwise the accepted mechanism with the larger gain, confidence

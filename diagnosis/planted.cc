@@ -114,8 +114,8 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
       out.planted.push_back({"fatigue:fatigue.rate_per_s", "1/s", s / 5.0, NAN});
     } else if (id == "potentiation") {
       mech.potentiation.enabled = true;
-      mech.potentiation.gain = 1.0 * s;
-      out.planted.push_back({"potentiation:potentiation.gain", "1", 1.0 * s, NAN});
+      mech.potentiation.gain = 2.0 * s;
+      out.planted.push_back({"potentiation:potentiation.gain", "1", 2.0 * s, NAN});
       out.planted.push_back(
           {"potentiation:potentiation.rise_time_s", "s", mech.potentiation.rise_time_s, NAN});
     } else if (id == "delay") {

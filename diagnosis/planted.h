@@ -10,7 +10,7 @@
 // (50 µs spacing, Σu ≤ 300) with 2 s steps, order alternating between trials.
 // Planted strengths at effect_scale s (chosen so that s = 1 gives an effect RMS of the order of the
 // 1° sensor noise RMS on the hand rig; the generator reports the measured ratio):
-//   fatigue        T_fat = 5 s / s                   potentiation  g = 1.0 s
+//   fatigue        T_fat = 5 s / s                   potentiation  g = 2.0 s
 //   delay          δ = 0.07 s · s                    tremor        A = 0.08 s N·m on the wrist,
 //                                                                  f ∈ [5, 8] Hz, φ seeded
 //   crosstalk      c = 0.015 s                       moment_arm_posture  ρ = 2.0 s (wrist)
