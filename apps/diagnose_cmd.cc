@@ -26,7 +26,8 @@ int RunDiagnose(int argc, char** argv) {
         "tremor, crosstalk, moment_arm_posture, force_length_velocity, unequal_muscle_dynamics,\n"
         "passive_stiffness_nonlinear, arm_support, stiction, spasticity, sensor_drift), or says\n"
         "none / unexplained, and measures the held-out gain of the extended model.\n"
-        "Writes DIR/diagnosis.md, DIR/diagnosis.json, DIR/residuals.png, DIR/spectrum.png\n"
+        "Writes DIR/diagnosis.md, DIR/diagnosis.json, DIR/residuals_<joint>.png and\n"
+        "DIR/spectrum_<joint>.png\n"
         "(default DIR: out/diagnose). Trials need u.<channel> inputs and q.<joint> outputs\n"
         "(q.<joint>_deg accepted) of joints that are free in the scenario, one sample rate;\n"
         "NaN gaps are skipped. --threads: simulation threads (default: all cores).\n");

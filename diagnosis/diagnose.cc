@@ -357,7 +357,6 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     }
     std::vector<Trial> sims(jobs.size());
     std::vector<char> ok(jobs.size(), 1);
-    int done = 0;
     ParallelFor(static_cast<int>(jobs.size()), fo.threads, [&](int j) {
       const Candidate& c = library[jobs[j].cand];
       const std::vector<ModelParameter> params = Join(subject, c.params);
@@ -371,7 +370,6 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
       } catch (const std::exception&) {
         ok[j] = 0;
       }
-      ++done;
     });
     out.simulations += static_cast<int>(jobs.size());
     std::size_t j = 0;

@@ -3,8 +3,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include "diagnosis/plot.h"
 #include "diagnosis/signatures.h"
+#include "render/plot.h"
 #include "render/video.h"
 #include "scenarios/trial.h"
 
@@ -173,32 +173,53 @@ std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs) {
 }
 
 void WriteDiagnosisReport(const Diagnosis& d, const std::string& inputs, const std::string& dir) {
-  std::vector<PlotPanel> res_panels, spec_panels;
-  const render::Rgba before{0.6f, 0.6f, 0.6f, 1}, after{0.1f, 0.3f, 0.85f, 1};
+  // Everything is computed before the first file is written.
+  const std::string json = DiagnosisJson(d).Dump(2) + "\n";
+  const std::string md = DiagnosisMarkdown(d, inputs);
+  struct Figure {
+    std::string path;
+    render::Axes axes;
+    std::vector<render::Series> series;
+  };
+  std::vector<Figure> figures;
   for (const auto& o : d.heldout.outputs) {
-    PlotSeries b, a;
+    const std::string joint = o.substr(2);
+    render::Series b, a;
     b.label = "baseline";
-    b.colour = before;
+    b.colour = render::PaletteColour(7);
     a.label = "extended";
-    a.colour = after;
+    a.colour = render::PaletteColour(0);
     HeldoutResidual(d, d.heldout_baseline, o, &b.x, &b.y);
     HeldoutResidual(d, d.heldout_extended, o, &a.x, &a.y);
+    Figure res;
+    res.path = dir + "/residuals_" + joint + ".png";
+    res.axes.title = "held-out residual y - y_hat, " + o;
+    res.axes.x_label = "time (s)";
+    res.axes.y_label = "rad";
+    res.axes.width_px = 900;
+    res.axes.height_px = 300;
+    res.series = {b, a};
     const double dt = b.x.size() > 1 ? b.x[1] - b.x[0] : 0.01;
-    res_panels.push_back({"held-out residual " + o, "time (s)", "rad", {b, a}});
     std::vector<double> f;
     for (double x = 0.05; x <= std::min(15.0, 0.45 / dt); x += 0.02) f.push_back(x);
-    PlotSeries sb = b, sa = a;
+    render::Series sb = b, sa = a;
     sb.x = sa.x = f;
     sb.y = Periodogram(b.y, dt, f);
     sa.y = Periodogram(a.y, dt, f);
-    spec_panels.push_back({"residual periodogram " + o, "frequency (Hz)", "rad^2", {sb, sa}});
+    Figure spec;
+    spec.path = dir + "/spectrum_" + joint + ".png";
+    spec.axes = res.axes;
+    spec.axes.title = "held-out residual periodogram, " + o;
+    spec.axes.x_label = "frequency (Hz)";
+    spec.axes.y_label = "rad^2";
+    spec.axes.log_y = true;
+    spec.series = {sb, sa};
+    figures.push_back(res);
+    figures.push_back(spec);
   }
-  const std::string json = DiagnosisJson(d).Dump(2) + "\n";
-  const std::string md = DiagnosisMarkdown(d, inputs);
-  const render::Image res_png = LinePlots(res_panels, 900, 200);
-  const render::Image spec_png = LinePlots(spec_panels, 900, 200);
-  render::WritePng(dir + "/residuals.png", res_png);
-  render::WritePng(dir + "/spectrum.png", spec_png);
+  std::vector<render::Image> images;
+  for (const auto& f : figures) images.push_back(render::LinePlot(f.axes, f.series));
+  for (std::size_t k = 0; k < figures.size(); ++k) render::WritePng(figures[k].path, images[k]);
   WriteFileAtomic(dir + "/diagnosis.json", json);
   WriteFileAtomic(dir + "/diagnosis.md", md);
 }

@@ -1,7 +1,8 @@
 // The report of `fesim diagnose` (PRODUCT.md "Diagnosis" output): diagnosis.json with exactly the
 // keys PRODUCT.md lists, diagnosis.md (verdict paragraph, ranking table, residual signatures,
-// before/after plots) and the plots as PNG (residuals.png: held-out residual per output over
-// time, baseline vs extended; spectrum.png: their periodograms 0.05–15 Hz).
+// before/after plots) and the plots as PNG drawn with render/plot.h (residuals_<joint>.png:
+// held-out residual over time, baseline vs extended; spectrum_<joint>.png: their periodograms
+// 0.05–15 Hz).
 #pragma once
 
 #include <string>
@@ -21,8 +22,9 @@ Json DiagnosisJson(const Diagnosis& d);
 /// The Markdown report; `inputs` names the measured files and the scenario.
 std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs);
 
-/// Writes DIR/diagnosis.json, DIR/diagnosis.md, DIR/residuals.png, DIR/spectrum.png, each
-/// atomically (scenarios/trial.h WriteFileAtomic); DIR must exist.
+/// Writes DIR/diagnosis.json, DIR/diagnosis.md, DIR/residuals_<joint>.png and
+/// DIR/spectrum_<joint>.png per output, each atomically (WriteFileAtomic / render::WritePng);
+/// DIR must exist.
 void WriteDiagnosisReport(const Diagnosis& d, const std::string& inputs, const std::string& dir);
 
 }  // namespace fesim::diagnosis

@@ -52,8 +52,8 @@ TEST(DiagnoseCmd, DiagnosesASimulatedTrialAndWritesTheReport) {
   EXPECT_NE(json.find("\"cause\": \"none\""), std::string::npos) << json.substr(0, 400);
   EXPECT_NE(json.find("\"candidates\": ["), std::string::npos);
   EXPECT_TRUE(Exists(dir + "/out/diagnosis.md"));
-  EXPECT_TRUE(Exists(dir + "/out/residuals.png"));
-  EXPECT_TRUE(Exists(dir + "/out/spectrum.png"));
+  EXPECT_TRUE(Exists(dir + "/out/residuals_wrist_flexion.png"));
+  EXPECT_TRUE(Exists(dir + "/out/spectrum_mcp_flexion.png"));
 }
 
 TEST(DiagnoseCmd, BadInputIsAOneLineErrorAndWritesNothing) {

@@ -72,10 +72,10 @@ TEST(Report, WritesMarkdownJsonAndPlots) {
   const std::string md = ReadFile(dir + "/diagnosis.md");
   EXPECT_NE(md.find("**tremor**"), std::string::npos);
   EXPECT_NE(md.find("from 0.2000 to 0.1000"), std::string::npos);
-  EXPECT_NE(md.find("![residuals](residuals.png)"), std::string::npos);
+  EXPECT_NE(md.find("](residuals_wrist_flexion.png)"), std::string::npos);
   EXPECT_NE(md.find("| tremor@wrist_flexion | 300.0 | 0.5000 | yes |"), std::string::npos);
-  EXPECT_EQ(ReadFile(dir + "/residuals.png").substr(1, 3), "PNG");
-  EXPECT_EQ(ReadFile(dir + "/spectrum.png").substr(1, 3), "PNG");
+  EXPECT_EQ(ReadFile(dir + "/residuals_wrist_flexion.png").substr(1, 3), "PNG");
+  EXPECT_EQ(ReadFile(dir + "/spectrum_wrist_flexion.png").substr(1, 3), "PNG");
   EXPECT_NE(ReadFile(dir + "/diagnosis.json").find("\"cause\": \"tremor\""), std::string::npos);
 }
 
