@@ -131,9 +131,11 @@ std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs) {
             " |\n";
     }
   }
-  md +=
-      "\n## Before / after (held-out data)\n\n![residuals](residuals.png)\n\n"
-      "![spectrum](spectrum.png)\n\n";
+  md += "\n## Before / after (held-out data)\n\n";
+  for (const auto& o : d.heldout.outputs) {
+    md += "![residual " + o + "](residuals_" + o.substr(2) + ".png)\n![spectrum " + o +
+          "](spectrum_" + o.substr(2) + ".png)\n\n";
+  }
   md +=
       "## Residual signatures (baseline model, training data)\n\n"
       "| output | RMS (rad) | spectrum peak 3–12 Hz | corr time | corr cumulative u | corr "
