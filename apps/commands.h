@@ -12,6 +12,7 @@ int RunSimulate(int argc, char** argv);
 int RunIdentify(int argc, char** argv);
 int RunRender(int argc, char** argv);
 int RunBenchmark(int argc, char** argv);
+int RunDiagnose(int argc, char** argv);
 
 /// Identification methods that live outside identification/'s Eigen-only core (e.g. the
 /// full-model fit, which simulates through sim/).

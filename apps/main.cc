@@ -51,6 +51,7 @@ void PrintUsage() {
       "  fesim simulate  SCENARIO.yaml [--out DIR] [--seed N]\n"
       "  fesim identify  --method NAME --train A.csv[,B.csv...] [--test C.csv] [--out DIR]\n"
       "  fesim benchmark [STUDY.yaml] [--out DIR] [--quick] [--threads N] [--seed N]\n"
+      "  fesim diagnose  MEASURED.csv[,MORE.csv...] --scenario SCENARIO.yaml [--out DIR]\n"
       "  fesim render    TRIAL.csv --scenario SCENARIO.yaml --out MOVIE.mp4 | --frames DIR\n"
       "                  [--width W --height H --fps F --camera front|side|top|orbit]\n"
       "                  [--compare OTHER.csv]\n"
@@ -78,6 +79,7 @@ int main(int argc, char** argv) {
     if (cmd == "render") return fesim::RunRender(argc, argv);
     if (cmd == "identify") return fesim::RunIdentify(argc, argv);
     if (cmd == "benchmark") return fesim::RunBenchmark(argc, argv);
+    if (cmd == "diagnose") return fesim::RunDiagnose(argc, argv);
     std::fprintf(stderr, "fesim: unknown subcommand '%s' (see fesim --help)\n", cmd.c_str());
     return 2;
   } catch (const std::exception& e) {

@@ -1,0 +1,82 @@
+// The library of candidate mechanisms of `fesim diagnose` (PRODUCT.md "Diagnosis" step 3,
+// issue 7): for each id, the model extension (parameters that switch the mechanism on in the
+// full model, sim/mechanisms.h, sim/passive_joint.h, sim/sensors.h) and the probe directions of
+// its residual signature (score test, diagnose.h). The subject parameters recalibrated with every
+// extension are here too.
+//
+//   id                          extension parameters (start = mechanism off / nominal)
+//   fatigue                     fatigue.rate_per_s = 1/T_fat (Riener 1996, mechanisms.h), 1/s
+//   potentiation                potentiation.gain g, potentiation.rise_time_s
+//   delay                       delay.s, electromechanical delay δ, s
+//   tremor@<joint>              tremor.amplitude_nm A, tremor.phase_rad φ, tremor.frequency_hz f
+//                               (start f from the residual spectrum peak, papers/001_* §2)
+//   crosstalk                   crosstalk.fraction c (second spread σ_x = 0.03 m)
+//   moment_arm_posture@<joint>  momentarm.posture_ratio ρ: every crossing of the joint gets
+//                               d̃ += ρ d in eq. (10) of papers/000_* (constant arms become
+//                               Landsmeer arms), l_MT at the rest posture kept
+//   force_length_velocity       hill.vmax_scale: v_max of the forearm muscles × s (eq. 7)
+//   unequal_muscle_dynamics     omega.ext_flex_ratio s: Ω_i × s for wrist extensors, × 1/s for
+//                               wrist flexors (eq. 6; Assumption 6 of paper 000 broken)
+//   passive_stiffness_nonlinear@<joint>  passive.limit_scale (K_L × s), passive.sharpness_per_rad
+//                               κ (eq. 14 range limits, passive_joint.h)
+//   arm_support                 support.weight_compensation_n on the forearm cuff; applicable only
+//                               when an output joint is the elbow or a shoulder coordinate
+//   stiction@<joint>            friction.coulomb_nm F_c, friction.static_excess_nm F_s − F_c
+//   spasticity@<joint>          reflex.gain_nms_per_rad G, reflex.threshold_rad_s v_th
+//   sensor_drift                drift.<output>, rad/s (one per output: value · t added)
+// Joint-level mechanisms get one candidate per free output joint; their torque parameters scale
+// with the joint's nominal stiffness T_j = k_j · 1 rad (N·m), so fingers and wrist share one
+// definition.
+#pragma once
+
+#include <Eigen/Dense>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "diagnosis/extended_model.h"
+#include "sim/model_params.h"
+
+namespace fesim::diagnosis {
+
+/// The 13 mechanism ids of PRODUCT.md, in its order.
+const std::vector<std::string>& MechanismIds();
+
+struct Candidate {
+  std::string id;                      ///< one of MechanismIds().
+  std::string joint;                   ///< output joint name for joint-level mechanisms, else "".
+  std::string label;                   ///< id, or id@joint.
+  std::vector<ModelParameter> params;  ///< extension parameters; start = mechanism off.
+  /// Probe points (full vectors over `params`): the score directions are ŷ(probe) − ŷ(start).
+  std::vector<Eigen::VectorXd> probes;
+  /// Probe k may only be taken with a positive coefficient (a one-sided mechanism such as a rate
+  /// or a friction torque that cannot be negative).
+  std::vector<bool> one_sided;
+  /// Maps the Gauss–Newton coefficients θ on the probe directions to a start point of the fit.
+  std::function<Eigen::VectorXd(const Eigen::VectorXd& theta)> start_from_step;
+  bool applicable = true;
+  std::string not_applicable_reason;
+};
+
+/// Everything the library needs to know about the data.
+struct LibraryContext {
+  std::vector<std::string> outputs;   ///< q.<joint> columns.
+  std::vector<std::string> channels;  ///< stimulated channel names (u.<channel> without "u.").
+  /// Residual spectrum peak frequency per output (Hz), for the tremor start; same order.
+  std::vector<double> tremor_frequency_hz;
+};
+
+/// The candidate list for a rig (free joints, channels, array) and data.
+std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const LibraryContext& ctx);
+
+/// Subject parameters recalibrated by the baseline and every extension: k.<joint> of every free
+/// output joint (N·m/rad, [0.2, 5] × nominal), strength_scale (F_max of every muscle × s,
+/// dimensionless, [0.3, 3]) and u_scale.<channel> of every stimulated channel (dimensionless,
+/// [0.3, 3]).
+std::vector<ModelParameter> SubjectParameters(const sim::ModelParams& rig,
+                                              const LibraryContext& ctx);
+
+/// Nominal torque scale of a joint, T_j = max(k_j, 0.05) · 1 rad, N·m.
+double JointTorqueScale(const sim::ModelParams& rig, int coordinate);
+
+}  // namespace fesim::diagnosis

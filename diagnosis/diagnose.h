@@ -1,0 +1,135 @@
+// `fesim diagnose` (PRODUCT.md "Diagnosis", issue 7): what the calibrated full model (12) of
+// papers/000_0a6c0de9fc69df7c.txt gets wrong on measured trials, which mechanism explains it, and
+// what extending the model with it gains on held-out data.
+//
+// 1. Split. Several trials: the last one is held out whole, the others train. One trial: blocked
+//    segments — the first (1 − holdout_fraction) of the record trains, the rest is held out, so
+//    time-dependent effects are judged later in time than the fit.
+// 2. Baseline. The subject parameters (candidates.h: joint stiffness k_j, per-channel input
+//    scale) are fitted by bounded LM on the training part (extended_model.h).
+// 3. Signatures. For every candidate the residual signature is a score (Lagrange multiplier)
+//    test of "mechanism off": with r the training residual, D the change of the residual along
+//    the candidate's probe directions and D̃ = (I − J_s (J_sᵀJ_s)⁻¹ J_sᵀ) D its part that the
+//    subject parameters cannot produce (J_s their Jacobian),
+//        S = rᵀ D̃ (D̃ᵀD̃)⁻¹ D̃ᵀ r / σ²,   σ² = rᵀr / (N − p_s),   S ~ χ²_dof under "off";
+//    one-sided probes (rates, frictions, gains) whose Gauss–Newton coefficient
+//    θ = −(D̃ᵀD̃)⁻¹ D̃ᵀ r comes out negative are dropped. False alarms across the M applicable
+//    candidates are controlled by Bonferroni: p_adj = min(1, M p). Descriptive signatures
+//    (signatures.h: spectrum peak, trend, lag, velocity/posture correlation) fill `evidence`.
+// 4. Extension. The best `max_fitted` candidates with p_adj < alpha (one joint per id) are fitted
+//    (their own parameters from θ, the subject parameters held), and scored: training likelihood
+//    ratio
+//    LR = N ln(RSS₀/RSS₁) ~ χ²_p (Bonferroni-adjusted as above, an information criterion) and
+//    held-out gain g = (x − y)/x of the held-out NRMSE. Accepted when p_adj(LR) < alpha and
+//    g > min_heldout_gain; greedily, the best g first (then refitted with the subject
+//    parameters), then a second mechanism on top by the same test relative to the extended
+//    model, and the whole refitted again. A second-round candidate needs only its training LR
+//    test from the first round (the first mechanism may mask its held-out gain there).
+//    Subject parameters are held during a candidate's own fit (screening) and refitted with the
+//    accepted extension.
+// 5. Verdict. Nothing accepted: `none`, unless the held-out residual of the baseline keeps
+//    structure (StructuredVarianceFraction > max_structure on some output): `unexplained`.
+//    Otherwise the accepted mechanism with the larger gain, confidence
+//        c = (1 − p_adj(LR)) · (1 − g_alt / g),  g_alt = best held-out gain of another id,
+//    capped at 0.4 when structure remains after the extension (never a confident wrong name).
+//    `none`: c = 1 − 0.5 min(1, g_best / min_heldout_gain); `unexplained`: c = min(1, 0.5 +
+//    0.5 s / max_structure) with s the remaining structured fraction.
+#pragma once
+
+#include <Eigen/Dense>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "diagnosis/candidates.h"
+#include "diagnosis/extended_model.h"
+#include "scenarios/trial.h"
+#include "sim/model_params.h"
+
+namespace fesim::diagnosis {
+
+struct DiagnoseOptions {
+  double holdout_fraction = 0.3;   ///< one trial: held-out tail share, (0, 0.8].
+  int max_fitted = 3;              ///< candidates fitted in the first round, ≥ 1.
+  int max_accepted = 2;            ///< mechanisms accepted at most, ≥ 1.
+  double alpha = 0.01;             ///< family-wise false-alarm level over the candidates.
+  double min_heldout_gain = 0.02;  ///< smallest held-out NRMSE gain accepted, dimensionless.
+  double max_structure = 0.15;     ///< structured residual variance share above which structure
+                                   ///< "remains", dimensionless.
+  int baseline_iterations = 4;     ///< LM steps of the subject calibration.
+  int screen_iterations = 5;       ///< LM steps of a candidate's own parameters.
+  int refit_iterations = 3;        ///< LM steps of the accepted extension with the subject.
+  FitOptions fit = DefaultFitOptions();  ///< integrator, threads, finite differences.
+  static FitOptions DefaultFitOptions() {
+    FitOptions f;
+    f.tolerance = 1e-5;
+    f.relative_tolerance = 1e-3;
+    return f;
+  }
+};
+
+/// One named value with its 95 % half-width (NaN: not estimable).
+struct NamedValue {
+  std::string name, unit;
+  double value = 0.0, ci95 = NAN;
+};
+
+struct CandidateResult {
+  std::string id, joint, label;
+  bool applicable = true;
+  std::string not_applicable_reason;
+  double score_statistic = 0.0;  ///< S of the score test.
+  int dof = 0;                   ///< its degrees of freedom (probes kept).
+  double p_adjusted = 1.0;       ///< Bonferroni-adjusted p of S.
+  double score = 0.0;            ///< −log10 p_adjusted (0 = no evidence), for ranking.
+  bool fitted = false;
+  double lr_p_adjusted = 1.0;  ///< Bonferroni-adjusted p of the training LR.
+  double heldout_nrmse = NAN;  ///< of the extended model (this candidate on the baseline).
+  double heldout_gain = NAN;   ///< relative to the baseline.
+  bool accepted = false;
+  std::vector<NamedValue> parameters;  ///< fitted extension parameters.
+  std::string evidence;                ///< signature figures, one line.
+};
+
+/// Residual summaries of one output (training part unless stated).
+struct OutputSignature {
+  std::string output;
+  double rms_rad = 0.0;
+  double spectrum_peak_hz = 0.0, spectrum_peak_ratio = 0.0;  ///< 3–12 Hz.
+  double corr_time = 0.0, corr_cumulative_stimulation = 0.0;
+  double corr_velocity = 0.0, corr_velocity_sign = 0.0, corr_posture = 0.0;
+  double input_lag_s = 0.0, input_lag_corr = 0.0;  ///< strongest input–residual lag.
+  std::string input_lag_column;
+  double structure_heldout_baseline = 0.0, structure_heldout_extended = 0.0;
+};
+
+struct Diagnosis {
+  std::string cause;  ///< a MechanismIds() entry, "none" or "unexplained".
+  double confidence = 0.0;
+  double baseline_heldout_nrmse = 0.0, extended_heldout_nrmse = 0.0, gain = 0.0;
+  std::vector<std::string> mechanisms;  ///< accepted candidate labels, in acceptance order.
+  std::vector<std::string> mechanism_ids;
+  std::vector<NamedValue> extension_parameters;  ///< of the final extended model.
+  std::vector<NamedValue> subject_parameters;    ///< baseline calibration.
+  std::vector<CandidateResult> candidates;       ///< ranked by score, then held-out gain.
+  std::vector<OutputSignature> signatures;
+  std::string split;                                      ///< how the data were split, one line.
+  DataView heldout;                                       ///< for plots.
+  std::vector<Trial> heldout_baseline, heldout_extended;  ///< predictions on the held-out trials.
+  int simulations = 0;                                    ///< trial simulations spent.
+  double wall_s = 0.0;
+};
+
+using DiagnoseProgress = std::function<void(double fraction, const std::string& stage)>;
+
+/// Runs the whole diagnosis. `rig` is the scenario's model (free/locked coordinates, channels).
+/// Throws std::runtime_error with a one-line reason on unusable trials (no q.* output, a joint
+/// not free in the rig, unknown channel, too few samples, differing outputs across trials).
+Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measured,
+                   const DiagnoseOptions& options, const DiagnoseProgress& progress = {});
+
+/// The split of step 1 (exposed for tests): training and held-out views.
+void SplitTrials(const std::vector<Trial>& measured, const std::vector<std::string>& outputs,
+                 double holdout_fraction, DataView* train, DataView* heldout, std::string* how);
+
+}  // namespace fesim::diagnosis

@@ -1,0 +1,266 @@
+#include "diagnosis/extended_model.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+
+#include "identification/fullmodel/full_model_fit.h"
+#include "identification/levenberg_marquardt.h"
+#include "identification/metrics.h"
+
+namespace fesim::diagnosis {
+
+long DataView::Count() const {
+  long n = 0;
+  for (std::size_t t = 0; t < trials.size(); ++t) {
+    for (const auto& name : outputs) {
+      const auto& y = trials[t].Column(name);
+      for (std::size_t i = 0; i < y.size(); ++i) n += (use[t][i] && std::isfinite(y[i])) ? 1 : 0;
+    }
+  }
+  return n;
+}
+
+void ParallelFor(int count, int threads, const std::function<void(int)>& task) {
+  const int workers = std::max(1, std::min(threads, count));
+  if (workers == 1) {
+    for (int i = 0; i < count; ++i) task(i);
+    return;
+  }
+  std::atomic<int> next{0};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  std::vector<std::thread> pool;
+  for (int w = 0; w < workers; ++w) {
+    pool.emplace_back([&] {
+      for (int i = next++; i < count; i = next++) {
+        try {
+          task(i);
+        } catch (...) {
+          std::lock_guard<std::mutex> lock(error_mutex);
+          if (!error) error = std::current_exception();
+        }
+      }
+    });
+  }
+  for (auto& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+}
+
+sim::ModelParams ApplyModelParameters(const sim::ModelParams& base,
+                                      const std::vector<ModelParameter>& params,
+                                      const Eigen::VectorXd& x) {
+  if (static_cast<std::size_t>(x.size()) != params.size()) {
+    throw std::invalid_argument("ApplyModelParameters: " + std::to_string(x.size()) +
+                                " values for " + std::to_string(params.size()) + " parameters");
+  }
+  sim::ModelParams m = base;
+  for (std::size_t k = 0; k < params.size(); ++k) {
+    if (params[k].target == ModelParameter::Target::kModel && params[k].set) {
+      params[k].set(x(static_cast<Eigen::Index>(k)), &m);
+    }
+  }
+  return m;
+}
+
+namespace {
+
+/// One trial's prediction for an already-applied model.
+Trial PredictOne(const sim::ModelParams& model, const std::vector<ModelParameter>& params,
+                 const Eigen::VectorXd& x, const Trial& trial, double tolerance) {
+  const Trial* input = &trial;
+  Trial scaled;
+  bool any_scale = false;
+  for (const auto& p : params) any_scale |= p.target == ModelParameter::Target::kInputScale;
+  if (any_scale) {
+    scaled = trial;
+    for (std::size_t k = 0; k < params.size(); ++k) {
+      if (params[k].target != ModelParameter::Target::kInputScale) continue;
+      if (!scaled.Has(params[k].column)) continue;
+      for (double& v : scaled.MutableColumn(params[k].column)) v *= x(static_cast<Eigen::Index>(k));
+    }
+    input = &scaled;
+  }
+  Trial out = identification::fullmodel::SimulateLike(model, *input, tolerance);
+  for (std::size_t k = 0; k < params.size(); ++k) {
+    if (params[k].target != ModelParameter::Target::kOutputDrift) continue;
+    if (!out.Has(params[k].column)) continue;
+    auto& y = out.MutableColumn(params[k].column);
+    for (std::size_t i = 0; i < y.size(); ++i)
+      y[i] += x(static_cast<Eigen::Index>(k)) * out.time[i];
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<Trial> Predict(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
+                           const Eigen::VectorXd& x, const DataView& view, double tolerance,
+                           int threads) {
+  const sim::ModelParams model = ApplyModelParameters(base, params, x);
+  std::vector<Trial> out(view.trials.size());
+  ParallelFor(static_cast<int>(view.trials.size()), threads,
+              [&](int t) { out[t] = PredictOne(model, params, x, view.trials[t], tolerance); });
+  return out;
+}
+
+Eigen::VectorXd StackResiduals(const DataView& view, const std::vector<Trial>& predictions) {
+  std::vector<double> r;
+  for (std::size_t t = 0; t < view.trials.size(); ++t) {
+    for (const auto& name : view.outputs) {
+      const auto& y = view.trials[t].Column(name);
+      const auto& yh = predictions[t].Column(name);
+      for (std::size_t i = 0; i < y.size(); ++i) {
+        if (view.use[t][i] && std::isfinite(y[i])) r.push_back(y[i] - yh[i]);
+      }
+    }
+  }
+  return Eigen::Map<Eigen::VectorXd>(r.data(), static_cast<Eigen::Index>(r.size()));
+}
+
+double ViewNrmse(const DataView& view, const std::vector<Trial>& predictions) {
+  double sum = 0.0;
+  for (const auto& name : view.outputs) {
+    std::vector<double> y, yh;
+    for (std::size_t t = 0; t < view.trials.size(); ++t) {
+      const auto& a = view.trials[t].Column(name);
+      const auto& b = predictions[t].Column(name);
+      for (std::size_t i = 0; i < a.size(); ++i) {
+        if (view.use[t][i] && std::isfinite(a[i])) {
+          y.push_back(a[i]);
+          yh.push_back(b[i]);
+        }
+      }
+    }
+    sum += identification::NormalisedError(y, yh);
+  }
+  return sum / static_cast<double>(std::max<std::size_t>(1, view.outputs.size()));
+}
+
+Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
+                                 const std::vector<ModelParameter>& params,
+                                 const Eigen::VectorXd& x, const Eigen::VectorXd& r0,
+                                 const DataView& view, const FitOptions& options, int* simulations,
+                                 int first_free) {
+  const int p = static_cast<int>(params.size()) - first_free;
+  const int nt = static_cast<int>(view.trials.size());
+  std::vector<double> h(p);
+  std::vector<sim::ModelParams> models;
+  std::vector<Eigen::VectorXd> xs;
+  for (int c = 0; c < p; ++c) {
+    const int k = first_free + c;
+    double step = options.fd_step * params[k].scale;
+    if (x(k) + step > params[k].upper) step = -step;
+    h[c] = step;
+    Eigen::VectorXd xp = x;
+    xp(k) += step;
+    xs.push_back(xp);
+    models.push_back(ApplyModelParameters(base, params, xp));
+  }
+  std::vector<Trial> sims(static_cast<std::size_t>(p) * nt);
+  std::vector<char> ok(sims.size(), 1);
+  ParallelFor(p * nt, options.threads, [&](int task) {
+    const int c = task / nt, t = task % nt;
+    try {
+      sims[task] = PredictOne(models[c], params, xs[c], view.trials[t], options.tolerance);
+    } catch (const std::exception&) {
+      ok[task] = 0;
+    }
+  });
+  if (simulations) *simulations += p * nt;
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(r0.size(), p);
+  for (int c = 0; c < p; ++c) {
+    bool column_ok = true;
+    for (int t = 0; t < nt; ++t) column_ok = column_ok && ok[c * nt + t];
+    if (!column_ok) continue;
+    std::vector<Trial> pred(sims.begin() + c * nt, sims.begin() + (c + 1) * nt);
+    J.col(c) = (StackResiduals(view, pred) - r0) / h[c];
+  }
+  return J;
+}
+
+FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
+                        const Eigen::VectorXd& x0, const DataView& view, const FitOptions& options,
+                        int first_free, int max_iterations) {
+  const int np = static_cast<int>(params.size());
+  if (x0.size() != np || first_free < 0 || first_free >= np) {
+    throw std::invalid_argument("FitParameters: x0 size or first_free out of range");
+  }
+  const int p = np - first_free;
+  Eigen::VectorXd lower(p), upper(p);
+  for (int k = 0; k < p; ++k) {
+    lower(k) = params[first_free + k].lower;
+    upper(k) = params[first_free + k].upper;
+  }
+  const auto full = [&](const Eigen::VectorXd& free) {
+    Eigen::VectorXd x = x0;
+    x.tail(p) = free;
+    return x;
+  };
+  FitResult out;
+  const long n = view.Count();
+  constexpr double kFailedResidualRad = 10.0;  // a failed simulation: make LM reject the step
+  const auto raw_residual = [&](const Eigen::VectorXd& free) {
+    out.simulations += static_cast<int>(view.trials.size());
+    try {
+      return StackResiduals(
+          view, Predict(base, params, full(free), view, options.tolerance, options.threads));
+    } catch (const std::exception&) {
+      return Eigen::VectorXd::Constant(n, kFailedResidualRad).eval();
+    }
+  };
+  // identification::LevenbergMarquardt starts its damping at 1e-3 · max diag(JᵀJ) and adds it
+  // times diag(JᵀJ), i.e. relative to the largest column scale; residuals are scaled here by
+  // c = 1/√max diag(J₀ᵀJ₀) so that the start is the usual relative damping 1e-3 whatever the
+  // units of the parameters. J₀ and r₀ are computed once and handed to LM's first calls.
+  const Eigen::VectorXd x0_free = x0.tail(p);
+  const Eigen::VectorXd r0 = raw_residual(x0_free);
+  const Eigen::MatrixXd j0 =
+      ResidualJacobian(base, params, x0, r0, view, options, &out.simulations, first_free);
+  const double max_diag = j0.colwise().squaredNorm().maxCoeff();
+  const double c = max_diag > 0.0 ? 1.0 / std::sqrt(max_diag) : 1.0;
+  bool first_residual = true, first_jacobian = true;
+  const identification::ResidualFn residual = [&](const Eigen::VectorXd& free) {
+    if (first_residual && free == x0_free) {
+      first_residual = false;
+      return (c * r0).eval();
+    }
+    first_residual = false;
+    return (c * raw_residual(free)).eval();
+  };
+  out.jacobian = j0;
+  const identification::JacobianFn jacobian = [&](const Eigen::VectorXd& free,
+                                                  const Eigen::VectorXd& r, int* evaluations) {
+    *evaluations += p;
+    if (first_jacobian && free == x0_free) {
+      first_jacobian = false;
+      return (c * j0).eval();
+    }
+    first_jacobian = false;
+    out.jacobian = ResidualJacobian(base, params, full(free), r / c, view, options,
+                                    &out.simulations, first_free);
+    return (c * out.jacobian).eval();
+  };
+  identification::LmOptions lm;
+  lm.max_iterations = max_iterations > 0 ? max_iterations : options.max_iterations;
+  lm.relative_tolerance = options.relative_tolerance;
+  lm.step_tolerance = 1e-9;
+  identification::LmResult res =
+      identification::LevenbergMarquardt(residual, x0_free, lower, upper, lm, {}, jacobian);
+  res.cost /= c * c;
+  res.jtj /= c * c;
+  out.x = full(res.x);
+  out.cost = res.cost;
+  out.residuals = n;
+  out.ci95 = Eigen::VectorXd::Constant(np, NAN);
+  out.ci95.tail(p) = identification::ConfidenceHalfWidths95(res.jtj, res.cost, n);
+  return out;
+}
+
+}  // namespace fesim::diagnosis

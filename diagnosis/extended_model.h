@@ -1,0 +1,103 @@
+// The simulation as a function of named parameters, for calibration and for model extensions in
+// `fesim diagnose` (issue 7). A parameter acts on the full model (12) of
+// papers/000_0a6c0de9fc69df7c.txt in one of three places:
+//   kModel        a field of sim::ModelParams (joint stiffness, a mechanism of sim/mechanisms.h …)
+//   kInputScale   u.<channel> is multiplied by the value before simulating (a per-channel gain on
+//                 the pulse width, dimensionless: electrode placement / threshold differences)
+//   kOutputDrift  value · t is added to the simulated q.<joint> (sensor offset drift, rad/s, as
+//                 sim/sensors.h plants it: drift · t)
+// Predictions simulate each trial's u.* from t = 0 with identification/fullmodel's SimulateLike;
+// fitting is the bounded Levenberg–Marquardt of identification/levenberg_marquardt.h with a
+// forward-difference Jacobian evaluated in parallel threads (one simulation per parameter and
+// trial). This generalises FitFullModel's parameter kinds (which stay as they are) to mechanisms.
+#pragma once
+
+#include <Eigen/Dense>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "scenarios/trial.h"
+#include "sim/model_params.h"
+
+namespace fesim::diagnosis {
+
+struct ModelParameter {
+  enum class Target { kModel, kInputScale, kOutputDrift };
+  std::string name;  ///< e.g. "k.wrist_flexion", "fatigue.rate_per_s", "drift.q.wrist_flexion".
+  std::string unit;  ///< e.g. "N*m/rad", "1/s", "rad/s".
+  Target target = Target::kModel;
+  std::string column;  ///< "u.<channel>" (kInputScale) or "q.<joint>" (kOutputDrift).
+  double start = 0.0;  ///< start value (also the "mechanism off" value for extensions).
+  double lower = 0.0;  ///< bound.
+  double upper = 0.0;  ///< bound, > lower.
+  double scale = 1.0;  ///< typical magnitude, for finite-difference steps, > 0.
+  /// kModel: writes the value into the model (called on a copy of the base).
+  std::function<void(double, sim::ModelParams*)> set;
+};
+
+/// The data one fit or evaluation sees: trials simulated from t = 0, and per trial the samples
+/// that count (training segment or held-out segment). Outputs are the q.* columns named here.
+struct DataView {
+  std::vector<Trial> trials;
+  std::vector<std::vector<char>> use;  ///< use[t][i]: sample i of trial t counts (and is finite).
+  std::vector<std::string> outputs;    ///< q.<joint> names, present in every trial.
+  /// Number of counted finite output samples.
+  long Count() const;
+};
+
+/// `base` with the kModel parameters applied (values x, sizes checked).
+sim::ModelParams ApplyModelParameters(const sim::ModelParams& base,
+                                      const std::vector<ModelParameter>& params,
+                                      const Eigen::VectorXd& x);
+
+/// Simulated outputs (the q.* columns of `view.outputs`, same times) of every trial of `view`
+/// for parameters x, on `threads` workers. A failed simulation throws std::runtime_error.
+std::vector<Trial> Predict(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
+                           const Eigen::VectorXd& x, const DataView& view, double tolerance,
+                           int threads);
+
+/// Stacked residuals y − ŷ over the counted samples (trial-major, then output, then time).
+Eigen::VectorXd StackResiduals(const DataView& view, const std::vector<Trial>& predictions);
+
+/// Mean over outputs of the normalised error ‖y − ŷ‖ / ‖y − ȳ‖ (identification/metrics.h) on the
+/// counted samples of all trials pooled per output, dimensionless.
+double ViewNrmse(const DataView& view, const std::vector<Trial>& predictions);
+
+struct FitOptions {
+  int max_iterations = 8;            ///< accepted LM steps.
+  double relative_tolerance = 1e-4;  ///< LM stops when the cost falls by less than this fraction.
+  double fd_step = 1e-2;             ///< forward-difference step, × ModelParameter::scale.
+  double tolerance = 1e-6;           ///< CVODES relative/absolute accuracy.
+  int threads = 2;                   ///< simulation workers, ≥ 1.
+};
+
+struct FitResult {
+  Eigen::VectorXd x;         ///< best values, in the parameters' units.
+  Eigen::VectorXd ci95;      ///< 95 % half-widths (NaN: not estimable or held).
+  double cost = 0.0;         ///< Σ (y − ŷ)², rad².
+  long residuals = 0;        ///< N.
+  int simulations = 0;       ///< trial simulations spent.
+  Eigen::MatrixXd jacobian;  ///< ∂r/∂x of the free parameters at the last linearisation point.
+};
+
+/// Bounded LM of the parameters from x0 on the counted samples of `view`. Parameters with index
+/// < first_free are held at their x0 values (not fitted; their ci95 is NaN); `max_iterations`
+/// overrides options.max_iterations when > 0.
+FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
+                        const Eigen::VectorXd& x0, const DataView& view, const FitOptions& options,
+                        int first_free = 0, int max_iterations = 0);
+
+/// Forward-difference Jacobian ∂r/∂x_k (N × (p − first_free)) for the columns k ≥ first_free
+/// at x with residual r0; one simulation per column and trial, in parallel. Adds the simulations
+/// to *simulations when given.
+Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
+                                 const std::vector<ModelParameter>& params,
+                                 const Eigen::VectorXd& x, const Eigen::VectorXd& r0,
+                                 const DataView& view, const FitOptions& options,
+                                 int* simulations = nullptr, int first_free = 0);
+
+/// Runs task(i) for i in [0, count) on `threads` workers; rethrows the first exception.
+void ParallelFor(int count, int threads, const std::function<void(int)>& task);
+
+}  // namespace fesim::diagnosis

@@ -1,0 +1,55 @@
+// Planted-effect data sets for testing `fesim diagnose` (issue 7, "Tests that hide an effect and
+// require finding it"): virtual trials from the ground-truth simulator with a participant that
+// differs from the rig's nominal one, a stimulation protocol, sensor noise, and zero, one or two
+// mechanisms switched on — which the diagnosis is not told.
+//
+// Participant: the rig's model with ApplyParticipant (scenarios/study.h) stiffness_scale and
+// strength_scale drawn uniformly in [0.8, 1.25] (other draws at 1).
+// Protocols (both ext/flex array channels of the hand rig): "steps" — pseudo-random levels
+// {0, 50, …, 250} µs per channel held U(1, 3) s, Σu ≤ 300 µs; "grid" — paper 000's step grid
+// (50 µs spacing, Σu ≤ 300) with 2 s steps, order alternating between trials.
+// Planted strengths at effect_scale s (chosen so that s = 1 gives an effect RMS of the order of the
+// 1° sensor noise RMS on the hand rig; the generator reports the measured ratio):
+//   fatigue        T_fat = 5 s / s                   potentiation  g = 2.0 s
+//   delay          δ = 0.07 s · s                    tremor        A = 0.08 s N·m on the wrist,
+//                                                                  f ∈ [5, 8] Hz, φ seeded
+//   crosstalk      c = 0.015 s                       moment_arm_posture  ρ = 2.0 s (wrist)
+//   force_length_velocity  v_max × 1/(1 + 2 s)       unequal_muscle_dynamics  ratio 1 + 0.4 s
+//   passive_stiffness_nonlinear (wrist)  K_L × (1 + 30 s), κ = 8/rad
+//   stiction (wrist)  F_c = F_s − F_c = 0.04 s T_j   spasticity (wrist)  G = 0.4 s T_j, v_th 0.5
+//   sensor_drift   0.0005 s rad/s on every angle channel
+//   outside        (not in the library) a 0.1 Hz sinusoidal baseline wander of 1.5° s on every
+//                  angle channel (a breathing / strap-movement artefact)
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "diagnosis/diagnose.h"
+#include "scenarios/scenario.h"
+
+namespace fesim::diagnosis {
+
+struct PlantedSpec {
+  std::vector<std::string> mechanisms;  ///< MechanismIds() entries or "outside"; empty = clean.
+  double effect_scale = 1.0;            ///< s above, > 0.
+  std::string protocol = "steps";       ///< "steps" or "grid".
+  int trials = 3;                       ///< ≥ 1.
+  double duration_s = 60.0;             ///< per trial, s ("grid": 56 s, the grid's length).
+  std::uint64_t seed = 1;               ///< participant, protocol, tremor phase and noise.
+};
+
+struct PlantedDataset {
+  std::vector<Trial> trials;        ///< measured records (what diagnose sees).
+  std::vector<NamedValue> planted;  ///< planted values, named like the fitted parameters.
+  double effect_rms_rad = 0.0;      ///< RMS of truth(with) − truth(without) over outputs.
+  double noise_rms_rad = 0.0;       ///< sensor noise standard deviation, rad.
+  double stiffness_scale = 1.0, strength_scale = 1.0;  ///< the participant's draws.
+};
+
+/// Simulates the data set on the scenario's rig (its sensors, coordinates and channels; its
+/// stimulation is replaced by the protocol). Throws std::invalid_argument on an unknown id.
+PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec);
+
+}  // namespace fesim::diagnosis

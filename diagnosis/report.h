@@ -1,0 +1,30 @@
+// The report of `fesim diagnose` (PRODUCT.md "Diagnosis" output): diagnosis.json with exactly the
+// keys PRODUCT.md lists, diagnosis.md (verdict paragraph, ranking table, residual signatures,
+// before/after plots) and the plots as PNG drawn with render/plot.h (residuals_<joint>.png:
+// held-out residual over time, baseline vs extended; spectrum_<joint>.png: their periodograms
+// 0.05–15 Hz).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "diagnosis/diagnose.h"
+#include "scenarios/json.h"
+
+namespace fesim::diagnosis {
+
+/// {"cause", "confidence", "baseline": {"heldout_nrmse"}, "extended": {"mechanisms": [id…],
+/// "parameters": {"<label>:<name>": {"value", "ci95", "unit"}…}, "heldout_nrmse"}, "gain",
+/// "candidates": [{"id", "score", "heldout_gain", "evidence"}…]} (heldout_gain null when the
+/// candidate was not fitted).
+Json DiagnosisJson(const Diagnosis& d);
+
+/// The Markdown report; `inputs` names the measured files and the scenario.
+std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs);
+
+/// Writes DIR/diagnosis.json, DIR/diagnosis.md, DIR/residuals_<joint>.png and
+/// DIR/spectrum_<joint>.png per output, each atomically (WriteFileAtomic / render::WritePng);
+/// DIR must exist.
+void WriteDiagnosisReport(const Diagnosis& d, const std::string& inputs, const std::string& dir);
+
+}  // namespace fesim::diagnosis

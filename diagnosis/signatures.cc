@@ -1,0 +1,211 @@
+#include "diagnosis/signatures.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace fesim::diagnosis {
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586;
+
+bool Finite(double v) { return std::isfinite(v); }
+
+/// r with its finite-sample mean removed and NaN set to 0.
+std::vector<double> Centred(const std::vector<double>& r) {
+  double sum = 0.0;
+  int n = 0;
+  for (double v : r) {
+    if (Finite(v)) {
+      sum += v;
+      ++n;
+    }
+  }
+  const double mean = n > 0 ? sum / n : 0.0;
+  std::vector<double> out(r.size());
+  for (std::size_t i = 0; i < r.size(); ++i) out[i] = Finite(r[i]) ? r[i] - mean : 0.0;
+  return out;
+}
+
+/// log Γ-free series for P(a, x), x < a + 1.
+double GammaPSeries(double a, double x) {
+  double sum = 1.0 / a, term = sum, ap = a;
+  for (int n = 0; n < 1000; ++n) {
+    ap += 1.0;
+    term *= x / ap;
+    sum += term;
+    if (std::abs(term) < std::abs(sum) * 1e-15) break;
+  }
+  return sum * std::exp(-x + a * std::log(x) - std::lgamma(a));
+}
+
+/// Continued fraction for Q(a, x), x ≥ a + 1 (modified Lentz).
+double GammaQContinuedFraction(double a, double x) {
+  constexpr double kTiny = 1e-300;
+  double b = x + 1.0 - a, c = 1.0 / kTiny, d = 1.0 / b, h = d;
+  for (int i = 1; i < 1000; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::abs(d) < kTiny) d = kTiny;
+    c = b + an / c;
+    if (std::abs(c) < kTiny) c = kTiny;
+    d = 1.0 / d;
+    const double del = d * c;
+    h *= del;
+    if (std::abs(del - 1.0) < 1e-15) break;
+  }
+  return std::exp(-x + a * std::log(x) - std::lgamma(a)) * h;
+}
+
+}  // namespace
+
+double Correlation(const std::vector<double>& x, const std::vector<double>& y) {
+  if (x.size() != y.size()) {
+    throw std::invalid_argument("Correlation: sizes " + std::to_string(x.size()) + " and " +
+                                std::to_string(y.size()));
+  }
+  double sx = 0, sy = 0;
+  int n = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (Finite(x[i]) && Finite(y[i])) {
+      sx += x[i];
+      sy += y[i];
+      ++n;
+    }
+  }
+  if (n < 3) return 0.0;
+  const double mx = sx / n, my = sy / n;
+  double sxx = 0, syy = 0, sxy = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (!(Finite(x[i]) && Finite(y[i]))) continue;
+    sxx += (x[i] - mx) * (x[i] - mx);
+    syy += (y[i] - my) * (y[i] - my);
+    sxy += (x[i] - mx) * (y[i] - my);
+  }
+  if (sxx <= 0.0 || syy <= 0.0) return 0.0;
+  return sxy / std::sqrt(sxx * syy);
+}
+
+std::vector<double> Periodogram(const std::vector<double>& r, double dt_s,
+                                const std::vector<double>& frequencies_hz) {
+  const std::vector<double> c = Centred(r);
+  std::vector<double> out;
+  out.reserve(frequencies_hz.size());
+  for (double f : frequencies_hz) {
+    // Rotating phasor recurrence (exact to rounding over ~1e5 samples).
+    const double w = kTwoPi * f * dt_s;
+    const double cw = std::cos(w), sw = std::sin(w);
+    double re = 0, im = 0, pc = 1.0, ps = 0.0;
+    for (double v : c) {
+      re += v * pc;
+      im -= v * ps;
+      const double npc = pc * cw - ps * sw;
+      ps = ps * cw + pc * sw;
+      pc = npc;
+    }
+    out.push_back((re * re + im * im) / std::max<std::size_t>(1, c.size()));
+  }
+  return out;
+}
+
+SpectrumPeak ResidualSpectrumPeak(const std::vector<double>& r, double dt_s, double f_lo_hz,
+                                  double f_hi_hz, double df_hz) {
+  if (!(dt_s > 0.0) || !(df_hz > 0.0) || !(f_hi_hz > f_lo_hz) || f_hi_hz >= 0.5 / dt_s) {
+    throw std::invalid_argument("ResidualSpectrumPeak: need dt > 0, df > 0, f_lo < f_hi < 1/(2dt)");
+  }
+  std::vector<double> f;
+  for (double x = f_lo_hz; x <= f_hi_hz + 1e-12; x += df_hz) f.push_back(x);
+  const std::vector<double> p = Periodogram(r, dt_s, f);
+  SpectrumPeak peak;
+  std::size_t best = 0;
+  for (std::size_t i = 1; i < p.size(); ++i) {
+    if (p[i] > p[best]) best = i;
+  }
+  std::vector<double> sorted = p;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  peak.frequency_hz = f[best];
+  peak.power_ratio = median > 0.0 ? p[best] / median : 0.0;
+  return peak;
+}
+
+LagPeak CrossCorrelationPeak(const std::vector<double>& x, const std::vector<double>& r,
+                             double dt_s, double max_lag_s) {
+  if (x.size() != r.size()) throw std::invalid_argument("CrossCorrelationPeak: size mismatch");
+  const int max_lag = static_cast<int>(std::round(max_lag_s / dt_s));
+  const int n = static_cast<int>(x.size());
+  LagPeak best;
+  for (int lag = -max_lag; lag <= max_lag; ++lag) {
+    std::vector<double> a, b;
+    a.reserve(n);
+    b.reserve(n);
+    for (int i = std::max(0, -lag); i < n && i + lag < n; ++i) {
+      a.push_back(x[i]);
+      b.push_back(r[i + lag]);
+    }
+    const double c = Correlation(a, b);
+    if (std::abs(c) > std::abs(best.correlation)) best = {lag * dt_s, c};
+  }
+  return best;
+}
+
+double StructuredVarianceFraction(const std::vector<double>& r) {
+  double s = 0, s2 = 0, d2 = 0;
+  int n = 0, pairs = 0;
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    if (!Finite(r[i])) continue;
+    s += r[i];
+    s2 += r[i] * r[i];
+    ++n;
+    if (i > 0 && Finite(r[i - 1])) {
+      d2 += (r[i] - r[i - 1]) * (r[i] - r[i - 1]);
+      ++pairs;
+    }
+  }
+  if (pairs < 10 || n < 10) return 0.0;
+  const double var = s2 / n - (s / n) * (s / n);
+  if (var <= 0.0) return 0.0;
+  return std::clamp(1.0 - (d2 / pairs) / (2.0 * var), 0.0, 1.0);
+}
+
+std::vector<double> CumulativeStimulation(const std::vector<double>& time_s,
+                                          const std::vector<std::vector<double>>& inputs_us) {
+  std::vector<double> c(time_s.size(), 0.0);
+  for (std::size_t i = 1; i < time_s.size(); ++i) {
+    double sum = 0.0;
+    for (const auto& u : inputs_us) {
+      if (u.size() != time_s.size()) {
+        throw std::invalid_argument("CumulativeStimulation: input length differs from time");
+      }
+      const double a = Finite(u[i - 1]) ? u[i - 1] : 0.0, b = Finite(u[i]) ? u[i] : 0.0;
+      sum += 0.5 * (a + b);
+    }
+    c[i] = c[i - 1] + sum * (time_s[i] - time_s[i - 1]);
+  }
+  return c;
+}
+
+std::vector<double> Derivative(const std::vector<double>& time_s, const std::vector<double>& y) {
+  const std::size_t n = y.size();
+  std::vector<double> d(n, NAN);
+  if (n < 2 || time_s.size() != n) return d;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t a = i == 0 ? 0 : i - 1, b = i + 1 == n ? n - 1 : i + 1;
+    if (Finite(y[a]) && Finite(y[b]) && time_s[b] > time_s[a]) {
+      d[i] = (y[b] - y[a]) / (time_s[b] - time_s[a]);
+    }
+  }
+  return d;
+}
+
+double ChiSquareSurvival(double x, int k) {
+  if (k < 1) throw std::invalid_argument("ChiSquareSurvival: k must be >= 1");
+  if (!(x > 0.0)) return 1.0;
+  const double a = 0.5 * k, xx = 0.5 * x;
+  if (xx < a + 1.0) return std::clamp(1.0 - GammaPSeries(a, xx), 0.0, 1.0);
+  return std::clamp(GammaQContinuedFraction(a, xx), 0.0, 1.0);
+}
+
+}  // namespace fesim::diagnosis

@@ -1,0 +1,63 @@
+// Residual signatures for `fesim diagnose` (PRODUCT.md "Diagnosis" step 2, issue 7): small pure
+// functions on residual series r(t) = y(t) − ŷ(t) (rad) that show what a calibrated simulation
+// gets wrong and which mechanism it points to:
+//   spectrum peak in 3–12 Hz            → tremor (papers/001_* §2: tremor is a 3–12 Hz torque)
+//   trend versus time / cumulative u    → fatigue, potentiation, sensor drift
+//   input–residual cross-correlation lag → electromechanical delay
+//   correlation with velocity / posture → stiction, spasticity / passive stiffness, moment arms
+// and two whiteness measures used to decide `unexplained`. NaN samples (tracker dropouts) are
+// skipped everywhere. Also the χ² survival function used by the score tests (diagnose.h).
+#pragma once
+
+#include <vector>
+
+namespace fesim::diagnosis {
+
+/// Pearson correlation of x and y over the indices where both are finite; 0 when fewer than 3
+/// such pairs or either is constant. Sizes must match (std::invalid_argument).
+double Correlation(const std::vector<double>& x, const std::vector<double>& y);
+
+/// Largest periodogram value of r (mean removed, NaN → 0) on the grid f_lo, f_lo + df, … ≤ f_hi
+/// relative to the median periodogram value on that grid.
+struct SpectrumPeak {
+  double frequency_hz = 0.0;  ///< f at the peak, Hz.
+  double power_ratio = 0.0;   ///< peak / median periodogram value, dimensionless, ≥ 0.
+};
+/// `dt_s` the sample period, s, > 0; f_hi < 1/(2 dt). Throws std::invalid_argument otherwise.
+SpectrumPeak ResidualSpectrumPeak(const std::vector<double>& r, double dt_s, double f_lo_hz,
+                                  double f_hi_hz, double df_hz);
+
+/// Periodogram |Σ r_k e^{−2πi f k dt}|² / N at each frequency of `frequencies_hz` (NaN → 0,
+/// mean removed), rad².
+std::vector<double> Periodogram(const std::vector<double>& r, double dt_s,
+                                const std::vector<double>& frequencies_hz);
+
+/// Lag (s) in [−max_lag, max_lag] at which corr(x(t), r(t + lag)) is largest in magnitude, and
+/// that correlation; positive lag = r follows x.
+struct LagPeak {
+  double lag_s = 0.0;
+  double correlation = 0.0;
+};
+LagPeak CrossCorrelationPeak(const std::vector<double>& x, const std::vector<double>& r,
+                             double dt_s, double max_lag_s);
+
+/// Share of the residual variance that is not white: 1 − var(Δr) / (2 var(r)), from pairs of
+/// consecutive finite samples; 0 for white noise, → 1 for a slow structured residual. Clamped to
+/// [0, 1]; 0 when fewer than 10 pairs.
+double StructuredVarianceFraction(const std::vector<double>& r);
+
+/// Cumulative stimulation C(t_i) = Σ_k ∫₀^{t_i} u_k dt (trapezoid), µs·s, for input columns u_k
+/// sampled at `time_s`.
+std::vector<double> CumulativeStimulation(const std::vector<double>& time_s,
+                                          const std::vector<std::vector<double>>& inputs_us);
+
+/// Central-difference derivative of y over t (one-sided at the ends; NaN where a neighbour is
+/// NaN), unit of y per s.
+std::vector<double> Derivative(const std::vector<double>& time_s, const std::vector<double>& y);
+
+/// Survival function of the χ² distribution with k degrees of freedom, P(X > x), via the
+/// regularised upper incomplete gamma Q(k/2, x/2) (series / Lentz continued fraction, Numerical
+/// Recipes 3rd ed. §6.2). k ≥ 1; x ≤ 0 gives 1.
+double ChiSquareSurvival(double x, int k);
+
+}  // namespace fesim::diagnosis

@@ -1,0 +1,97 @@
+#include "diagnosis/candidates.h"
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "identification/fullmodel/full_model_fit.h"
+
+namespace fesim::diagnosis {
+namespace {
+
+LibraryContext HandContext() {
+  LibraryContext ctx;
+  ctx.outputs = {"q.wrist_flexion", "q.mcp_flexion", "q.pip_flexion"};
+  ctx.channels = {"ext", "flex"};
+  ctx.tremor_frequency_hz = {6.0, 6.0, 6.0};
+  return ctx;
+}
+
+TEST(Candidates, EveryMechanismIdIsInTheLibraryAndArmSupportIsNotTestableOnTheHandRig) {
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  const auto lib = CandidateLibrary(rig, HandContext());
+  std::set<std::string> ids;
+  for (const auto& c : lib) {
+    ids.insert(c.id);
+    if (!c.applicable) {
+      EXPECT_FALSE(c.not_applicable_reason.empty());
+      continue;
+    }
+    EXPECT_EQ(c.probes.size(), c.one_sided.size()) << c.label;
+    EXPECT_TRUE(static_cast<bool>(c.start_from_step)) << c.label;
+    for (const auto& p : c.params) {
+      EXPECT_LE(p.lower, p.start) << c.label << " " << p.name;
+      EXPECT_LE(p.start, p.upper) << c.label << " " << p.name;
+      EXPECT_GT(p.scale, 0.0);
+    }
+  }
+  EXPECT_EQ(ids, std::set<std::string>(MechanismIds().begin(), MechanismIds().end()));
+  EXPECT_EQ(MechanismIds().size(), 13u);
+  for (const auto& c : lib) {
+    if (c.id == "arm_support") {
+      EXPECT_FALSE(c.applicable);
+    }
+  }
+}
+
+TEST(Candidates, StartValuesLeaveTheModelAsItIs) {
+  // "Mechanism off" must be the rig itself, so that the score directions start at the baseline.
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  Trial t;
+  for (int i = 0; i <= 100; ++i) t.time.push_back(i / 25.0);
+  std::vector<double> u(t.size(), 0.0), q(t.size(), 0.0);
+  for (std::size_t i = 20; i < 60; ++i) u[i] = 150.0;
+  t.AddColumn("u.ext", u);
+  t.AddColumn("u.flex", std::vector<double>(t.size(), 60.0));
+  t.AddColumn("q.wrist_flexion", q);
+  t.AddColumn("q.mcp_flexion", q);
+  DataView v;
+  v.trials = {t};
+  v.use = {std::vector<char>(t.size(), 1)};
+  v.outputs = HandContext().outputs;
+  const auto base = Predict(rig, {}, Eigen::VectorXd(0), v, 1e-7, 1);
+  for (const auto& c : CandidateLibrary(rig, HandContext())) {
+    if (!c.applicable) continue;
+    Eigen::VectorXd x(c.params.size());
+    for (std::size_t k = 0; k < c.params.size(); ++k) x(k) = c.params[k].start;
+    const auto pred = Predict(rig, c.params, x, v, 1e-7, 1);
+    for (const auto& o : {"q.wrist_flexion", "q.mcp_flexion"}) {
+      const auto& a = pred[0].Column(o);
+      const auto& b = base[0].Column(o);
+      for (std::size_t i = 0; i < a.size(); ++i)
+        ASSERT_NEAR(a[i], b[i], 1e-9) << c.label << " " << o;
+    }
+  }
+}
+
+TEST(Candidates, StictionExcessIsAddedToTheCoulombLevelAndJointTorquesScaleWithStiffness) {
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  for (const auto& c : CandidateLibrary(rig, HandContext())) {
+    if (c.label != "stiction@wrist_flexion") continue;
+    Eigen::VectorXd x(2);
+    x << 0.02, 0.01;
+    const sim::ModelParams m = ApplyModelParameters(rig, c.params, x);
+    EXPECT_DOUBLE_EQ(m.coordinates[sim::kWristFlexion].passive.coulomb_friction_nm, 0.02);
+    EXPECT_DOUBLE_EQ(m.coordinates[sim::kWristFlexion].passive.static_friction_nm, 0.03);
+  }
+  EXPECT_DOUBLE_EQ(JointTorqueScale(rig, sim::kWristFlexion),
+                   rig.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad);
+  const auto subject = SubjectParameters(rig, HandContext());
+  std::set<std::string> names;
+  for (const auto& p : subject) names.insert(p.name);
+  EXPECT_EQ(names, (std::set<std::string>{"k.wrist_flexion", "k.mcp_flexion", "k.pip_flexion",
+                                          "strength_scale", "u_scale.ext", "u_scale.flex"}));
+}
+
+}  // namespace
+}  // namespace fesim::diagnosis

@@ -1,0 +1,164 @@
+// The quick slice of the planted-effect suite (issue 7): datasets from the ground-truth simulator
+// with a participant unlike the rig's nominal one, one 40 s trial each (blocked held-out
+// segment: the last 30 %), a mechanism planted at effect scale 1.5 (effect RMS of the order of
+// the 1° sensor noise, diagnosis/planted.h), and the diagnosis run blind. The full suite with the
+// rates is bench/diagnosis_suite.cc → docs/diagnosis.md.
+#include "diagnosis/diagnose.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "diagnosis/planted.h"
+
+namespace fesim::diagnosis {
+namespace {
+
+/// Fitted parameters must be within this relative error of the planted ones (issue 7: 20 %).
+constexpr double kParameterRelTol = 0.2;
+
+const Scenario& Rig() {
+  static const Scenario rig =
+      LoadScenario(std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/hand_rig.yaml");
+  return rig;
+}
+
+struct Case {
+  PlantedDataset data;
+  Diagnosis result;
+};
+
+Case Diagnosed(const std::vector<std::string>& mechanisms, std::uint64_t seed,
+               const std::string& protocol = "steps") {
+  PlantedSpec spec;
+  spec.mechanisms = mechanisms;
+  spec.effect_scale = 1.5;
+  spec.trials = 1;
+  spec.duration_s = 40.0;
+  spec.protocol = protocol;
+  spec.seed = seed;
+  Case r;
+  r.data = MakePlantedDataset(Rig(), spec);
+  DiagnoseOptions o;
+  o.fit.threads = 2;
+  r.result = Diagnose(Rig().model, r.data.trials, o);
+  return r;
+}
+
+void ExpectFound(const Case& r, const std::string& id) {
+  EXPECT_EQ(r.result.cause, id);
+  EXPECT_GT(r.result.gain, 0.0);
+  EXPECT_LT(r.result.extended_heldout_nrmse, r.result.baseline_heldout_nrmse);
+}
+
+double Fitted(const Case& r, const std::string& name) {
+  for (const auto& p : r.result.extension_parameters) {
+    if (p.name == name) return p.value;
+  }
+  return NAN;
+}
+
+double Planted(const Case& r, const std::string& name) {
+  for (const auto& p : r.data.planted) {
+    if (p.name == name) return p.value;
+  }
+  return NAN;
+}
+
+TEST(DiagnosePlanted, CleanDataGiveNone) {
+  for (std::uint64_t seed : {11u, 12u}) {
+    const Case r = Diagnosed({}, seed, seed % 2 ? "steps" : "grid");
+    EXPECT_EQ(r.result.cause, "none") << "seed " << seed;
+    EXPECT_TRUE(r.result.mechanisms.empty());
+    EXPECT_EQ(r.result.gain, 0.0);
+    // The calibration found the participant's stiffness (all joints scaled alike).
+    EXPECT_NEAR(r.result.subject_parameters[0].value, 0.8 * r.data.stiffness_scale,
+                0.05 * 0.8 * r.data.stiffness_scale);
+  }
+}
+
+TEST(DiagnosePlanted, TremorIsNamedWithItsAmplitudeAndFrequency) {
+  const Case r = Diagnosed({"tremor"}, 21);
+  ExpectFound(r, "tremor");
+  const std::string a = "tremor@wrist_flexion:tremor.amplitude_nm";
+  const std::string f = "tremor@wrist_flexion:tremor.frequency_hz";
+  EXPECT_NEAR(Fitted(r, a), Planted(r, a), kParameterRelTol * Planted(r, a));
+  EXPECT_NEAR(Fitted(r, f), Planted(r, f), 0.01);
+}
+
+TEST(DiagnosePlanted, FatigueIsNamedOnLaterHeldOutData) {
+  const Case r = Diagnosed({"fatigue"}, 22);
+  ExpectFound(r, "fatigue");
+  EXPECT_GT(Fitted(r, "fatigue:fatigue.rate_per_s"), 0.0);
+}
+
+TEST(DiagnosePlanted, SensorDriftIsNamed) {
+  const Case r = Diagnosed({"sensor_drift"}, 23);
+  ExpectFound(r, "sensor_drift");
+  EXPECT_GT(r.result.confidence, 0.5);
+  const std::string k = "sensor_drift:drift.q.wrist_flexion";
+  EXPECT_NEAR(Fitted(r, k), Planted(r, k), kParameterRelTol * Planted(r, k));
+}
+
+TEST(DiagnosePlanted, StictionIsNamed) {
+  const Case r = Diagnosed({"stiction"}, 24);
+  ExpectFound(r, "stiction");
+  ASSERT_FALSE(r.result.mechanisms.empty());
+  EXPECT_EQ(r.result.mechanisms[0], "stiction@wrist_flexion");
+}
+
+TEST(DiagnosePlanted, DelayIsNamed) {
+  const Case r = Diagnosed({"delay"}, 25);
+  ExpectFound(r, "delay");
+  const std::string k = "delay:delay.s";
+  EXPECT_NEAR(Fitted(r, k), Planted(r, k), kParameterRelTol * Planted(r, k));
+}
+
+TEST(DiagnosePlanted, TwoMechanismsAtOnceAreBothNamed) {
+  const Case r = Diagnosed({"tremor", "sensor_drift"}, 26);
+  ASSERT_EQ(r.result.mechanism_ids.size(), 2u);
+  EXPECT_TRUE(
+      (r.result.mechanism_ids[0] == "tremor" && r.result.mechanism_ids[1] == "sensor_drift") ||
+      (r.result.mechanism_ids[0] == "sensor_drift" && r.result.mechanism_ids[1] == "tremor"));
+}
+
+TEST(DiagnosePlanted, AnEffectOutsideTheLibraryIsNeverAConfidentWrongName) {
+  const Case r = Diagnosed({"outside"}, 27);
+  EXPECT_TRUE(r.result.cause == "unexplained" || r.result.confidence < 0.5)
+      << r.result.cause << " " << r.result.confidence;
+}
+
+TEST(Diagnose, RejectsAnOutputThatIsNotFreeAndSplitsOneTrialInTime) {
+  Trial t;
+  for (int i = 0; i < 200; ++i) t.time.push_back(i / 50.0);
+  t.AddColumn("u.ext", std::vector<double>(200, 100.0));
+  t.AddColumn("q.elbow_flexion", std::vector<double>(200, 1.5));
+  t.metadata["source"] = "m.csv";
+  try {
+    Diagnose(Rig().model, {t}, DiagnoseOptions());
+    FAIL() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "m.csv: column q.elbow_flexion: joint is not free in the scenario (locked or "
+              "prescribed)");
+  }
+  DataView train, held;
+  std::string how;
+  SplitTrials({t}, {"q.elbow_flexion"}, 0.3, &train, &held, &how);
+  ASSERT_EQ(train.trials.size(), 1u);
+  EXPECT_LT(train.trials[0].time.back(), 0.7 * t.time.back() + 1e-9);
+  int held_count = 0;
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    if (held.use[0][i]) {
+      ++held_count;
+      EXPECT_GE(t.time[i], train.trials[0].time.back());  // held-out data later than the fit
+    }
+  }
+  EXPECT_EQ(held_count + static_cast<int>(train.trials[0].size()), 200);
+  SplitTrials({t, t, t}, {"q.elbow_flexion"}, 0.3, &train, &held, &how);
+  EXPECT_EQ(train.trials.size(), 2u);
+  EXPECT_EQ(held.trials.size(), 1u);
+}
+
+}  // namespace
+}  // namespace fesim::diagnosis

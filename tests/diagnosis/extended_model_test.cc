@@ -1,0 +1,123 @@
+#include "diagnosis/extended_model.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "diagnosis/candidates.h"
+#include "identification/fullmodel/full_model_fit.h"
+
+namespace fesim::diagnosis {
+namespace {
+
+/// A 6 s hand-rig trial (wrist only) with an extensor step, noise-free, from `model`.
+Trial StepTrial(const sim::ModelParams& model) {
+  Trial t;
+  for (int i = 0; i <= 300; ++i) t.time.push_back(i / 50.0);
+  std::vector<double> ext(t.size()), zero(t.size(), 0.0);
+  for (std::size_t i = 0; i < t.size(); ++i)
+    ext[i] = (t.time[i] >= 1.0 && t.time[i] < 4.0) ? 200 : 0;
+  t.AddColumn("u.ext", ext);
+  t.AddColumn("q.wrist_flexion", zero);
+  const Trial sim = identification::fullmodel::SimulateLike(model, t, 1e-7);
+  t.MutableColumn("q.wrist_flexion") = sim.Column("q.wrist_flexion");
+  return t;
+}
+
+DataView ViewOf(const Trial& t) {
+  DataView v;
+  v.trials = {t};
+  v.use = {std::vector<char>(t.size(), 1)};
+  v.outputs = {"q.wrist_flexion"};
+  return v;
+}
+
+ModelParameter Stiffness(double nominal) {
+  ModelParameter p;
+  p.name = "k.wrist_flexion";
+  p.start = nominal;
+  p.lower = 0.2 * nominal;
+  p.upper = 5 * nominal;
+  p.scale = nominal;
+  p.set = [](double v, sim::ModelParams* m) {
+    m->coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad = v;
+  };
+  return p;
+}
+
+TEST(ExtendedModel, DriftAddsValueTimesTimeAndInputScaleZeroSilencesTheInput) {
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  const DataView v = ViewOf(StepTrial(rig));
+  ModelParameter drift;
+  drift.name = "drift";
+  drift.target = ModelParameter::Target::kOutputDrift;
+  drift.column = "q.wrist_flexion";
+  ModelParameter scale;
+  scale.name = "u_scale.ext";
+  scale.target = ModelParameter::Target::kInputScale;
+  scale.column = "u.ext";
+  Eigen::VectorXd x(2);
+  x << 0.01, 1.0;
+  const auto with = Predict(rig, {drift, scale}, x, v, 1e-7, 1);
+  x << 0.0, 1.0;
+  const auto without = Predict(rig, {drift, scale}, x, v, 1e-7, 1);
+  const auto& a = with[0].Column("q.wrist_flexion");
+  const auto& b = without[0].Column("q.wrist_flexion");
+  for (std::size_t i = 0; i < a.size(); i += 50)
+    EXPECT_NEAR(a[i] - b[i], 0.01 * v.trials[0].time[i], 1e-12);
+  x << 0.0, 0.0;
+  const auto silent = Predict(rig, {drift, scale}, x, v, 1e-7, 1);
+  DataView unstimulated = v;
+  for (double& u : unstimulated.trials[0].MutableColumn("u.ext")) u = 0.0;
+  const auto rest = Predict(rig, {}, Eigen::VectorXd(0), unstimulated, 1e-7, 1);
+  const auto& s = silent[0].Column("q.wrist_flexion");
+  const auto& r = rest[0].Column("q.wrist_flexion");
+  for (std::size_t i = 0; i < s.size(); ++i) EXPECT_NEAR(s[i], r[i], 1e-9);
+  EXPECT_GT(std::abs(b[200] - r[200]), 0.05);  // the step moves the wrist
+  EXPECT_THROW(ApplyModelParameters(rig, {drift}, Eigen::VectorXd(2)), std::invalid_argument);
+}
+
+TEST(ExtendedModel, FitRecoversAStiffnessAndHeldParametersStay) {
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  const double k_nominal = rig.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad;
+  sim::ModelParams truth = rig;
+  truth.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad = 1.3 * k_nominal;
+  const DataView v = ViewOf(StepTrial(truth));
+  FitOptions o;
+  o.threads = 2;
+  o.tolerance = 1e-7;
+  const FitResult f =
+      FitParameters(rig, {Stiffness(k_nominal)}, Eigen::VectorXd::Constant(1, k_nominal), v, o);
+  constexpr double kRelTol = 0.01;
+  EXPECT_NEAR(f.x(0), 1.3 * k_nominal, kRelTol * k_nominal);
+  EXPECT_LT(f.cost, 1e-6);
+  EXPECT_GT(f.simulations, 2);
+  // Held: with first_free = 1 only the drift moves, the stiffness stays at its start.
+  ModelParameter drift;
+  drift.name = "drift";
+  drift.target = ModelParameter::Target::kOutputDrift;
+  drift.column = "q.wrist_flexion";
+  drift.lower = -1;
+  drift.upper = 1;
+  drift.scale = 1e-3;
+  Eigen::VectorXd x0(2);
+  x0 << k_nominal, 0.0;
+  const FitResult g = FitParameters(rig, {Stiffness(k_nominal), drift}, x0, v, o, 1);
+  EXPECT_EQ(g.x(0), k_nominal);
+  EXPECT_TRUE(std::isnan(g.ci95(0)));
+  EXPECT_GT(g.cost, 10 * f.cost);  // a drift cannot stand in for the stiffness
+}
+
+TEST(ExtendedModel, NrmseIsZeroForAPerfectPredictionAndSkipsUnusedSamples) {
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  DataView v = ViewOf(StepTrial(rig));
+  std::vector<Trial> pred = {v.trials[0]};
+  EXPECT_NEAR(ViewNrmse(v, pred), 0.0, 1e-15);
+  pred[0].MutableColumn("q.wrist_flexion")[0] += 1.0;  // wrong only where not counted
+  v.use[0][0] = 0;
+  EXPECT_NEAR(ViewNrmse(v, pred), 0.0, 1e-15);
+  EXPECT_EQ(StackResiduals(v, pred).size(), static_cast<long>(v.trials[0].size()) - 1);
+}
+
+}  // namespace
+}  // namespace fesim::diagnosis

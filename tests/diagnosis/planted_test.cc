@@ -1,0 +1,49 @@
+#include "diagnosis/planted.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace fesim::diagnosis {
+namespace {
+
+Scenario Rig() {
+  return LoadScenario(std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/hand_rig.yaml");
+}
+
+TEST(Planted, CleanDataHaveNoEffectAndAPlantedOneIsOfTheNoiseOrder) {
+  const Scenario rig = Rig();
+  PlantedSpec spec;
+  spec.trials = 1;
+  spec.duration_s = 20.0;
+  spec.seed = 3;
+  const PlantedDataset clean = MakePlantedDataset(rig, spec);
+  EXPECT_EQ(clean.effect_rms_rad, 0.0);
+  EXPECT_TRUE(clean.planted.empty());
+  EXPECT_GE(clean.stiffness_scale, 0.8);
+  EXPECT_LE(clean.stiffness_scale, 1.25);
+  ASSERT_EQ(clean.trials.size(), 1u);
+  EXPECT_TRUE(clean.trials[0].Has("q.wrist_flexion"));
+  EXPECT_NEAR(clean.noise_rms_rad, 3.14159265358979 / 180.0, 1e-12);  // hand rig: 1 deg
+  spec.mechanisms = {"sensor_drift"};
+  const PlantedDataset drift = MakePlantedDataset(rig, spec);
+  // Drift 0.0005 rad/s · t over 20 s on every angle: RMS = 0.0005 · 20 / √3.
+  EXPECT_NEAR(drift.effect_rms_rad, 0.0005 * 20.0 / std::sqrt(3.0), 2e-4);
+  ASSERT_EQ(drift.planted.size(), 3u);
+  EXPECT_EQ(drift.planted[0].name, "sensor_drift:drift.q.wrist_flexion");
+  // Same seed, same participant and noise apart from the planted effect.
+  EXPECT_EQ(drift.stiffness_scale, clean.stiffness_scale);
+  const auto& a = drift.trials[0].Column("q.wrist_flexion");
+  const auto& b = clean.trials[0].Column("q.wrist_flexion");
+  const auto& t = drift.trials[0].time;
+  for (std::size_t i = 0; i < a.size(); i += 97) {
+    if (std::isfinite(a[i])) {
+      EXPECT_NEAR(a[i] - b[i], 0.0005 * t[i], 1e-9);
+    }
+  }
+  spec.mechanisms = {"no_such_effect"};
+  EXPECT_THROW(MakePlantedDataset(rig, spec), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace fesim::diagnosis

@@ -1,0 +1,83 @@
+#include "diagnosis/report.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "scenarios/trial.h"
+
+namespace fesim::diagnosis {
+namespace {
+
+Diagnosis Example() {
+  Diagnosis d;
+  d.cause = "tremor";
+  d.confidence = 0.9;
+  d.baseline_heldout_nrmse = 0.2;
+  d.extended_heldout_nrmse = 0.1;
+  d.gain = 0.5;
+  d.mechanisms = {"tremor@wrist_flexion"};
+  d.mechanism_ids = {"tremor"};
+  d.extension_parameters = {{"tremor@wrist_flexion:tremor.amplitude_nm", "N*m", 0.08, 0.002}};
+  CandidateResult c;
+  c.id = "tremor";
+  c.joint = "wrist_flexion";
+  c.label = "tremor@wrist_flexion";
+  c.score = 300;
+  c.fitted = true;
+  c.heldout_gain = 0.5;
+  c.accepted = true;
+  c.evidence = "peak at 6 Hz";
+  CandidateResult n;
+  n.id = "fatigue";
+  n.label = "fatigue";
+  d.candidates = {c, n};
+  d.split = "test";
+  Trial t;
+  for (int i = 0; i < 200; ++i) t.time.push_back(i / 60.0);
+  std::vector<double> y(200), yh(200);
+  for (int i = 0; i < 200; ++i) {
+    y[i] = std::sin(i * 0.3);
+    yh[i] = 0.0;
+  }
+  t.AddColumn("q.wrist_flexion", y);
+  d.heldout.trials = {t};
+  d.heldout.use = {std::vector<char>(200, 1)};
+  d.heldout.outputs = {"q.wrist_flexion"};
+  Trial p = t;
+  p.MutableColumn("q.wrist_flexion") = yh;
+  d.heldout_baseline = {p};
+  d.heldout_extended = {t};
+  return d;
+}
+
+TEST(Report, JsonHasExactlyTheProductKeys) {
+  const std::string j = DiagnosisJson(Example()).Dump(0);
+  EXPECT_EQ(j.find("{\"cause\":\"tremor\",\"confidence\":0.9,\"baseline\":{\"heldout_nrmse\":0.2},"
+                   "\"extended\":{\"mechanisms\":[\"tremor\"],\"parameters\":{"),
+            0u)
+      << j;
+  EXPECT_NE(j.find("\"heldout_nrmse\":0.1},\"gain\":0.5,\"candidates\":[{\"id\":\"tremor\","
+                   "\"score\":300,\"heldout_gain\":0.5,\"evidence\":\"[wrist_flexion] peak at 6 "
+                   "Hz\"},{\"id\":\"fatigue\",\"score\":0,\"heldout_gain\":null,"),
+            std::string::npos)
+      << j;
+}
+
+TEST(Report, WritesMarkdownJsonAndPlots) {
+  const std::string dir = ::testing::TempDir() + "diag_report";
+  std::filesystem::create_directories(dir);
+  WriteDiagnosisReport(Example(), "inputs", dir);
+  const std::string md = ReadFile(dir + "/diagnosis.md");
+  EXPECT_NE(md.find("**tremor**"), std::string::npos);
+  EXPECT_NE(md.find("from 0.2000 to 0.1000"), std::string::npos);
+  EXPECT_NE(md.find("](residuals_wrist_flexion.png)"), std::string::npos);
+  EXPECT_NE(md.find("| tremor@wrist_flexion | 300.0 | 0.5000 | yes |"), std::string::npos);
+  EXPECT_EQ(ReadFile(dir + "/residuals_wrist_flexion.png").substr(1, 3), "PNG");
+  EXPECT_EQ(ReadFile(dir + "/spectrum_wrist_flexion.png").substr(1, 3), "PNG");
+  EXPECT_NE(ReadFile(dir + "/diagnosis.json").find("\"cause\": \"tremor\""), std::string::npos);
+}
+
+}  // namespace
+}  // namespace fesim::diagnosis

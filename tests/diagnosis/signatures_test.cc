@@ -1,0 +1,79 @@
+#include "diagnosis/signatures.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+namespace fesim::diagnosis {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDt = 0.01;  // 100 Hz
+constexpr int kN = 6000;      // 60 s
+
+std::vector<double> WhiteNoise(double sd, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n(0.0, sd);
+  std::vector<double> v(kN);
+  for (double& x : v) x = n(rng);
+  return v;
+}
+
+TEST(Signatures, SpectrumPeakFindsAPlantedTremorFrequencyBelowTheNoise) {
+  std::vector<double> r = WhiteNoise(1.0, 1);
+  for (int i = 0; i < kN; ++i) r[i] += 0.3 * std::sin(2 * kPi * 6.37 * i * kDt + 0.4);
+  r[100] = NAN;  // dropouts are skipped
+  const SpectrumPeak p = ResidualSpectrumPeak(r, kDt, 3.0, 12.0, 0.01);
+  EXPECT_NEAR(p.frequency_hz, 6.37, 0.011);
+  EXPECT_GT(p.power_ratio, 20.0);
+  const SpectrumPeak white = ResidualSpectrumPeak(WhiteNoise(1.0, 2), kDt, 3.0, 12.0, 0.01);
+  EXPECT_LT(white.power_ratio, 15.0);  // max of ~900 exponential(1) draws / median ≈ ln 900/ln 2
+  EXPECT_THROW(ResidualSpectrumPeak(r, kDt, 3.0, 60.0, 0.01), std::invalid_argument);
+}
+
+TEST(Signatures, StructuredShareIsZeroForWhiteNoiseAndNearOneForASlowResidual) {
+  EXPECT_LT(StructuredVarianceFraction(WhiteNoise(1.0, 3)), 0.05);
+  std::vector<double> slow(kN);
+  for (int i = 0; i < kN; ++i) slow[i] = std::sin(2 * kPi * 0.2 * i * kDt);
+  EXPECT_GT(StructuredVarianceFraction(slow), 0.99);
+  // Equal variance of noise and slow structure: about one half.
+  std::vector<double> mix = WhiteNoise(1.0 / std::sqrt(2.0), 4);
+  for (int i = 0; i < kN; ++i) mix[i] += slow[i];
+  EXPECT_NEAR(StructuredVarianceFraction(mix), 0.5, 0.05);
+}
+
+TEST(Signatures, CrossCorrelationPeakFindsThePositiveLagOfADelayedResponse) {
+  const std::vector<double> x = WhiteNoise(1.0, 5);
+  std::vector<double> r(kN, 0.0);
+  for (int i = 7; i < kN; ++i) r[i] = x[i - 7];  // r follows x by 70 ms
+  const LagPeak p = CrossCorrelationPeak(x, r, kDt, 0.2);
+  EXPECT_NEAR(p.lag_s, 0.07, 1e-9);
+  EXPECT_GT(p.correlation, 0.99);
+}
+
+TEST(Signatures, CorrelationCumulativeStimulationAndDerivative) {
+  const std::vector<double> t = {0, 1, 2, 3, 4};
+  EXPECT_NEAR(Correlation(t, {1, 3, 5, 7, 9}), 1.0, 1e-12);
+  EXPECT_NEAR(Correlation(t, {9, 7, NAN, 3, 1}), -1.0, 1e-12);
+  EXPECT_EQ(Correlation(t, {2, 2, 2, 2, 2}), 0.0);
+  EXPECT_THROW(Correlation(t, {1, 2}), std::invalid_argument);
+  const std::vector<double> c =
+      CumulativeStimulation(t, {{100, 100, 100, 100, 100}, {0, 0, 50, 50, 50}});
+  EXPECT_NEAR(c[4], 400.0 + 125.0, 1e-9);  // µs·s: 100·4 + trapezoid of the second
+  const std::vector<double> d = Derivative(t, {0, 2, 4, 6, 8});
+  for (double v : d) EXPECT_NEAR(v, 2.0, 1e-12);
+}
+
+TEST(Signatures, ChiSquareSurvivalMatchesTables) {
+  EXPECT_NEAR(ChiSquareSurvival(3.841458820694124, 1), 0.05, 1e-9);
+  EXPECT_NEAR(ChiSquareSurvival(5.991464547107979, 2), 0.05, 1e-9);
+  EXPECT_NEAR(ChiSquareSurvival(7.814727903251178, 3), 0.05, 1e-9);
+  EXPECT_NEAR(ChiSquareSurvival(2.0, 2), std::exp(-1.0), 1e-12);  // χ²₂ is exponential
+  EXPECT_NEAR(ChiSquareSurvival(100.0, 10), 5.4497019829205295e-17, 1e-25);
+  EXPECT_EQ(ChiSquareSurvival(-1.0, 3), 1.0);
+}
+
+}  // namespace
+}  // namespace fesim::diagnosis
