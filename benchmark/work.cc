@@ -13,6 +13,7 @@
 
 #include "benchmark/sections.h"
 #include "fesim/version.h"
+#include "scenarios/parallel.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
 
@@ -138,30 +139,13 @@ void MakeDirs(const std::string& path) {
 
 void ParallelFor(std::size_t n, int threads, const std::string& label,
                  const std::function<void(std::size_t)>& fn) {
-  std::vector<std::string> errors(n);
-  std::atomic<std::size_t> next{0};
-  const auto worker = [&] {
-    for (std::size_t i = next++; i < n; i = next++) {
-      try {
-        fn(i);
-      } catch (const std::exception& e) {
-        errors[i] = e.what();
-      }
+  fesim::ParallelFor(n, threads, [&](std::size_t i) {
+    try {
+      fn(i);
+    } catch (const std::exception& e) {
+      throw std::runtime_error(label + " " + std::to_string(i) + ": " + e.what());
     }
-  };
-  const int nt = std::max(1, std::min<int>(threads, static_cast<int>(n)));
-  if (nt == 1) {
-    worker();
-  } else {
-    std::vector<std::thread> pool;
-    pool.reserve(static_cast<std::size_t>(nt));
-    for (int k = 0; k < nt; ++k) pool.emplace_back(worker);
-    for (auto& t : pool) t.join();
-  }
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!errors[i].empty())
-      throw std::runtime_error(label + " " + std::to_string(i) + ": " + errors[i]);
-  }
+  });
 }
 
 Progress::Progress(std::function<void(double, const std::string&)> report)

@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "diagnosis/signatures.h"
+#include "scenarios/parallel.h"
 
 namespace fesim::diagnosis {
 namespace {

@@ -13,6 +13,7 @@
 #include "identification/fullmodel/full_model_fit.h"
 #include "identification/levenberg_marquardt.h"
 #include "identification/metrics.h"
+#include "scenarios/parallel.h"
 
 namespace fesim::diagnosis {
 
@@ -25,32 +26,6 @@ long DataView::Count() const {
     }
   }
   return n;
-}
-
-void ParallelFor(int count, int threads, const std::function<void(int)>& task) {
-  const int workers = std::max(1, std::min(threads, count));
-  if (workers == 1) {
-    for (int i = 0; i < count; ++i) task(i);
-    return;
-  }
-  std::atomic<int> next{0};
-  std::exception_ptr error;
-  std::mutex error_mutex;
-  std::vector<std::thread> pool;
-  for (int w = 0; w < workers; ++w) {
-    pool.emplace_back([&] {
-      for (int i = next++; i < count; i = next++) {
-        try {
-          task(i);
-        } catch (...) {
-          std::lock_guard<std::mutex> lock(error_mutex);
-          if (!error) error = std::current_exception();
-        }
-      }
-    });
-  }
-  for (auto& t : pool) t.join();
-  if (error) std::rethrow_exception(error);
 }
 
 sim::ModelParams ApplyModelParameters(const sim::ModelParams& base,

@@ -97,7 +97,4 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
                                  const DataView& view, const FitOptions& options,
                                  int* simulations = nullptr, int first_free = 0);
 
-/// Runs task(i) for i in [0, count) on `threads` workers; rethrows the first exception.
-void ParallelFor(int count, int threads, const std::function<void(int)>& task);
-
 }  // namespace fesim::diagnosis

@@ -19,6 +19,7 @@
 #include "identification/levenberg_marquardt.h"
 #include "identification/method_support.h"
 #include "identification/metrics.h"
+#include "scenarios/parallel.h"
 #include "scenarios/scenario.h"
 #include "sim/default_model.h"
 #include "sim/integrator.h"
@@ -73,33 +74,6 @@ std::string ChannelList(const sim::ModelParams& m) {
   std::string s;
   for (const auto& c : m.channels) s += (s.empty() ? "" : ", ") + c.name;
   return s;
-}
-
-/// Runs `task(i)` for i in [0, count) on `threads` workers; rethrows the first exception.
-void ParallelFor(int count, int threads, const std::function<void(int)>& task) {
-  const int workers = std::max(1, std::min(threads, count));
-  if (workers == 1) {
-    for (int i = 0; i < count; ++i) task(i);
-    return;
-  }
-  std::atomic<int> next{0};
-  std::exception_ptr error;
-  std::mutex error_mutex;
-  std::vector<std::thread> pool;
-  for (int w = 0; w < workers; ++w) {
-    pool.emplace_back([&] {
-      for (int i = next++; i < count; i = next++) {
-        try {
-          task(i);
-        } catch (...) {
-          std::lock_guard<std::mutex> lock(error_mutex);
-          if (!error) error = std::current_exception();
-        }
-      }
-    });
-  }
-  for (auto& t : pool) t.join();
-  if (error) std::rethrow_exception(error);
 }
 
 /// What one simulation of a trial needs, prepared once: the recorded stimulation as a
