@@ -3,8 +3,11 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
+#include <csignal>
 #include <cstdlib>
+#include <filesystem>
 #include <string>
 
 #include "scenarios/trial.h"
@@ -31,6 +34,15 @@ bool Exists(const std::string& p) {
   return ::stat(p.c_str(), &st) == 0;
 }
 
+/// Names of the files in `dir`, one per line.
+std::string RunListing(const std::string& dir) {
+  std::string names;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    names += e.path().filename().string() + "\n";
+  }
+  return names;
+}
+
 const std::string kRig = std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/hand_rig.yaml";
 
 TEST(DiagnoseCmd, DiagnosesASimulatedTrialAndWritesTheReport) {
@@ -54,6 +66,41 @@ TEST(DiagnoseCmd, DiagnosesASimulatedTrialAndWritesTheReport) {
   EXPECT_TRUE(Exists(dir + "/out/diagnosis.md"));
   EXPECT_TRUE(Exists(dir + "/out/residuals_wrist_flexion.png"));
   EXPECT_TRUE(Exists(dir + "/out/spectrum_mcp_flexion.png"));
+}
+
+TEST(DiagnoseCmd, InterruptedRunLeavesNoPartialReport) {
+  const std::string dir = ::testing::TempDir() + "diag_cmd_interrupt";
+  const std::string scenario = dir + "_short.yaml";
+  std::string text = ReadFile(kRig);
+  text.replace(text.find("stimulation:"), std::string::npos,
+               "stimulation:\n  duration_s: 30\n  type: steps\n  steps: [{time_s: 2, values_us: "
+               "{ext: 200}}, {time_s: 12, values_us: {flex: 150}}, {time_s: 22, values_us: "
+               "{ext: 0}}]\n");
+  WriteFileAtomic(scenario, text);
+  ASSERT_EQ(RunFesim("simulate " + scenario + " --out " + dir + "/sim --seed 4").exit_code, 0);
+  for (const int sig : {SIGINT, SIGTERM}) {
+    const std::string out = dir + "/out" + std::to_string(sig);
+    const std::string cmd = "exec " + std::string(FESIM_BIN_PATH) + " diagnose " + dir +
+                            "/sim/hand_rig.csv --scenario " + scenario + " --out " + out +
+                            " --threads 2 2>/dev/null";
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      ::execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    ::usleep(1500000);  // calibration is under way (a diagnosis takes tens of seconds)
+    ::kill(pid, sig);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    EXPECT_TRUE(WIFSIGNALED(status)) << "signal " << sig;
+    EXPECT_FALSE(Exists(out + "/diagnosis.json"));
+    EXPECT_FALSE(Exists(out + "/diagnosis.md"));
+    if (Exists(out)) {
+      const std::string listing = RunListing(out);
+      EXPECT_EQ(listing.find(".tmp"), std::string::npos) << listing;
+    }
+  }
 }
 
 TEST(DiagnoseCmd, BadInputIsAOneLineErrorAndWritesNothing) {
