@@ -155,7 +155,6 @@ SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx
   std::vector<std::vector<std::vector<std::vector<double>>>> cross(
       nm, std::vector<std::vector<std::vector<double>>>(nt, std::vector<std::vector<double>>(nt)));
   std::vector<std::vector<std::vector<double>>> cross_truth = ident;  // [m][a]: vs truth, b ≠ a
-  std::vector<std::vector<double>> iterations(nm);
   std::mutex mu;
   ParallelFor(jobs.size(), ctx->threads, "elbow fit", [&](std::size_t ji) {
     const Job& j = jobs[ji];
@@ -193,12 +192,6 @@ SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx
           cross_truth[j.m][j.a].push_back(FitAgainstTruth(fit.predictions[t], truth, test[t], col));
         }
       }
-    }
-    if (j.r >= 0) {
-      const Json* a2 = fit.metrics.Find("algorithm2");
-      const Json* a1 = fit.metrics.Find("algorithm1");
-      const Json* alg = a2 ? a2 : a1;
-      if (alg) iterations[j.m].push_back(alg->Find("iterations")->AsNumber());
     }
     ctx->progress->Done(kSplineFitWeight, "elbow tests: spline Hammerstein fits");
   });

@@ -19,8 +19,10 @@
 //                               wrist flexors (eq. 6; Assumption 6 of paper 000 broken)
 //   passive_stiffness_nonlinear@<joint>  passive.limit_scale (K_L × s), passive.sharpness_per_rad
 //                               κ (eq. 14 range limits, passive_joint.h)
-//   arm_support                 support.weight_compensation_n on the forearm cuff; applicable only
-//                               when an output joint is the elbow or a shoulder coordinate
+//   arm_support                 NOT IMPLEMENTED: always reported not applicable (with the reason
+//                               "extension not implemented" when an output joint is the elbow or
+//                               a shoulder coordinate). Planned: support.weight_compensation_n on
+//                               the forearm cuff.
 //   stiction@<joint>            friction.coulomb_nm F_c, friction.static_excess_nm F_s − F_c
 //   spasticity@<joint>          reflex.gain_nms_per_rad G, reflex.threshold_rad_s v_th
 //   sensor_drift                drift.<output>, rad/s (one per output: value · t added)
