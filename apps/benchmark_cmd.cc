@@ -1,5 +1,6 @@
 // `fesim benchmark [STUDY.yaml] [--out DIR] [--quick] [--threads N] [--seed N]`
 #include <cstdio>
+#include <cstdlib>
 #include <stdexcept>
 #include <string>
 
@@ -23,12 +24,16 @@ void PrintHelp() {
       "  DIR/plots/*.png\n"
       "  DIR/cache/        trials and fits by input hash: a killed run resumes where it stopped\n"
       "Default DIR: out/benchmark (out/benchmark-quick with --quick). --quick runs the sections'\n"
-      "quick studies (two participants, shortened protocols). --threads: default all cores.\n");
+      "quick studies (two participants, shortened protocols). --threads: default all cores.\n\n"
+      "As an MPI job (mpirun -np N fesim benchmark ...), the trials and fits are spread over\n"
+      "the ranks (dynamically balanced; --threads per rank, default 1); DIR must be on a file\n"
+      "system every rank sees. Results do not depend on N. If work items fail, the others\n"
+      "finish, the run exits 1 naming each failed item, and a rerun redoes only those.\n");
 }
 
 }  // namespace
 
-int RunBenchmark(int argc, char** argv) {
+int RunBenchmark(int argc, char** argv, cluster::Cluster& job) {
   const auto args = cli::Parse(argc, argv, 2, {"help", "quick"}, {"out", "threads", "seed"});
   if (args.Has("help")) {
     PrintHelp();
@@ -48,12 +53,25 @@ int RunBenchmark(int argc, char** argv) {
   const long seed = args.GetInt("seed", 1);
   if (seed < 0) throw std::runtime_error("--seed: must be >= 0");
   o.seed = static_cast<std::uint64_t>(seed);
-  o.progress = cli::ShowProgress;
-  const BenchmarkSpec spec = LoadBenchmarkSpec(path);  // after the options: cheap errors first
+  if (job.is_root()) o.progress = cli::ShowProgress;
+  o.cluster = &job;
+  // Fault injection for the failure-handling tests (docs/cluster.md): the named work item fails.
+  if (const char* fail = std::getenv("FESIM_FAIL_ITEM")) o.fail_item = fail;
+  BenchmarkSpec spec;
+  try {
+    spec = LoadBenchmarkSpec(path);  // after the options: cheap errors first
+  } catch (const std::runtime_error& e) {
+    // Every rank reads the same file and fails alike: one message, not one per rank.
+    throw cluster::CollectiveError(e.what());
+  }
   const auto outcome = benchmark::RunBenchmark(spec, o);
-  cli::ShowProgress(1.0, "done");
-  std::fprintf(stderr, "fesim benchmark: %s in %.1f s -> %s/report.md\n", spec.name.c_str(),
-               outcome.wall_s, o.out_dir.c_str());
+  if (job.is_root()) {
+    cli::ShowProgress(1.0, "done");
+    std::fprintf(stderr, "fesim benchmark: %s in %.1f s%s -> %s/report.md\n", spec.name.c_str(),
+                 outcome.wall_s,
+                 job.size() > 1 ? (" on " + std::to_string(job.size()) + " MPI ranks").c_str() : "",
+                 o.out_dir.c_str());
+  }
   return 0;
 }
 

@@ -4,15 +4,18 @@
 
 #include <vector>
 
+#include "cluster/cluster.h"
 #include "identification/method.h"
 
 namespace fesim {
 
-int RunSimulate(int argc, char** argv);
+// `job` is the run's MPI job (issue 9; one rank without mpirun): simulate (study files),
+// benchmark and diagnose spread their work items over its ranks, and rank 0 writes the outputs.
+int RunSimulate(int argc, char** argv, cluster::Cluster& job);
 int RunIdentify(int argc, char** argv);
 int RunRender(int argc, char** argv);
-int RunBenchmark(int argc, char** argv);
-int RunDiagnose(int argc, char** argv);
+int RunBenchmark(int argc, char** argv, cluster::Cluster& job);
+int RunDiagnose(int argc, char** argv, cluster::Cluster& job);
 
 /// Identification methods that live outside identification/'s Eigen-only core (e.g. the
 /// full-model fit, which simulates through sim/).

@@ -14,7 +14,7 @@
 
 namespace fesim {
 
-int RunDiagnose(int argc, char** argv) {
+int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
   const auto args = cli::Parse(argc, argv, 2, {"help"}, {"scenario", "out", "model", "threads"});
   if (args.Has("help")) {
     std::printf(
@@ -37,6 +37,9 @@ int RunDiagnose(int argc, char** argv) {
     throw std::runtime_error("expected one argument MEASURED.csv[,MORE.csv...] (see --help)");
   }
   if (!args.Has("scenario")) throw std::runtime_error("--scenario is required (see --help)");
+  if (job.size() > 1) {
+    throw cluster::CollectiveError("diagnose does not run on several MPI ranks yet");
+  }
   const std::string model = args.Get("model", "full");
   if (model != "full") {
     throw std::runtime_error("--model: '" + model +

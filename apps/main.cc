@@ -6,9 +6,11 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <memory>
 #include <string>
 
 #include "apps/commands.h"
+#include "cluster/cluster.h"
 #include "fesim/version.h"
 #include "scenarios/trial.h"
 
@@ -56,6 +58,8 @@ void PrintUsage() {
       "                  [--width W --height H --fps F --camera front|side|top|orbit]\n"
       "                  [--compare OTHER.csv]\n"
       "  fesim --version\n\n"
+      "simulate (study files), benchmark and diagnose also run as an MPI job, spread over its\n"
+      "ranks: mpirun -np N fesim benchmark ... (docs/cluster.md).\n"
       "Run 'fesim SUBCOMMAND --help' for details.\n",
       FESIM_VERSION);
 }
@@ -74,16 +78,50 @@ int main(int argc, char** argv) {
     std::printf("fesim %s\n", FESIM_VERSION);
     return 0;
   }
+  // Under mpirun this process is one rank of a job (issue 9); otherwise a job of one.
+  std::unique_ptr<fesim::cluster::Cluster> job;
   try {
-    if (cmd == "simulate") return fesim::RunSimulate(argc, argv);
-    if (cmd == "render") return fesim::RunRender(argc, argv);
-    if (cmd == "identify") return fesim::RunIdentify(argc, argv);
-    if (cmd == "benchmark") return fesim::RunBenchmark(argc, argv);
-    if (cmd == "diagnose") return fesim::RunDiagnose(argc, argv);
-    std::fprintf(stderr, "fesim: unknown subcommand '%s' (see fesim --help)\n", cmd.c_str());
-    return 2;
+    job = fesim::cluster::Cluster::Start(&argc, &argv);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "\nfesim %s: error: %s\n", cmd.c_str(), OneLine(e.what()).c_str());
+    std::fprintf(stderr, "fesim %s: error: %s\n", cmd.c_str(), OneLine(e.what()).c_str());
+    return 2;
+  }
+  try {
+    if (cmd == "simulate") return fesim::RunSimulate(argc, argv, *job);
+    if (cmd == "benchmark") return fesim::RunBenchmark(argc, argv, *job);
+    if (cmd == "diagnose") return fesim::RunDiagnose(argc, argv, *job);
+    if (cmd != "render" && cmd != "identify") {
+      if (job->is_root()) {
+        std::fprintf(stderr, "fesim: unknown subcommand '%s' (see fesim --help)\n", cmd.c_str());
+      }
+      return 2;
+    }
+    if (job->size() > 1) {
+      if (job->is_root()) {
+        std::fprintf(stderr,
+                     "fesim %s: error: runs on one process (its work is one item); start it "
+                     "without mpirun or with -np 1\n",
+                     cmd.c_str());
+      }
+      return 2;
+    }
+    if (cmd == "render") return fesim::RunRender(argc, argv);
+    return fesim::RunIdentify(argc, argv);
+  } catch (const fesim::cluster::CollectiveError& e) {
+    // Every rank threw it at the same point: rank 0 says it once, all end normally.
+    if (job->is_root()) {
+      std::fprintf(stderr, "\nfesim %s: error: %s\n", cmd.c_str(), OneLine(e.what()).c_str());
+    }
     return 1;
+  } catch (const std::exception& e) {
+    if (job->size() == 1) {
+      std::fprintf(stderr, "\nfesim %s: error: %s\n", cmd.c_str(), OneLine(e.what()).c_str());
+      return 1;
+    }
+    // One rank's own failure (or every rank's, e.g. bad input): the others may be waiting for
+    // it, so the job ends here.
+    std::fprintf(stderr, "\nfesim %s: error (rank %d of %d): %s\n", cmd.c_str(), job->rank(),
+                 job->size(), OneLine(e.what()).c_str());
+    job->Abort(1);
   }
 }

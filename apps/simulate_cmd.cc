@@ -37,7 +37,9 @@ void PrintHelp() {
       "A study file (top-level key `study:`, see scenarios/study.h) runs every participant x\n"
       "protocol x repetition of its virtual cohort on --threads threads (default: all cores)\n"
       "and writes DIR/p<k>/<protocol>_r<r>.csv and _truth.csv plus DIR/manifest.json with\n"
-      "every participant's drawn parameters. Results do not depend on the thread count.\n");
+      "every participant's drawn parameters. Results do not depend on the thread count.\n"
+      "Under mpirun (mpirun -np N fesim simulate STUDY.yaml) the trials are spread over the\n"
+      "ranks and rank 0 writes the same files; the bytes do not depend on N either.\n");
 }
 
 /// FNV-1a, 64 bit: a stable content hash for the manifest.
@@ -52,7 +54,7 @@ Json StatsJson(const sim::TrialResult& r) {
 }
 
 /// `fesim simulate STUDY.yaml`: every participant × protocol × repetition, in parallel.
-int RunStudy(const std::string& path, long seed, const cli::Args& args) {
+int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster::Cluster& job) {
   const Study st = LoadStudy(path, static_cast<std::uint64_t>(seed));
   const std::string out = args.Get("out", "out/" + st.name);
   const std::string hash = Fnv1a64Hex(st.source_text);
@@ -61,40 +63,60 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args) {
   if (threads < 1) throw std::runtime_error("option --threads: must be >= 1");
   const auto t0 = std::chrono::steady_clock::now();
 
-  std::vector<sim::TrialResult> results(st.items.size());
-  std::vector<std::string> errors(st.items.size());
-  std::atomic<std::size_t> next{0}, done{0};
-  std::mutex progress_mutex;
-  const auto worker = [&] {
-    for (std::size_t i = next++; i < st.items.size(); i = next++) {
-      const StudyItem& item = st.items[i];
-      try {
-        sim::TrialRequest req = item.scenario.trial;
-        req.seed = item.noise_seed;
-        req.name = item.file_stem;
-        const sim::UpperLimbModel model(item.scenario.model);
-        results[i] = sim::RunTrial(model, req);
-      } catch (const std::exception& e) {
-        errors[i] = e.what();
-      }
-      const std::size_t n = ++done;
-      std::lock_guard<std::mutex> lock(progress_mutex);
-      const double elapsed =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      const double left =
-          elapsed / static_cast<double>(n) * static_cast<double>(st.items.size() - n);
-      cli::ShowProgress(static_cast<double>(n) / static_cast<double>(st.items.size()),
-                        st.name + " " + std::to_string(n) + "/" + std::to_string(st.items.size()) +
-                            ", ~" + std::to_string(static_cast<int>(left + 0.5)) + " s left");
-    }
+  // Each item's files as bytes (measured CSV, truth CSV, integration statistics), made on
+  // whichever rank (or thread) ran it and written by rank 0.
+  struct ItemFiles {
+    std::string measured, truth, stats;
   };
-  std::vector<std::thread> pool;
-  for (int k = 0; k < threads; ++k) pool.emplace_back(worker);
-  for (auto& t : pool) t.join();
-  for (std::size_t i = 0; i < errors.size(); ++i) {
-    if (!errors[i].empty()) {
-      throw std::runtime_error("study item " + st.items[i].file_stem + ": " + errors[i]);
+  const auto item_files = [&](std::size_t i) {
+    const StudyItem& item = st.items[i];
+    sim::TrialRequest req = item.scenario.trial;
+    req.seed = item.noise_seed;
+    req.name = item.file_stem;
+    const sim::UpperLimbModel model(item.scenario.model);
+    const sim::TrialResult r = sim::RunTrial(model, req);
+    Trial measured = r.measured, truth = r.truth;
+    for (Trial* t : {&measured, &truth}) {
+      t->metadata["study"] = st.name;
+      t->metadata["study_hash"] = hash;
+      t->metadata["participant"] = "p" + std::to_string(item.participant + 1);
+      t->metadata["protocol"] = item.protocol;
+      t->metadata["repetition"] = std::to_string(item.repetition + 1);
+      t->metadata["fesim_version"] = FESIM_VERSION;
     }
+    Json packed = Json::Object();
+    packed.Set("measured", FormatTrialCsv(measured))
+        .Set("truth", FormatTrialCsv(truth))
+        .Set("integration", StatsJson(r));
+    return packed.Dump(0);
+  };
+  std::mutex progress_mutex;
+  const auto outcomes = job.Map(st.items.size(), item_files, threads, [&](std::size_t n) {
+    std::lock_guard<std::mutex> lock(progress_mutex);
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double left = elapsed / static_cast<double>(n) * static_cast<double>(st.items.size() - n);
+    cli::ShowProgress(static_cast<double>(n) / static_cast<double>(st.items.size()),
+                      st.name + " " + std::to_string(n) + "/" + std::to_string(st.items.size()) +
+                          ", ~" + std::to_string(static_cast<int>(left + 0.5)) + " s left");
+  });
+  // Failed items, as rank 0 saw them, on every rank: one message, and no files.
+  std::string failed;
+  for (std::size_t i = 0; i < outcomes.size(); ++i) {
+    if (!outcomes[i].ok) {
+      failed += (failed.empty() ? "" : "; ") + std::string("study item ") + st.items[i].file_stem +
+                (job.size() > 1 ? " (rank " + std::to_string(outcomes[i].rank) + ")" : "") + ": " +
+                outcomes[i].payload;
+    }
+  }
+  failed = job.Broadcast(failed);
+  if (!failed.empty()) throw cluster::CollectiveError(failed);
+  if (!job.is_root()) return 0;
+  std::vector<ItemFiles> files(outcomes.size());
+  for (std::size_t i = 0; i < outcomes.size(); ++i) {
+    const Json j = Json::Parse(outcomes[i].payload, "study item " + st.items[i].file_stem);
+    files[i] = {j.Find("measured")->AsString(), j.Find("truth")->AsString(),
+                j.Find("integration")->Dump(0)};
   }
 
   Json manifest = Json::Object();
@@ -123,17 +145,8 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args) {
     const StudyItem& item = st.items[i];
     const std::string dir = out + "/p" + std::to_string(item.participant + 1);
     cli::MakeDirs(dir);
-    Trial measured = results[i].measured, truth = results[i].truth;
-    for (Trial* t : {&measured, &truth}) {
-      t->metadata["study"] = st.name;
-      t->metadata["study_hash"] = hash;
-      t->metadata["participant"] = "p" + std::to_string(item.participant + 1);
-      t->metadata["protocol"] = item.protocol;
-      t->metadata["repetition"] = std::to_string(item.repetition + 1);
-      t->metadata["fesim_version"] = FESIM_VERSION;
-    }
-    WriteFileAtomic(out + "/" + item.file_stem + ".csv", FormatTrialCsv(measured));
-    WriteFileAtomic(out + "/" + item.file_stem + "_truth.csv", FormatTrialCsv(truth));
+    WriteFileAtomic(out + "/" + item.file_stem + ".csv", files[i].measured);
+    WriteFileAtomic(out + "/" + item.file_stem + "_truth.csv", files[i].truth);
     Json j = Json::Object();
     j.Set("participant", "p" + std::to_string(item.participant + 1))
         .Set("protocol", item.protocol)
@@ -142,14 +155,19 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args) {
         .Set("measured", item.file_stem + ".csv")
         .Set("truth", item.file_stem + "_truth.csv")
         .Set("duration_s", item.scenario.trial.duration_s)
-        .Set("integration", StatsJson(results[i]));
+        .Set("integration", Json::Parse(files[i].stats));
     items.Push(j);
   }
   manifest.Set("trials", items);
   WriteFileAtomic(out + "/manifest.json", manifest.Dump());
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::fprintf(stderr, "fesim simulate: study %s, %zu trials on %d threads in %.1f s -> %s\n",
-               st.name.c_str(), st.items.size(), threads, wall, out.c_str());
+  if (job.size() > 1) {
+    std::fprintf(stderr, "fesim simulate: study %s, %zu trials on %d MPI ranks in %.1f s -> %s\n",
+                 st.name.c_str(), st.items.size(), job.size(), wall, out.c_str());
+  } else {
+    std::fprintf(stderr, "fesim simulate: study %s, %zu trials on %d threads in %.1f s -> %s\n",
+                 st.name.c_str(), st.items.size(), threads, wall, out.c_str());
+  }
   return 0;
 }
 
@@ -186,7 +204,7 @@ int RunReaching(const Scenario& sc, const std::string& out, long seed) {
 
 }  // namespace
 
-int RunSimulate(int argc, char** argv) {
+int RunSimulate(int argc, char** argv, cluster::Cluster& job) {
   const auto args = cli::Parse(argc, argv, 2, {"help"}, {"out", "seed", "threads"});
   if (args.Has("help")) {
     PrintHelp();
@@ -198,7 +216,11 @@ int RunSimulate(int argc, char** argv) {
   const long seed = args.GetInt("seed", 1);
   if (seed < 0)
     throw std::runtime_error("option --seed: " + std::to_string(seed) + " is outside [0, 2^63)");
-  if (IsStudy(ReadFile(args.positional[0]))) return RunStudy(args.positional[0], seed, args);
+  if (IsStudy(ReadFile(args.positional[0]))) return RunStudy(args.positional[0], seed, args, job);
+  if (job.size() > 1) {
+    throw cluster::CollectiveError(
+        "a scenario is one trial: run it without mpirun (a study file spreads over the ranks)");
+  }
   Scenario sc = LoadScenario(args.positional[0]);
   sc.trial.seed = static_cast<std::uint64_t>(seed);
   const std::string out = args.Get("out", "out/" + sc.name);

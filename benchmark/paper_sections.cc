@@ -155,8 +155,14 @@ SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx
   std::vector<std::vector<std::vector<std::vector<double>>>> cross(
       nm, std::vector<std::vector<std::vector<double>>>(nt, std::vector<std::vector<double>>(nt)));
   std::vector<std::vector<std::vector<double>>> cross_truth = ident;  // [m][a]: vs truth, b ≠ a
-  std::mutex mu;
-  ParallelFor(jobs.size(), ctx->threads, "elbow fit", [&](std::size_t ji) {
+  // Each job's Best Fit values (filled by index), added to the tables in job order afterwards so
+  // that the means do not depend on which job finished first.
+  struct JobFigures {
+    std::vector<double> bf, bf_truth;
+    std::vector<int> test_proto, test_rep;
+  };
+  std::vector<JobFigures> figures(jobs.size());
+  ctx->loop->Run("elbow fit", jobs.size(), [&](std::size_t ji) {
     const Job& j = jobs[ji];
     std::vector<Trial> train, test;
     std::vector<const Trial*> test_truth;
@@ -180,21 +186,33 @@ SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx
     }
     const FitOutput fit = ctx->fits->Run(methods[j.m], train, test, section.options);
     const std::string col = OutputColumn(fit.predictions[0]);
-    std::lock_guard<std::mutex> lock(mu);
+    JobFigures f;
+    f.test_proto = test_proto;
+    f.test_rep = test_rep;
     for (std::size_t t = 0; t < test.size(); ++t) {
-      const double bf = FitAgainst(fit.predictions[t], test[t], col);
-      if (j.r >= 0) {
-        (test_rep[t] == j.r ? ident : valid)[j.m][j.a].push_back(bf);
-      } else {
-        cross[j.m][j.a][test_proto[t]].push_back(bf);
-        if (test_proto[t] != j.a) {
-          const Trial& truth = data.truth[L.Index(j.p, test_proto[t], test_rep[t])];
-          cross_truth[j.m][j.a].push_back(FitAgainstTruth(fit.predictions[t], truth, test[t], col));
-        }
+      f.bf.push_back(FitAgainst(fit.predictions[t], test[t], col));
+      double vs_truth = NAN;
+      if (j.r < 0 && test_proto[t] != j.a) {
+        const Trial& truth = data.truth[L.Index(j.p, test_proto[t], test_rep[t])];
+        vs_truth = FitAgainstTruth(fit.predictions[t], truth, test[t], col);
       }
+      f.bf_truth.push_back(vs_truth);
     }
+    figures[ji] = std::move(f);
     ctx->progress->Done(kSplineFitWeight, "elbow tests: spline Hammerstein fits");
   });
+  for (std::size_t ji = 0; ji < jobs.size(); ++ji) {
+    const Job& j = jobs[ji];
+    const JobFigures& f = figures[ji];
+    for (std::size_t t = 0; t < f.bf.size(); ++t) {
+      if (j.r >= 0) {
+        (f.test_rep[t] == j.r ? ident : valid)[j.m][j.a].push_back(f.bf[t]);
+      } else {
+        cross[j.m][j.a][f.test_proto[t]].push_back(f.bf[t]);
+        if (f.test_proto[t] != j.a) cross_truth[j.m][j.a].push_back(f.bf_truth[t]);
+      }
+    }
+  }
 
   SectionResult out;
   std::string md = "## Elbow isometric tests (paper 002 Tables 1–3)\n\n";
@@ -362,7 +380,8 @@ SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx
   render::Axes ax;
   ax.title = "Elbow tests: Best Fit by test and algorithm (paper 002 Tables 1-2)";
   ax.y_label = "Best Fit %";
-  render::WriteBarChartPng(Dir(ctx->plots_dir, "elbow_best_fit.png"), ax, cats, bars);
+  if (ctx->write_outputs)
+    render::WriteBarChartPng(Dir(ctx->plots_dir, "elbow_best_fit.png"), ax, cats, bars);
   md += "\n![elbow Best Fit](plots/elbow_best_fit.png)\n\n";
   out.markdown = md;
   return out;
@@ -382,54 +401,59 @@ SectionResult RunTremorWrist(const BenchmarkSection& section, SectionContext* ct
     double freq = NAN, freq_true = NAN, amp = NAN, amp_true = NAN, test_bf = NAN, truth_bf = NAN;
   };
   std::vector<Per> per(static_cast<std::size_t>(np));
-  ParallelFor(
-      static_cast<std::size_t>(np), ctx->threads, "tremor participant", [&](std::size_t pi) {
-        const int p = static_cast<int>(pi);
-        std::vector<Trial> train, test = {AgonistFirst(data.measured[L.Index(p, 0, nr - 1)])};
-        for (int r = 0; r + 1 < nr; ++r)
-          train.push_back(AgonistFirst(data.measured[L.Index(p, 0, r)]));
-        const FitOutput fit = ctx->fits->Run("tremor-arx", train, test, section.options);
-        Per& r = per[pi];
-        if (const Json* sw = fit.metrics.Find("order_sweep")) {
-          for (const auto& e : sw->Items()) {
-            r.sweep[{static_cast<int>(e.Find("poles_l")->AsNumber()),
-                     static_cast<int>(e.Find("zeros_n")->AsNumber())}] = {
-                e.Find("validation_best_fit_percent")->AsNumber(),
-                e.Find("cross_validation_best_fit_percent")->AsNumber()};
-          }
-        }
-        const std::string col = OutputColumn(fit.predictions[0]);
-        r.test_bf = FitAgainst(fit.predictions[0], test[0], col);
-        r.truth_bf = FitAgainst(fit.predictions[0], data.truth[L.Index(p, 0, nr - 1)], col);
-        r.freq = ModelYamlValue(fit.model_yaml, "tremor_frequency");
-        const double l1 = ModelYamlValue(fit.model_yaml, "lambda1");
-        const double l2 = ModelYamlValue(fit.model_yaml, "lambda2");
-        // The tremor term d enters the output as d / A_P (tremor_arx.h): its angle amplitude
-        // is |λ| / |A_P(e^{jωT})|, ω = 2π f.
-        const std::vector<double> arx_a = ModelYamlList(fit.model_yaml, "a");
-        const double T = test[0].time[1] - test[0].time[0];
-        std::complex<double> A(1.0, 0.0);
-        for (std::size_t i = 0; i < arx_a.size(); ++i) {
-          A += arx_a[i] * std::polar(1.0, -2.0 * M_PI * r.freq * T * static_cast<double>(i + 1));
-        }
-        r.amp = std::hypot(l1, l2) / std::abs(A);
-        // Planted tremor: frequency from the participant's model; its angle amplitude from
-        // the noiseless output with and without the tremor torque (√2 · RMS of the
-        // difference).
-        const sim::ModelParams& m = data.study.items[L.Index(p, 0, 0)].scenario.model;
-        r.freq_true = m.mechanisms.tremor.enabled ? m.mechanisms.tremor.frequency_hz : NAN;
-        sim::ModelParams quiet = m;
-        quiet.mechanisms.tremor.enabled = false;
-        const Trial& tr0 = data.measured[L.Index(p, 0, 0)];
-        const Trial with = identification::fullmodel::SimulateLike(m, tr0, 1e-6);
-        const Trial without = identification::fullmodel::SimulateLike(quiet, tr0, 1e-6);
-        double ss = 0.0;
-        const auto& a = with.Column(col);
-        const auto& b = without.Column(col);
-        for (std::size_t i = 0; i < a.size(); ++i) ss += (a[i] - b[i]) * (a[i] - b[i]);
-        r.amp_true = std::sqrt(2.0 * ss / std::max<std::size_t>(1, a.size()));
-        ctx->progress->Done(kTremorParticipantWeight, "tremor wrist: ARX order sweeps");
-      });
+  ctx->loop->Run("tremor participant", static_cast<std::size_t>(np), [&](std::size_t pi) {
+    const int p = static_cast<int>(pi);
+    std::vector<Trial> train, test = {AgonistFirst(data.measured[L.Index(p, 0, nr - 1)])};
+    for (int r = 0; r + 1 < nr; ++r) train.push_back(AgonistFirst(data.measured[L.Index(p, 0, r)]));
+    const FitOutput fit = ctx->fits->Run("tremor-arx", train, test, section.options);
+    Per& r = per[pi];
+    if (const Json* sw = fit.metrics.Find("order_sweep")) {
+      for (const auto& e : sw->Items()) {
+        r.sweep[{static_cast<int>(e.Find("poles_l")->AsNumber()),
+                 static_cast<int>(e.Find("zeros_n")->AsNumber())}] = {
+            e.Find("validation_best_fit_percent")->AsNumber(),
+            e.Find("cross_validation_best_fit_percent")->AsNumber()};
+      }
+    }
+    const std::string col = OutputColumn(fit.predictions[0]);
+    r.test_bf = FitAgainst(fit.predictions[0], test[0], col);
+    r.truth_bf = FitAgainst(fit.predictions[0], data.truth[L.Index(p, 0, nr - 1)], col);
+    r.freq = ModelYamlValue(fit.model_yaml, "tremor_frequency");
+    const double l1 = ModelYamlValue(fit.model_yaml, "lambda1");
+    const double l2 = ModelYamlValue(fit.model_yaml, "lambda2");
+    // The tremor term d enters the output as d / A_P (tremor_arx.h): its angle amplitude
+    // is |λ| / |A_P(e^{jωT})|, ω = 2π f.
+    const std::vector<double> arx_a = ModelYamlList(fit.model_yaml, "a");
+    const double T = test[0].time[1] - test[0].time[0];
+    std::complex<double> A(1.0, 0.0);
+    for (std::size_t i = 0; i < arx_a.size(); ++i) {
+      A += arx_a[i] * std::polar(1.0, -2.0 * M_PI * r.freq * T * static_cast<double>(i + 1));
+    }
+    r.amp = std::hypot(l1, l2) / std::abs(A);
+    // Planted tremor: frequency from the participant's model; its angle amplitude from
+    // the noiseless output with and without the tremor torque (√2 · RMS of the
+    // difference).
+    const sim::ModelParams& m = data.study.items[L.Index(p, 0, 0)].scenario.model;
+    r.freq_true = m.mechanisms.tremor.enabled ? m.mechanisms.tremor.frequency_hz : NAN;
+    const Trial& tr0 = data.measured[L.Index(p, 0, 0)];
+    const Json amp = CachedJson(
+        ctx,
+        {"tremor-amplitude", data.study.source_text, ReadFile(data.study.scenario_path),
+         std::to_string(ctx->seed), std::to_string(p), TrialHash(tr0), col},
+        [&] {
+          sim::ModelParams quiet = m;
+          quiet.mechanisms.tremor.enabled = false;
+          const Trial with = identification::fullmodel::SimulateLike(m, tr0, 1e-6);
+          const Trial without = identification::fullmodel::SimulateLike(quiet, tr0, 1e-6);
+          double ss = 0.0;
+          const auto& a = with.Column(col);
+          const auto& b = without.Column(col);
+          for (std::size_t i = 0; i < a.size(); ++i) ss += (a[i] - b[i]) * (a[i] - b[i]);
+          return Json(std::sqrt(2.0 * ss / std::max<std::size_t>(1, a.size())));
+        });
+    r.amp_true = amp.IsNumber() ? amp.AsNumber() : NAN;
+    ctx->progress->Done(kTremorParticipantWeight, "tremor wrist: ARX order sweeps");
+  });
   SectionResult out;
   std::string md = "## Tremor wrist (paper 001 Table 5)\n\n";
   md += "Study `" + data.study.name + "`: " + std::to_string(np) + " participant(s) × " +
@@ -529,7 +553,7 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
   const int nm = static_cast<int>(methods.size());
   std::vector<std::vector<FitOutput>> fits(static_cast<std::size_t>(np),
                                            std::vector<FitOutput>(static_cast<std::size_t>(nm)));
-  ParallelFor(static_cast<std::size_t>(np) * nm, ctx->threads, "shoulder fit", [&](std::size_t i) {
+  ctx->loop->Run("shoulder fit", static_cast<std::size_t>(np) * nm, [&](std::size_t i) {
     const int p = static_cast<int>(i) / nm, m = static_cast<int>(i) % nm;
     const std::vector<Trial> train = {data.measured[L.Index(p, 0, 0)]};
     const std::vector<Trial> test = {data.measured[L.Index(p, 0, 1)]};
@@ -622,7 +646,8 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
     ax.title = "Shoulder EKF parameter trajectories, participant 1 (paper 003)";
     ax.x_label = "time s";
     ax.y_label = "estimate / final estimate";
-    render::WriteLinePlotPng(Dir(ctx->plots_dir, "shoulder_ekf_parameters.png"), ax, series);
+    if (ctx->write_outputs)
+      render::WriteLinePlotPng(Dir(ctx->plots_dir, "shoulder_ekf_parameters.png"), ax, series);
     md += "\n![EKF parameter trajectories](plots/shoulder_ekf_parameters.png)\n\n";
   }
   out.json.Set("ekf", ekf);
@@ -666,19 +691,27 @@ SectionResult RunReaching(const BenchmarkSection& section, SectionContext* ctx) 
   const std::string path = ctx->quick ? section.quick_study_path : section.study_path;
   const Scenario sc = LoadScenario(path);
   if (!sc.reaching) throw std::runtime_error(path + ": stimulation: reaching needs type reaching");
-  const auto t0 = std::chrono::steady_clock::now();
-  std::vector<Trial> trials = sim::SimulateReaching(sc.model, *sc.reaching, {});
-  ctx->timing->Add("simulation",
-                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  ctx->trials_simulated += static_cast<int>(trials.size());
-  for (auto& t : trials) {
-    t.metadata["trial_hash"] = Fnv1a64Hex(FormatTrialCsv(t));
-  }
-  ctx->progress->Done(0.2 * kReachingWeight, "reaching trials");
+  // The reaches, simulated once (on one rank of a job) and cached like a study's trials.
+  std::vector<Trial> trials;
+  ctx->loop->Run("reaching trials", 1, [&](std::size_t) {
+    const Json cached =
+        CachedJson(ctx, {"reaching-trials", sc.source_text, std::to_string(ctx->seed)}, [&] {
+          const auto t0 = std::chrono::steady_clock::now();
+          std::vector<Trial> made = sim::SimulateReaching(sc.model, *sc.reaching, {});
+          ctx->timing->Add(
+              "simulation",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+          ctx->trials_simulated += static_cast<int>(made.size());
+          for (auto& t : made) t.metadata["trial_hash"] = Fnv1a64Hex(FormatTrialCsv(t));
+          return TrialsToJson(made);
+        });
+    trials = TrialsFromJson(cached);
+    ctx->progress->Done(0.2 * kReachingWeight, "reaching trials");
+  });
   const std::vector<std::string>& methods = section.methods;
   const int nm = static_cast<int>(methods.size());
   std::vector<FitOutput> fits(static_cast<std::size_t>(nm));
-  ParallelFor(static_cast<std::size_t>(nm), ctx->threads, "reaching fit", [&](std::size_t m) {
+  ctx->loop->Run("reaching fit", static_cast<std::size_t>(nm), [&](std::size_t m) {
     fits[m] = ctx->fits->Run(methods[m], trials, {}, section.options);
     ctx->progress->Done(0.8 * kReachingWeight / nm, "reaching: inverse-dynamics LOOCV");
   });
@@ -728,7 +761,9 @@ SectionResult RunReaching(const BenchmarkSection& section, SectionContext* ctx) 
   ax.title = "Reaching LOOCV normalised RMS torque error (1 = parametric, 2 = GP, 3 = semiparam.)";
   ax.y_label = "RMS / max |tau|";
   ax.width_px = 1000;
-  render::WriteBoxPlotPng(Dir(ctx->plots_dir, "reaching_loocv.png"), ax, labels, samples, colours);
+  if (ctx->write_outputs)
+    render::WriteBoxPlotPng(Dir(ctx->plots_dir, "reaching_loocv.png"), ax, labels, samples,
+                            colours);
   md += "\n![reaching LOOCV](plots/reaching_loocv.png)\n\n";
   Json findings = Json::Array();
   int best = 0;

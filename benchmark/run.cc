@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <stdexcept>
 #include <thread>
 
@@ -76,10 +77,20 @@ std::vector<double> ModelYamlList(const std::string& model_yaml, const std::stri
 
 StudyTrials SectionStudy(const BenchmarkSection& section, SectionContext* ctx) {
   const std::string& path = ctx->quick ? section.quick_study_path : section.study_path;
-  StudyTrials data = GenerateStudy(path, ctx->seed, ctx->cache_dir + "/trials", ctx->threads,
+  StudyTrials data = GenerateStudy(path, ctx->seed, ctx->cache_dir + "/trials", *ctx->loop,
                                    ctx->progress, ctx->timing);
   ctx->trials_simulated += data.simulated;
   return data;
+}
+
+Json CachedJson(SectionContext* ctx, const std::vector<std::string>& key,
+                const std::function<Json()>& compute) {
+  Json value;
+  if (ctx->fits->Load(key, &value)) return value;
+  value = compute();
+  ctx->fits->Store(key, value);
+  // Read back through the cache's text, so a fresh and a cached run see the same numbers.
+  return Json::Parse(value.Dump(0));
 }
 
 StudyLayout LayoutOf(const Study& study) {
@@ -106,18 +117,62 @@ std::string FindingLine(const Json& f) {
          "** (" + f.Find("margin")->AsString() + ").\n";
 }
 
+/// The ranks of a job exchange results through DIR/cache: every rank must see the same directory
+/// (a shared file system). Rank 0 writes a token there; the others read it back.
+void CheckSharedDirectory(cluster::Cluster& job, const std::string& dir) {
+  const std::string token_path = dir + "/.ranks-token";
+  std::string token;
+  if (job.is_root()) {
+    token = Fnv1a64Hex(dir +
+                       std::to_string(std::chrono::steady_clock::now().time_since_epoch().count()));
+    WriteFileAtomic(token_path, token);
+  }
+  token = job.Broadcast(token);
+  bool seen = false;
+  try {
+    seen = ReadFile(token_path) == token;
+  } catch (const std::exception&) {
+    seen = false;
+  }
+  const std::vector<std::string> all = job.Gather(seen ? "1" : "0");
+  std::string missing;
+  for (std::size_t r = 0; r < all.size(); ++r) {
+    if (all[r] != "1") missing += (missing.empty() ? "" : ", ") + std::to_string(r);
+  }
+  missing = job.Broadcast(missing);
+  if (!missing.empty()) {
+    throw cluster::CollectiveError(dir + ": not shared with MPI rank(s) " + missing +
+                                   " (the ranks exchange results through --out DIR: put it on a "
+                                   "file system every node mounts)");
+  }
+}
+
 BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
-  const int threads = options.threads > 0
-                          ? options.threads
+  cluster::Cluster* job = options.cluster;
+  const bool distributed = job != nullptr && job->size() > 1;
+  const bool root = job == nullptr || job->is_root();
+  const int threads = options.threads > 0 ? options.threads
+                      : distributed
+                          ? 1
                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   MakeDirs(options.out_dir + "/plots");
   MakeDirs(options.out_dir + "/cache");
+  if (distributed) CheckSharedDirectory(*job, options.out_dir + "/cache");
   std::vector<identification::MethodEntry> methods = identification::BuiltinMethods();
   Timing timing_by_kind;
   FitRunner fits(options.out_dir + "/cache/fits", methods, &timing_by_kind);
-  Progress progress(options.progress);
+  Progress progress(root ? options.progress : nullptr);
+  WorkLoop loop(threads, job);
+  loop.InjectFault(options.fail_item);
+  // On a job, each item is counted where it ran (progress: on rank 0 when the replay reads it).
+  loop.OnPhase([&](WorkLoop::Phase phase) {
+    progress.Mute(phase == WorkLoop::Phase::kDistribute);
+    fits.SetCounting(phase != WorkLoop::Phase::kReplay);
+  });
   SectionContext ctx;
+  ctx.loop = &loop;
+  ctx.write_outputs = root;
   ctx.spec = &spec;
   ctx.quick = options.quick;
   ctx.threads = threads;
@@ -172,6 +227,7 @@ BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions&
   results.Set("mode", options.quick ? "quick" : "default");
   results.Set("seed", static_cast<double>(options.seed));
   results.Set("threads", threads);
+  results.Set("ranks", job == nullptr ? 1 : job->size());
   std::string md = "# fesim benchmark: " + spec.name + (options.quick ? " (quick)" : "") + "\n\n";
   md +=
       "Every identifier of papers 000–004 fitted to virtual trials of a cohort whose ground "
@@ -205,6 +261,35 @@ BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions&
   run("reaching", spec.reaching, RunReaching);
   results.Set("sections", sections);
 
+  // Work counters of every rank, summed on rank 0.
+  int trials_simulated = ctx.trials_simulated, fits_run = fits.fits_run(),
+      fits_cached = fits.fits_cached();
+  std::map<std::string, double> by_kind = timing_by_kind.Totals();
+  if (distributed) {
+    Json mine = Json::Object();
+    mine.Set("trials_simulated", trials_simulated)
+        .Set("fits_run", fits_run)
+        .Set("fits_cached", fits_cached);
+    Json kinds = Json::Object();
+    for (const auto& [what, sec] : by_kind) kinds.Set(what, sec);
+    mine.Set("by_kind", kinds);
+    const std::vector<std::string> all = job->Gather(mine.Dump(0));
+    if (root) {
+      trials_simulated = fits_run = fits_cached = 0;
+      by_kind.clear();
+      for (const auto& text : all) {
+        const Json j = Json::Parse(text, "rank counters");
+        trials_simulated += static_cast<int>(j.Find("trials_simulated")->AsNumber());
+        fits_run += static_cast<int>(j.Find("fits_run")->AsNumber());
+        fits_cached += static_cast<int>(j.Find("fits_cached")->AsNumber());
+        const Json* k = j.Find("by_kind");
+        for (std::size_t q = 0; q < k->Keys().size(); ++q) {
+          by_kind[k->Keys()[q]] += k->Items()[q].AsNumber();
+        }
+      }
+    }
+  }
+
   // Summary of the findings first, then the sections.
   md +=
       "## Findings\n\n| section | paper's finding | on the virtual cohort | margin |\n"
@@ -233,26 +318,29 @@ BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions&
   }
   md += "| **total** | **" + Fixed(wall, 1) + "** |\n\n";
   md +=
-      "By kind of work in this run (thread-seconds summed over the worker threads; cached work "
-      "costs nothing):\n\n| work | s |\n|---|---|\n";
+      "By kind of work in this run (thread-seconds summed over the worker threads and ranks; "
+      "cached work costs nothing):\n\n| work | s |\n|---|---|\n";
   Json jk = Json::Object();
-  for (const auto& [what, s] : timing_by_kind.Totals()) {
+  for (const auto& [what, s] : by_kind) {
     md += "| " + what + " | " + Fixed(s, 1) + " |\n";
     jk.Set(what, s);
   }
   md += "\n";
   results.Set("thread_seconds_by_kind", jk);
-  md += std::to_string(ctx.trials_simulated) + " trials simulated, " +
-        std::to_string(fits.fits_run()) + " fits run, " + std::to_string(fits.fits_cached()) +
+  md += std::to_string(trials_simulated) + " trials simulated, " + std::to_string(fits_run) +
+        " fits run, " + std::to_string(fits_cached) +
         " fits reused from `cache/` (cached fits keep the wall times of the run that made them); " +
+        (distributed ? std::to_string(job->size()) + " MPI ranks × " : std::string()) +
         std::to_string(threads) + " threads; fesim " + FESIM_VERSION + ".\n";
   jt.Set("total", wall);
   results.Set("wall_s", jt);
-  results.Set("trials_simulated", ctx.trials_simulated);
-  results.Set("fits_run", fits.fits_run());
-  results.Set("fits_cached", fits.fits_cached());
-  WriteFileAtomic(options.out_dir + "/results.json", results.Dump());
-  WriteFileAtomic(options.out_dir + "/report.md", md);
+  results.Set("trials_simulated", trials_simulated);
+  results.Set("fits_run", fits_run);
+  results.Set("fits_cached", fits_cached);
+  if (root) {
+    WriteFileAtomic(options.out_dir + "/results.json", results.Dump());
+    WriteFileAtomic(options.out_dir + "/report.md", md);
+  }
   BenchmarkOutcome out;
   out.results = std::move(results);
   out.report = std::move(md);

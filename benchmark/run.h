@@ -26,6 +26,7 @@
 #include <functional>
 #include <string>
 
+#include "cluster/cluster.h"
 #include "scenarios/benchmark_spec.h"
 #include "scenarios/json.h"
 
@@ -38,6 +39,12 @@ struct BenchmarkOptions {
   std::uint64_t seed = 1;  ///< sensor-noise seed of every study.
   /// Progress (fraction 0–1 and a label with the estimated time left); may be empty.
   std::function<void(double, const std::string&)> progress;
+  /// The MPI job the run is spread over (issue 9); null or one rank: this process's threads.
+  /// On a job every rank calls RunBenchmark; rank 0 writes report, results and plots; the
+  /// ranks share DIR (and its cache) through the file system; `threads` is per rank (0 = 1).
+  cluster::Cluster* cluster = nullptr;
+  /// Fault injection for the failure-handling tests: the work item "<label> <index>" fails.
+  std::string fail_item;
 };
 
 struct BenchmarkOutcome {
@@ -46,7 +53,8 @@ struct BenchmarkOutcome {
   double wall_s = 0.0;
 };
 
-/// Runs the benchmark and writes report.md, results.json and the plots atomically.
+/// Runs the benchmark and writes report.md, results.json and the plots atomically. Throws
+/// WorkItemsFailed (work.h) when work items failed; what finished is cached for a rerun.
 BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions& options);
 
 }  // namespace fesim::benchmark

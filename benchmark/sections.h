@@ -1,6 +1,7 @@
 // The sections of `fesim benchmark` (see run.h); internal to benchmark/.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -21,8 +22,17 @@ struct SectionContext {
   FitRunner* fits = nullptr;
   Progress* progress = nullptr;
   Timing* timing = nullptr;
+  /// Where loops of independent items run (threads, or MPI ranks with a replay: work.h).
+  const WorkLoop* loop = nullptr;
+  /// False on the MPI ranks other than 0: they compute, rank 0 writes the plots and reports.
+  bool write_outputs = true;
   int trials_simulated = 0;  ///< summed by the sections.
 };
+
+/// `compute()`'s result, or the cached one from an earlier run (or another MPI rank) under
+/// `key` in ctx->fits' cache. For expensive work inside WorkLoop items that is not a fit.
+Json CachedJson(SectionContext* ctx, const std::vector<std::string>& key,
+                const std::function<Json()>& compute);
 
 /// A section's figures (results.json) and its Markdown (report.md).
 struct SectionResult {

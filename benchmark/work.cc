@@ -1,6 +1,7 @@
 #include "benchmark/work.h"
 
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -8,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <exception>
+#include <memory>
 #include <stdexcept>
 #include <thread>
 
@@ -91,39 +93,6 @@ std::string HashAndFormat(Trial* t) {
 
 /// Predictions as JSON for the fit cache: unlike the trial CSV reader, which rejects angles
 /// beyond a full turn as unit errors, JSON keeps what a diverging model predicted.
-Json PredictionsToJson(const std::vector<Trial>& predictions) {
-  Json all = Json::Array();
-  for (const Trial& t : predictions) {
-    Json meta = Json::Object();
-    for (const auto& [k, v] : t.metadata) meta.Set(k, v);
-    Json cols = Json::Object();
-    for (std::size_t k = 0; k < t.names.size(); ++k) cols.Set(t.names[k], Json(t.columns[k]));
-    Json j = Json::Object();
-    j.Set("metadata", meta).Set("time", Json(t.time)).Set("columns", cols);
-    all.Push(j);
-  }
-  return all;
-}
-
-std::vector<Trial> PredictionsFromJson(const Json& all) {
-  std::vector<Trial> out;
-  for (const Json& j : all.Items()) {
-    Trial t;
-    const Json& meta = *j.Find("metadata");
-    for (std::size_t k = 0; k < meta.Keys().size(); ++k) {
-      t.metadata[meta.Keys()[k]] = meta.Items()[k].AsString();
-    }
-    for (const Json& v : j.Find("time")->Items()) t.time.push_back(v.AsNumber());
-    const Json& cols = *j.Find("columns");
-    for (std::size_t k = 0; k < cols.Keys().size(); ++k) {
-      std::vector<double> c;
-      for (const Json& v : cols.Items()[k].Items()) c.push_back(v.AsNumber());
-      t.AddColumn(cols.Keys()[k], std::move(c));
-    }
-    out.push_back(std::move(t));
-  }
-  return out;
-}
 
 }  // namespace
 
@@ -137,15 +106,112 @@ void MakeDirs(const std::string& path) {
   }
 }
 
+namespace {
+
+std::string FailureMessage(const std::vector<FailedItem>& items) {
+  std::string m;
+  if (items.size() > 1) m = std::to_string(items.size()) + " work items failed: ";
+  for (std::size_t k = 0; k < items.size(); ++k) {
+    if (k > 0) m += "; ";
+    m += items[k].label + " " + std::to_string(items[k].index);
+    if (items[k].rank > 0) m += " (rank " + std::to_string(items[k].rank) + ")";
+    m += ": " + items[k].what;
+  }
+  return m;
+}
+
+// Failed items travel from rank 0 to the others as lines "index\trank\twhat" (what is one line).
+std::string EncodeFailures(const std::vector<FailedItem>& items) {
+  std::string s;
+  for (const auto& f : items) {
+    std::string what = f.what;
+    std::replace(what.begin(), what.end(), '\n', ' ');
+    s += std::to_string(f.index) + "\t" + std::to_string(f.rank) + "\t" + what + "\n";
+  }
+  return s;
+}
+
+std::vector<FailedItem> DecodeFailures(const std::string& label, const std::string& s) {
+  std::vector<FailedItem> out;
+  std::size_t pos = 0;
+  while (pos < s.size()) {
+    const std::size_t end = s.find('\n', pos);
+    const std::string line = s.substr(pos, end - pos);
+    pos = end == std::string::npos ? s.size() : end + 1;
+    const std::size_t t1 = line.find('\t'), t2 = line.find('\t', t1 + 1);
+    FailedItem f;
+    f.label = label;
+    f.index = std::stoul(line.substr(0, t1));
+    f.rank = std::stoi(line.substr(t1 + 1, t2 - t1 - 1));
+    f.what = line.substr(t2 + 1);
+    out.push_back(std::move(f));
+  }
+  return out;
+}
+
+}  // namespace
+
+WorkItemsFailed::WorkItemsFailed(std::vector<FailedItem> items)
+    : cluster::CollectiveError(FailureMessage(items)), items_(std::move(items)) {}
+
+WorkLoop::WorkLoop(int threads, cluster::Cluster* cluster)
+    : threads_(std::max(threads, 1)), cluster_(cluster) {}
+
+void WorkLoop::Run(const std::string& label, std::size_t n,
+                   const std::function<void(std::size_t)>& fn, int threads) const {
+  const auto item = [&](std::size_t i) -> std::string {
+    if (!fault_.empty() && fault_ == label + " " + std::to_string(i)) {
+      throw std::runtime_error("injected fault");
+    }
+    fn(i);
+    return {};
+  };
+  const int local = threads > 0 ? threads : threads_;
+  std::vector<FailedItem> failed;
+  if (!distributed()) {
+    const std::unique_ptr<cluster::Cluster> single = cluster::Cluster::Single();
+    const auto outcomes = single->Map(n, item, local);
+    for (std::size_t i = 0; i < outcomes.size(); ++i) {
+      if (!outcomes[i].ok) failed.push_back({label, i, 0, outcomes[i].payload});
+    }
+    if (!failed.empty()) throw WorkItemsFailed(std::move(failed));
+    return;
+  }
+  // MPI: the items once over the ranks (each caches its result) …
+  const auto phase = [&](Phase p) {
+    if (phase_hook_) phase_hook_(p);
+  };
+  cluster::Cluster& c = *cluster_;
+  phase(Phase::kDistribute);
+  std::vector<cluster::ItemOutcome> outcomes;
+  try {
+    outcomes = c.Map(n, item);
+  } catch (...) {
+    phase(Phase::kDone);
+    throw;
+  }
+  for (std::size_t i = 0; i < outcomes.size(); ++i) {
+    if (!outcomes[i].ok) failed.push_back({label, i, outcomes[i].rank, outcomes[i].payload});
+  }
+  failed = DecodeFailures(label, c.Broadcast(EncodeFailures(failed)));
+  if (!failed.empty()) {
+    phase(Phase::kDone);
+    throw WorkItemsFailed(std::move(failed));
+  }
+  // … then every rank reads them all back, so every rank holds the same state.
+  phase(Phase::kReplay);
+  try {
+    fesim::ParallelFor(n, threads_, fn);
+  } catch (...) {
+    phase(Phase::kDone);
+    throw;
+  }
+  phase(Phase::kDone);
+}
+
 void ParallelFor(std::size_t n, int threads, const std::string& label,
                  const std::function<void(std::size_t)>& fn) {
-  fesim::ParallelFor(n, threads, [&](std::size_t i) {
-    try {
-      fn(i);
-    } catch (const std::exception& e) {
-      throw std::runtime_error(label + " " + std::to_string(i) + ": " + e.what());
-    }
-  });
+  WorkLoop(threads, nullptr).Run(label, n, fn);
 }
 
 Progress::Progress(std::function<void(double, const std::string&)> report)
@@ -156,8 +222,14 @@ void Progress::Plan(double weight) {
   planned_ += weight;
 }
 
+void Progress::Mute(bool muted) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  muted_ = muted;
+}
+
 void Progress::Done(double weight, const std::string& stage) {
   std::lock_guard<std::mutex> lock(mutex_);
+  if (muted_) return;
   done_ += weight;
   if (!report_) return;
   // Below 1 until the caller reports completion (the plan is an estimate).
@@ -187,6 +259,12 @@ std::map<std::string, double> Timing::Totals() const {
 StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
                           const std::string& cache_dir, int threads, Progress* progress,
                           Timing* timing) {
+  return GenerateStudy(study_path, seed, cache_dir, WorkLoop(threads, nullptr), progress, timing);
+}
+
+StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
+                          const std::string& cache_dir, const WorkLoop& loop, Progress* progress,
+                          Timing* timing) {
   StudyTrials out;
   out.study = LoadStudy(study_path, seed);
   const Study& st = out.study;
@@ -203,7 +281,7 @@ StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
   }
   std::mutex write_mutex;
   std::atomic<int> simulated{0};
-  ParallelFor(n, threads, st.name + " trial", [&](std::size_t i) {
+  loop.Run(st.name + " trial", n, [&](std::size_t i) {
     const StudyItem& item = st.items[i];
     const std::string stem = dir + "/" + item.file_stem;
     if (FileExists(stem + ".csv") && FileExists(stem + "_truth.csv")) {
@@ -289,11 +367,11 @@ FitOutput FitRunner::Run(const std::string& method, const std::vector<Trial>& tr
   if (FileExists(dir + "/metrics.json")) {
     out.metrics = Json::Parse(ReadFile(dir + "/metrics.json"), dir + "/metrics.json");
     out.model_yaml = ReadFile(dir + "/model.yaml");
-    out.predictions = PredictionsFromJson(
-        Json::Parse(ReadFile(dir + "/predictions.json"), dir + "/predictions.json"));
+    out.predictions =
+        TrialsFromJson(Json::Parse(ReadFile(dir + "/predictions.json"), dir + "/predictions.json"));
     out.cached = true;
     std::lock_guard<std::mutex> lock(mutex_);
-    ++fits_cached_;
+    if (counting_) ++fits_cached_;
     return out;
   }
   std::vector<Trial> tr = train;
@@ -307,15 +385,15 @@ FitOutput FitRunner::Run(const std::string& method, const std::vector<Trial>& tr
   out.model_yaml = std::move(r.model_yaml);
   // Round-trip through the cache's text so a fresh and a cached run read the same values
   // (non-finite numbers become NaN either way).
-  const std::string predictions = PredictionsToJson(r.predictions).Dump(0);
-  out.predictions = PredictionsFromJson(Json::Parse(predictions));
+  const std::string predictions = TrialsToJson(r.predictions).Dump(0);
+  out.predictions = TrialsFromJson(Json::Parse(predictions));
   out.metrics = Json::Parse(r.metrics.Dump(0));
   std::lock_guard<std::mutex> lock(mutex_);
   MakeDirs(dir);
   WriteFileAtomic(dir + "/model.yaml", out.model_yaml);
   WriteFileAtomic(dir + "/predictions.json", predictions);
   WriteFileAtomic(dir + "/metrics.json", out.metrics.Dump(0));  // last: marks the fit complete
-  ++fits_run_;
+  if (counting_) ++fits_run_;
   return out;
 }
 
@@ -339,6 +417,40 @@ std::vector<double> Resample(const Trial& source, const std::string& column,
     while (j > 0 && t[j] > x) --j;
     const double w = std::clamp((x - t[j]) / (t[j + 1] - t[j]), 0.0, 1.0);
     out[i] = (1.0 - w) * y[j] + w * y[j + 1];
+  }
+  return out;
+}
+
+Json TrialsToJson(const std::vector<Trial>& predictions) {
+  Json all = Json::Array();
+  for (const Trial& t : predictions) {
+    Json meta = Json::Object();
+    for (const auto& [k, v] : t.metadata) meta.Set(k, v);
+    Json cols = Json::Object();
+    for (std::size_t k = 0; k < t.names.size(); ++k) cols.Set(t.names[k], Json(t.columns[k]));
+    Json j = Json::Object();
+    j.Set("metadata", meta).Set("time", Json(t.time)).Set("columns", cols);
+    all.Push(j);
+  }
+  return all;
+}
+
+std::vector<Trial> TrialsFromJson(const Json& all) {
+  std::vector<Trial> out;
+  for (const Json& j : all.Items()) {
+    Trial t;
+    const Json& meta = *j.Find("metadata");
+    for (std::size_t k = 0; k < meta.Keys().size(); ++k) {
+      t.metadata[meta.Keys()[k]] = meta.Items()[k].AsString();
+    }
+    for (const Json& v : j.Find("time")->Items()) t.time.push_back(v.AsNumber());
+    const Json& cols = *j.Find("columns");
+    for (std::size_t k = 0; k < cols.Keys().size(); ++k) {
+      std::vector<double> c;
+      for (const Json& v : cols.Items()[k].Items()) c.push_back(v.AsNumber());
+      t.AddColumn(cols.Keys()[k], std::move(c));
+    }
+    out.push_back(std::move(t));
   }
   return out;
 }

@@ -3,14 +3,17 @@
 // where it stopped), a parallel loop, and a progress bar with an estimate of the time left.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <functional>
 #include <map>
 #include <mutex>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "cluster/cluster.h"
 #include "identification/method.h"
 #include "scenarios/json.h"
 #include "scenarios/study.h"
@@ -21,9 +24,67 @@ namespace fesim::benchmark {
 /// Creates a directory and its parents; throws std::runtime_error naming the path on failure.
 void MakeDirs(const std::string& path);
 
-/// Runs fn(0) … fn(n − 1) on `threads` threads (dynamic assignment). Every index runs even when
-/// some throw; afterwards the first failure (lowest index) is rethrown as std::runtime_error
-/// "<label> <index>: <what>".
+/// One failed work item of a loop.
+struct FailedItem {
+  std::string label;
+  std::size_t index = 0;
+  int rank = 0;  ///< the MPI rank that ran it (0 on one process).
+  std::string what;
+};
+
+/// Thrown (on every rank) when items of a WorkLoop failed, after every other item finished. The
+/// message names each failed item ("<label> <index>: <what>", lowest index first; with the rank
+/// on an MPI job). Items that finished are in the benchmark's cache, so a rerun does the failed
+/// ones (and what had not started yet) only.
+class WorkItemsFailed : public cluster::CollectiveError {
+ public:
+  explicit WorkItemsFailed(std::vector<FailedItem> items);
+  const std::vector<FailedItem>& items() const { return items_; }
+
+ private:
+  std::vector<FailedItem> items_;
+};
+
+/// Where the benchmark's loops of independent work items run (issue 9).
+///
+/// One process: fn(i) for every i on `threads` threads (dynamic assignment).
+/// An MPI job (cluster with more than one rank): every item runs once on some rank (dynamically
+/// balanced by cluster::Cluster::Map), leaving its result in the benchmark's cache; then, because
+/// the sections' state must be the same on every rank, every rank runs fn(i) for all i again on
+/// its threads: a replay that reads the cache. fn must therefore cache everything expensive it
+/// computes (FitRunner, GenerateStudy, CachedJson do). The phase hook is told when the
+/// distribution, the replay and the loop start/end, so that counters and progress count each
+/// item once.
+class WorkLoop {
+ public:
+  /// `cluster` may be null (one process).
+  WorkLoop(int threads, cluster::Cluster* cluster);
+
+  /// Item "<label> <index>" throws std::runtime_error("injected fault") instead of running: the
+  /// fault injection of the failure-handling tests (`fesim benchmark`'s FESIM_FAIL_ITEM).
+  void InjectFault(std::string item) { fault_ = std::move(item); }
+  /// Phases of a loop on an MPI job, told to the hook set by OnPhase.
+  enum class Phase { kDistribute, kReplay, kDone };
+  void OnPhase(std::function<void(Phase)> hook) { phase_hook_ = std::move(hook); }
+
+  /// Runs the loop; throws WorkItemsFailed when items failed. `threads` > 0 overrides the loop's
+  /// thread count on one process (e.g. 1 when each item is parallel inside).
+  void Run(const std::string& label, std::size_t n, const std::function<void(std::size_t)>& fn,
+           int threads = 0) const;
+
+  int threads() const { return threads_; }
+  /// True on an MPI job with more than one rank.
+  bool distributed() const { return cluster_ != nullptr && cluster_->size() > 1; }
+  bool is_root() const { return cluster_ == nullptr || cluster_->is_root(); }
+
+ private:
+  int threads_;
+  cluster::Cluster* cluster_;
+  std::string fault_;
+  std::function<void(Phase)> phase_hook_;
+};
+
+/// WorkLoop(threads, nullptr).Run(label, n, fn).
 void ParallelFor(std::size_t n, int threads, const std::string& label,
                  const std::function<void(std::size_t)>& fn);
 
@@ -36,11 +97,14 @@ class Progress {
   void Plan(double weight);
   /// Marks `weight` of the planned work done; `stage` labels the bar.
   void Done(double weight, const std::string& stage);
+  /// While muted, Done() counts nothing (an MPI replay of work already counted).
+  void Mute(bool muted);
 
  private:
   std::function<void(double, const std::string&)> report_;
   std::mutex mutex_;
   double planned_ = 0.0, done_ = 0.0;
+  bool muted_ = false;
   std::chrono::steady_clock::time_point start_;
 };
 
@@ -69,6 +133,10 @@ struct StudyTrials {
 /// metadata `trial_hash` (hash of the content before it was added). Files are written
 /// atomically, so an interrupted run leaves complete trials or none.
 /// `timing` (may be null) receives the simulation time under "simulation".
+StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
+                          const std::string& cache_dir, const WorkLoop& loop, Progress* progress,
+                          Timing* timing = nullptr);
+/// The same on `threads` threads of this process.
 StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
                           const std::string& cache_dir, int threads, Progress* progress,
                           Timing* timing = nullptr);
@@ -102,6 +170,8 @@ class FitRunner {
 
   int fits_run() const { return fits_run_; }
   int fits_cached() const { return fits_cached_; }
+  /// While not counting (an MPI replay), fits_run/fits_cached stay as they are.
+  void SetCounting(bool counting) { counting_ = counting; }
 
  private:
   std::string Key(const std::vector<std::string>& parts) const;
@@ -110,7 +180,13 @@ class FitRunner {
   Timing* timing_ = nullptr;
   std::mutex mutex_;
   int fits_run_ = 0, fits_cached_ = 0;
+  std::atomic<bool> counting_{true};
 };
+
+/// Trials as JSON (metadata, time, columns; non-finite values as null) and back: the cache's
+/// format for predictions and other trials.
+Json TrialsToJson(const std::vector<Trial>& trials);
+std::vector<Trial> TrialsFromJson(const Json& all);
 
 /// The trial's `trial_hash` metadata (throws std::logic_error when absent).
 const std::string& TrialHash(const Trial& trial);

@@ -11,7 +11,7 @@
 namespace fesim::benchmark {
 namespace {
 
-TEST(ParallelFor, RunsEveryIndexAndReportsTheFirstFailure) {
+TEST(ParallelFor, RunsEveryIndexAndReportsEveryFailure) {
   std::vector<std::atomic<int>> hits(50);
   ParallelFor(hits.size(), 3, "item", [&](std::size_t i) { ++hits[i]; });
   for (const auto& h : hits) EXPECT_EQ(h.load(), 1);
@@ -22,10 +22,36 @@ TEST(ParallelFor, RunsEveryIndexAndReportsTheFirstFailure) {
       if (i == 7 || i == 13) throw std::runtime_error("boom " + std::to_string(i));
     });
     FAIL() << "no exception";
-  } catch (const std::runtime_error& e) {
-    EXPECT_STREQ(e.what(), "fit 7: boom 7");
+  } catch (const WorkItemsFailed& e) {
+    EXPECT_STREQ(e.what(), "2 work items failed: fit 7: boom 7; fit 13: boom 13");
+    ASSERT_EQ(e.items().size(), 2u);
+    EXPECT_EQ(e.items()[1].index, 13u);
+    EXPECT_EQ(e.items()[1].label, "fit");
   }
   EXPECT_EQ(ran.load(), 20);  // the others still ran
+  // One failure: just its message.
+  try {
+    ParallelFor(5, 2, "trial", [&](std::size_t i) {
+      if (i == 4) throw std::runtime_error("integrator failed");
+    });
+    FAIL() << "no exception";
+  } catch (const WorkItemsFailed& e) {
+    EXPECT_STREQ(e.what(), "trial 4: integrator failed");
+  }
+}
+
+TEST(WorkLoop, InjectedFaultFailsExactlyThatItem) {
+  WorkLoop loop(2, nullptr);
+  loop.InjectFault("fit 3");
+  std::vector<std::atomic<int>> hits(6);
+  try {
+    loop.Run("fit", hits.size(), [&](std::size_t i) { ++hits[i]; });
+    FAIL() << "no exception";
+  } catch (const WorkItemsFailed& e) {
+    EXPECT_STREQ(e.what(), "fit 3: injected fault");
+  }
+  for (std::size_t i = 0; i < hits.size(); ++i) EXPECT_EQ(hits[i].load(), i == 3 ? 0 : 1) << i;
+  loop.Run("other", 4, [&](std::size_t) {});  // other labels unaffected
 }
 
 TEST(Resample, LinearBetweenSamplesNanOutside) {

@@ -1,0 +1,162 @@
+// `fesim simulate|benchmark` as MPI jobs (issue 9): the same bytes / figures as the
+// single-process run whatever the rank count, a failed work item reported by name and redone
+// alone by a rerun. Runs mpirun with --oversubscribe (three ranks on two cores).
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+
+#include "scenarios/json.h"
+#include "scenarios/trial.h"
+
+namespace fesim {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kSrc = FESIM_SOURCE_DIR_PATH;
+
+bool MpiAvailable() {
+#if FESIM_TEST_WITH_MPI
+  return std::system("command -v mpirun >/dev/null 2>&1") == 0;
+#else
+  return false;
+#endif
+}
+
+/// Runs `fesim ARGS` on `ranks` MPI ranks (0: without mpirun); stderr to `err_file`.
+int RunFesim(int ranks, const std::string& args, const std::string& err_file,
+             const std::string& env = "") {
+  std::string cmd = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 " + env + " ";
+  if (ranks > 0) cmd += "mpirun -np " + std::to_string(ranks) + " --oversubscribe ";
+  cmd += std::string(FESIM_BIN_PATH) + " " + args + " >/dev/null 2>" + err_file;
+  return WEXITSTATUS(std::system(cmd.c_str()));
+}
+
+/// results.json without what measures the run rather than the cohort: wall times, thread and
+/// rank counts, work counters, and findings on measured times.
+Json Figures(const Json& j) {
+  if (j.IsObject()) {
+    if (const Json* m = j.Find("measured_time"); m != nullptr && m->AsBool()) return Json();
+    Json out = Json::Object();
+    static const std::set<std::string> kRun = {"threads",          "ranks",
+                                               "fits_run",         "fits_cached",
+                                               "trials_simulated", "thread_seconds_by_kind"};
+    for (std::size_t k = 0; k < j.Keys().size(); ++k) {
+      const std::string& key = j.Keys()[k];
+      if (kRun.count(key) || key.find("wall_s") != std::string::npos) continue;
+      out.Set(key, Figures(j.Items()[k]));
+    }
+    return out;
+  }
+  if (j.IsArray()) {
+    Json out = Json::Array();
+    for (const auto& v : j.Items()) out.Push(Figures(v));
+    return out;
+  }
+  return j;
+}
+
+Json Results(const std::string& dir) {
+  return Json::Parse(ReadFile(dir + "/results.json"), dir + "/results.json");
+}
+
+/// Every regular file under `dir` (relative paths) whose name passes `keep`.
+std::set<std::string> Files(const std::string& dir, bool (*keep)(const std::string&)) {
+  std::set<std::string> out;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    if (!e.is_regular_file()) continue;
+    const std::string rel = fs::relative(e.path(), dir).string();
+    if (keep(rel)) out.insert(rel);
+  }
+  return out;
+}
+
+int CountOf(const std::string& text, const std::string& what) {
+  int n = 0;
+  for (std::size_t p = text.find(what); p != std::string::npos; p = text.find(what, p + 1)) ++n;
+  return n;
+}
+
+TEST(MpiSimulate, StudyBytesDoNotDependOnRanks) {
+  if (!MpiAvailable()) GTEST_SKIP() << "built without MPI or no mpirun";
+  const std::string base = ::testing::TempDir() + "mpi_simulate";
+  fs::remove_all(base);
+  const std::string study = kSrc + "/scenarios/bench_hand_array_quick.yaml";
+  ASSERT_EQ(RunFesim(0, "simulate " + study + " --threads 2 --out " + base + "/one", base + ".e1"),
+            0)
+      << ReadFile(base + ".e1");
+  ASSERT_EQ(RunFesim(3, "simulate " + study + " --out " + base + "/three", base + ".e3"), 0)
+      << ReadFile(base + ".e3");
+  const auto all = [](const std::string&) { return true; };
+  const auto one = Files(base + "/one", all), three = Files(base + "/three", all);
+  EXPECT_EQ(one, three);
+  EXPECT_GE(one.size(), 9u);  // 4 trials × (measured, truth) + manifest
+  for (const auto& f : one) {
+    EXPECT_EQ(ReadFile(base + "/one/" + f), ReadFile(base + "/three/" + f)) << f;
+  }
+}
+
+TEST(MpiBenchmark, QuickStudySameFiguresOnAnyRankCountAndFailedItemRedoneAlone) {
+  if (!MpiAvailable()) GTEST_SKIP() << "built without MPI or no mpirun";
+  const std::string base = ::testing::TempDir() + "mpi_benchmark";
+  fs::remove_all(base);
+  const std::string study = kSrc + "/scenarios/default_study.yaml --quick";
+  // One process, two threads: the reference.
+  ASSERT_EQ(RunFesim(0, "benchmark " + study + " --threads 2 --out " + base + "/one", base + ".e1"),
+            0)
+      << ReadFile(base + ".e1");
+  const Json one = Results(base + "/one");
+  // Two ranks.
+  ASSERT_EQ(RunFesim(2, "benchmark " + study + " --out " + base + "/two", base + ".e2"), 0)
+      << ReadFile(base + ".e2");
+  const Json two = Results(base + "/two");
+  EXPECT_EQ(two.Find("ranks")->AsNumber(), 2);
+  EXPECT_EQ(Figures(one).Dump(), Figures(two).Dump());
+  // The same work, done once: as many trials and fits as the single process.
+  EXPECT_EQ(two.Find("fits_run")->AsNumber(), one.Find("fits_run")->AsNumber());
+  EXPECT_EQ(two.Find("trials_simulated")->AsNumber(), one.Find("trials_simulated")->AsNumber());
+  // Byte-identical trials, fitted models, predictions and plots.
+  const auto artefact = [](const std::string& rel) {
+    return rel.rfind("cache/trials/", 0) == 0 || rel.rfind("plots/", 0) == 0 ||
+           (rel.rfind("cache/fits/", 0) == 0 &&
+            (rel.find("model.yaml") != std::string::npos ||
+             rel.find("predictions.json") != std::string::npos));
+  };
+  const auto files_one = Files(base + "/one", artefact);
+  EXPECT_EQ(files_one, Files(base + "/two", artefact));
+  EXPECT_GT(files_one.size(), 50u);
+  for (const auto& f : files_one) {
+    EXPECT_EQ(ReadFile(base + "/one/" + f), ReadFile(base + "/two/" + f)) << f;
+  }
+
+  // Three ranks, one Hammerstein fit made to fail: reported once, by name, and no report.
+  const std::string three = base + "/three";
+  const int rc = RunFesim(3, "benchmark " + study + " --out " + three, base + ".e3",
+                          "FESIM_FAIL_ITEM='hand_array hammerstein fit 1'");
+  const std::string err = ReadFile(base + ".e3");
+  EXPECT_NE(rc, 0);
+  EXPECT_EQ(CountOf(err, "error: hand_array hammerstein fit 1 (rank "), 1) << err;
+  EXPECT_EQ(CountOf(err, "injected fault"), 1) << err;
+  EXPECT_FALSE(fs::exists(three + "/results.json"));
+  EXPECT_FALSE(fs::exists(three + "/report.md"));
+  // The rerun does that fit again, and the rest of the loop comes from the cache.
+  ASSERT_EQ(RunFesim(3, "benchmark " + study + " --out " + three, base + ".e3b"), 0)
+      << ReadFile(base + ".e3b");
+  const Json rerun = Results(three);
+  const double hammerstein_fits =
+      one.Find("sections")->Find("hand_array")->Find("participants")->AsNumber() *
+      one.Find("sections")->Find("hand_array")->Find("folds")->AsNumber();
+  EXPECT_EQ(rerun.Find("fits_run")->AsNumber(),
+            one.Find("fits_run")->AsNumber() - (hammerstein_fits - 1));
+  EXPECT_EQ(rerun.Find("fits_cached")->AsNumber(), hammerstein_fits - 1);
+  EXPECT_EQ(Figures(one).Dump(), Figures(rerun).Dump());
+}
+
+}  // namespace
+}  // namespace fesim
