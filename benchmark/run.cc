@@ -334,6 +334,20 @@ BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions&
         std::to_string(threads) + " threads; fesim " + FESIM_VERSION + ".\n";
   jt.Set("total", wall);
   results.Set("wall_s", jt);
+  // The loops of independent items: what they cost item by item (the data behind the
+  // scaling estimate of docs/performance.md); the rest of the wall time is serial.
+  Json loops = Json::Array();
+  for (const auto& c : loop.costs()) {
+    Json j = Json::Object();
+    j.Set("label", c.label)
+        .Set("items", static_cast<double>(c.items))
+        .Set("item_s_total", c.item_s_total)
+        .Set("item_s_max", c.item_s_max)
+        .Set("loop_wall_s", c.wall_s)
+        .Set("replay_wall_s", c.replay_s);
+    loops.Push(j);
+  }
+  results.Set("work_loops", loops);
   results.Set("trials_simulated", trials_simulated);
   results.Set("fits_run", fits_run);
   results.Set("fits_cached", fits_cached);

@@ -167,6 +167,24 @@ void WorkLoop::Run(const std::string& label, std::size_t n,
     return {};
   };
   const int local = threads > 0 ? threads : threads_;
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto since = [](std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+  };
+  const auto record = [&](const std::vector<cluster::ItemOutcome>& outcomes, double replay_s) {
+    if (outcomes.empty() && n > 0) return;  // not rank 0
+    LoopCost c;
+    c.label = label;
+    c.items = n;
+    for (const auto& o : outcomes) {
+      c.item_s_total += o.seconds;
+      c.item_s_max = std::max(c.item_s_max, o.seconds);
+    }
+    c.wall_s = since(t0);
+    c.replay_s = replay_s;
+    std::lock_guard<std::mutex> lock(costs_mutex_);
+    costs_.push_back(c);
+  };
   std::vector<FailedItem> failed;
   if (!distributed()) {
     const std::unique_ptr<cluster::Cluster> single = cluster::Cluster::Single();
@@ -175,6 +193,7 @@ void WorkLoop::Run(const std::string& label, std::size_t n,
       if (!outcomes[i].ok) failed.push_back({label, i, 0, outcomes[i].payload});
     }
     if (!failed.empty()) throw WorkItemsFailed(std::move(failed));
+    record(outcomes, 0.0);
     return;
   }
   // MPI: the items once over the ranks (each caches its result) …
@@ -200,6 +219,7 @@ void WorkLoop::Run(const std::string& label, std::size_t n,
   }
   // … then every rank reads them all back, so every rank holds the same state.
   phase(Phase::kReplay);
+  const auto replay_start = std::chrono::steady_clock::now();
   try {
     fesim::ParallelFor(n, threads_, fn);
   } catch (...) {
@@ -207,6 +227,12 @@ void WorkLoop::Run(const std::string& label, std::size_t n,
     throw;
   }
   phase(Phase::kDone);
+  record(outcomes, since(replay_start));
+}
+
+std::vector<WorkLoop::LoopCost> WorkLoop::costs() const {
+  std::lock_guard<std::mutex> lock(costs_mutex_);
+  return costs_;
 }
 
 void ParallelFor(std::size_t n, int threads, const std::string& label,

@@ -72,6 +72,17 @@ class WorkLoop {
   void Run(const std::string& label, std::size_t n, const std::function<void(std::size_t)>& fn,
            int threads = 0) const;
 
+  /// What one Run cost: its items' wall times (where they ran) and the loop's own wall time.
+  struct LoopCost {
+    std::string label;
+    std::size_t items = 0;
+    double item_s_total = 0.0, item_s_max = 0.0;
+    double wall_s = 0.0;    ///< the whole loop, distribution and replay.
+    double replay_s = 0.0;  ///< of which the replay (MPI).
+  };
+  /// Every Run so far, in order (on rank 0 of a job; empty on the others).
+  std::vector<LoopCost> costs() const;
+
   int threads() const { return threads_; }
   /// True on an MPI job with more than one rank.
   bool distributed() const { return cluster_ != nullptr && cluster_->size() > 1; }
@@ -82,6 +93,8 @@ class WorkLoop {
   cluster::Cluster* cluster_;
   std::string fault_;
   std::function<void(Phase)> phase_hook_;
+  mutable std::mutex costs_mutex_;
+  mutable std::vector<LoopCost> costs_;
 };
 
 /// WorkLoop(threads, nullptr).Run(label, n, fn).

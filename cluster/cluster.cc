@@ -24,6 +24,7 @@ namespace {
 ItemOutcome RunItem(const ItemFn& fn, std::size_t i, int rank) {
   ItemOutcome o;
   o.rank = rank;
+  const auto t0 = std::chrono::steady_clock::now();
   try {
     o.payload = fn(i);
     o.ok = true;
@@ -32,17 +33,21 @@ ItemOutcome RunItem(const ItemFn& fn, std::size_t i, int rank) {
   } catch (...) {
     o.payload = "unknown exception";
   }
+  o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return o;
 }
 
 #if FESIM_WITH_MPI
-/// The tags of the epoch-th Map: worker → rank 0 [int64 index][uint8 ok][payload] (index −1 on
+/// The tags of the epoch-th Map: worker → rank 0 [int64 index][uint8 ok][double seconds][payload]
+/// (index −1 on
 /// the first request), and rank 0 → worker the int64 next index (−1 when none is left). Each Map
 /// has its own tags: a worker done with one Map may already ask for work of the next while rank 0
 /// still serves the slower workers of the previous one. Tags stay below 32 767 (the least upper
 /// bound MPI guarantees).
 int ResultTag(std::uint64_t epoch) { return 100 + 2 * static_cast<int>(epoch % 16000); }
 int AssignTag(std::uint64_t epoch) { return ResultTag(epoch) + 1; }
+constexpr std::size_t kSecondsAt = sizeof(std::int64_t) + 1;
+constexpr std::size_t kHeaderBytes = kSecondsAt + sizeof(double);
 
 void Check(int rc, const char* what) {
   if (rc != MPI_SUCCESS) {
@@ -172,7 +177,8 @@ std::vector<ItemOutcome> Cluster::Map(std::size_t n, const ItemFn& fn, int threa
             ItemOutcome o;
             o.rank = status.MPI_SOURCE;
             o.ok = buffer[sizeof index] != 0;
-            o.payload.assign(buffer.begin() + sizeof index + 1, buffer.end());
+            std::memcpy(&o.seconds, buffer.data() + kSecondsAt, sizeof o.seconds);
+            o.payload.assign(buffer.begin() + kHeaderBytes, buffer.end());
             record(static_cast<std::size_t>(index), std::move(o));
           }
           const std::size_t k = next++;
@@ -192,7 +198,7 @@ std::vector<ItemOutcome> Cluster::Map(std::size_t n, const ItemFn& fn, int threa
     return out;
   }
   // Workers: ask for an item (sending the previous one's result), run it, repeat.
-  std::vector<char> message(sizeof(std::int64_t) + 1);
+  std::vector<char> message(kHeaderBytes, 0);
   std::int64_t index = -1;
   std::memcpy(message.data(), &index, sizeof index);
   for (;;) {
@@ -206,10 +212,11 @@ std::vector<ItemOutcome> Cluster::Map(std::size_t n, const ItemFn& fn, int threa
     Wait(&request);
     if (assign < 0) break;
     const ItemOutcome o = RunItem(fn, static_cast<std::size_t>(assign), rank_);
-    message.resize(sizeof assign + 1 + o.payload.size());
+    message.resize(kHeaderBytes + o.payload.size());
     std::memcpy(message.data(), &assign, sizeof assign);
     message[sizeof assign] = o.ok ? 1 : 0;
-    std::copy(o.payload.begin(), o.payload.end(), message.begin() + sizeof assign + 1);
+    std::memcpy(message.data() + kSecondsAt, &o.seconds, sizeof o.seconds);
+    std::copy(o.payload.begin(), o.payload.end(), message.begin() + kHeaderBytes);
   }
   return {};
 #else

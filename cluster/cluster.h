@@ -26,8 +26,9 @@ namespace fesim::cluster {
 /// What happened to one work item.
 struct ItemOutcome {
   bool ok = false;
-  int rank = -1;        ///< the rank that ran it.
-  std::string payload;  ///< fn's result when ok, else the error message.
+  int rank = -1;         ///< the rank that ran it.
+  double seconds = 0.0;  ///< its wall time there.
+  std::string payload;   ///< fn's result when ok, else the error message.
 };
 
 /// An error every rank of a job throws at the same point of the run, with the same message (e.g.
