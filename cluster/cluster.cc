@@ -224,6 +224,48 @@ std::vector<ItemOutcome> Cluster::Map(std::size_t n, const ItemFn& fn, int threa
 #endif
 }
 
+std::vector<ItemOutcome> Cluster::MapAll(std::size_t n, const ItemFn& fn, int threads,
+                                         const std::function<void(std::size_t)>& done) {
+  std::vector<ItemOutcome> out = Map(n, fn, threads, done);
+  if (size_ == 1) return out;
+  // Rank 0 packs [uint8 ok][int32 rank][double seconds][uint64 length][payload] per item.
+  std::string packed;
+  if (rank_ == 0) {
+    for (const auto& o : out) {
+      const std::uint8_t ok = o.ok ? 1 : 0;
+      const std::int32_t rank = o.rank;
+      const std::uint64_t length = o.payload.size();
+      packed.append(reinterpret_cast<const char*>(&ok), sizeof ok);
+      packed.append(reinterpret_cast<const char*>(&rank), sizeof rank);
+      packed.append(reinterpret_cast<const char*>(&o.seconds), sizeof o.seconds);
+      packed.append(reinterpret_cast<const char*>(&length), sizeof length);
+      packed += o.payload;
+    }
+  }
+  packed = Broadcast(packed);
+  if (rank_ == 0) return out;
+  out.assign(n, ItemOutcome());
+  std::size_t at = 0;
+  for (auto& o : out) {
+    std::uint8_t ok = 0;
+    std::int32_t rank = 0;
+    std::uint64_t length = 0;
+    std::memcpy(&ok, packed.data() + at, sizeof ok);
+    at += sizeof ok;
+    std::memcpy(&rank, packed.data() + at, sizeof rank);
+    at += sizeof rank;
+    std::memcpy(&o.seconds, packed.data() + at, sizeof o.seconds);
+    at += sizeof o.seconds;
+    std::memcpy(&length, packed.data() + at, sizeof length);
+    at += sizeof length;
+    o.ok = ok != 0;
+    o.rank = rank;
+    o.payload = packed.substr(at, length);
+    at += length;
+  }
+  return out;
+}
+
 std::string Cluster::Broadcast(const std::string& value) {
   if (size_ == 1) return value;
 #if FESIM_WITH_MPI

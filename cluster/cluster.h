@@ -69,6 +69,10 @@ class Cluster {
   std::vector<ItemOutcome> Map(std::size_t n, const ItemFn& fn, int threads = 1,
                                const std::function<void(std::size_t)>& done = {});
 
+  /// Map, then the n outcomes on every rank (for runs whose every rank continues from them).
+  std::vector<ItemOutcome> MapAll(std::size_t n, const ItemFn& fn, int threads = 1,
+                                  const std::function<void(std::size_t)>& done = {});
+
   /// Rank 0's `value` on every rank.
   std::string Broadcast(const std::string& value);
   /// Every rank's `value`, by rank, on rank 0 (empty on the others).

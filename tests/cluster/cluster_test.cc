@@ -100,6 +100,26 @@ TEST(ClusterMap, LargeAndEmptyResultsArriveIntact) {
   }
 }
 
+TEST(ClusterMap, MapAllGivesEveryRankTheOutcomes) {
+  Cluster& c = *the_cluster;
+  const auto out = c.MapAll(17, [](std::size_t i) -> std::string {
+    if (i == 5) throw std::runtime_error("five");
+    return std::string(i * 1000, static_cast<char>('a' + i));
+  });
+  ASSERT_EQ(out.size(), 17u);  // on every rank
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    if (i == 5) {
+      EXPECT_FALSE(out[i].ok);
+      EXPECT_EQ(out[i].payload, "five");
+      continue;
+    }
+    EXPECT_TRUE(out[i].ok) << i;
+    EXPECT_EQ(out[i].payload, std::string(i * 1000, static_cast<char>('a' + i))) << i;
+    EXPECT_GE(out[i].rank, 0);
+    EXPECT_GE(out[i].seconds, 0.0);
+  }
+}
+
 TEST(ClusterMap, NoItems) {
   const auto out = the_cluster->Map(0, [](std::size_t) -> std::string {
     ADD_FAILURE() << "no items";
