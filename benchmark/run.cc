@@ -348,6 +348,33 @@ BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions&
     loops.Push(j);
   }
   results.Set("work_loops", loops);
+  // What R single-threaded ranks would take, from this run's item costs: the loops' items spread
+  // over R ranks, the rest serial. Bounds for dynamic assignment of each loop: at least
+  // max(longest item, sum / R), at most sum / R + longest item (1 − 1/R). Meaningful from a run
+  // with one thread per rank (item times are then single-thread times).
+  {
+    double in_loops = 0.0;
+    for (const auto& c : loop.costs()) in_loops += c.wall_s;
+    const double serial = std::max(0.0, wall - in_loops);
+    Json est = Json::Array();
+    md += "Work loops: " + std::to_string(loop.costs().size()) +
+          " loops of independent items; the rest of the run (" + Fixed(serial, 1) +
+          " s) is serial. Estimated wall time on R single-threaded MPI ranks from these item costs "
+          "(docs/cluster.md):\n\n| ranks | at least s | at most s |\n|---|---|---|\n";
+    for (const int r : {1, 2, 4, 8, 16, 64}) {
+      double lo = serial, hi = serial;
+      for (const auto& c : loop.costs()) {
+        lo += std::max(c.item_s_max, c.item_s_total / r) + c.replay_s;
+        hi += c.item_s_total / r + c.item_s_max * (1.0 - 1.0 / r) + c.replay_s;
+      }
+      Json e = Json::Object();
+      e.Set("ranks", r).Set("at_least_s", lo).Set("at_most_s", hi);
+      est.Push(e);
+      md += "| " + std::to_string(r) + " | " + Fixed(lo, 1) + " | " + Fixed(hi, 1) + " |\n";
+    }
+    md += "\n";
+    results.Set("scaling_estimate", est);
+  }
   results.Set("trials_simulated", trials_simulated);
   results.Set("fits_run", fits_run);
   results.Set("fits_cached", fits_cached);

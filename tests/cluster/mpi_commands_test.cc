@@ -47,7 +47,7 @@ Json Figures(const Json& j) {
     static const std::set<std::string> kRun = {"threads",          "ranks",
                                                "fits_run",         "fits_cached",
                                                "trials_simulated", "thread_seconds_by_kind",
-                                               "work_loops"};
+                                               "work_loops",       "scaling_estimate"};
     for (std::size_t k = 0; k < j.Keys().size(); ++k) {
       const std::string& key = j.Keys()[k];
       if (kRun.count(key) || key.find("wall_s") != std::string::npos) continue;
