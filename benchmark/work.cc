@@ -1,10 +1,7 @@
 #include "benchmark/work.h"
 
-#include <sys/stat.h>
-
 #include <algorithm>
 #include <atomic>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -14,16 +11,12 @@
 #include "benchmark/sections.h"
 #include "fesim/version.h"
 #include "scenarios/parallel.h"
+#include "scenarios/result_cache.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
 
 namespace fesim::benchmark {
 namespace {
-
-bool FileExists(const std::string& path) {
-  struct stat st {};
-  return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
-}
 
 /// The truth record reduced to what the benchmark compares against: inputs, joint angles and
 /// velocities, sensor torques (the full record with forces and activations is `fesim simulate`'s).
@@ -89,53 +82,7 @@ std::string HashAndFormat(Trial* t) {
   return FormatTrialCsv(*t);
 }
 
-/// Predictions as JSON for the fit cache: unlike the trial CSV reader, which rejects angles
-/// beyond a full turn as unit errors, JSON keeps what a diverging model predicted.
-Json PredictionsToJson(const std::vector<Trial>& predictions) {
-  Json all = Json::Array();
-  for (const Trial& t : predictions) {
-    Json meta = Json::Object();
-    for (const auto& [k, v] : t.metadata) meta.Set(k, v);
-    Json cols = Json::Object();
-    for (std::size_t k = 0; k < t.names.size(); ++k) cols.Set(t.names[k], Json(t.columns[k]));
-    Json j = Json::Object();
-    j.Set("metadata", meta).Set("time", Json(t.time)).Set("columns", cols);
-    all.Push(j);
-  }
-  return all;
-}
-
-std::vector<Trial> PredictionsFromJson(const Json& all) {
-  std::vector<Trial> out;
-  for (const Json& j : all.Items()) {
-    Trial t;
-    const Json& meta = *j.Find("metadata");
-    for (std::size_t k = 0; k < meta.Keys().size(); ++k) {
-      t.metadata[meta.Keys()[k]] = meta.Items()[k].AsString();
-    }
-    for (const Json& v : j.Find("time")->Items()) t.time.push_back(v.AsNumber());
-    const Json& cols = *j.Find("columns");
-    for (std::size_t k = 0; k < cols.Keys().size(); ++k) {
-      std::vector<double> c;
-      for (const Json& v : cols.Items()[k].Items()) c.push_back(v.AsNumber());
-      t.AddColumn(cols.Keys()[k], std::move(c));
-    }
-    out.push_back(std::move(t));
-  }
-  return out;
-}
-
 }  // namespace
-
-void MakeDirs(const std::string& path) {
-  for (std::size_t i = 1; i <= path.size(); ++i) {
-    if (i < path.size() && path[i] != '/') continue;
-    const std::string p = path.substr(0, i);
-    if (::mkdir(p.c_str(), 0777) != 0 && errno != EEXIST) {
-      throw std::runtime_error(p + ": cannot create directory");
-    }
-  }
-}
 
 void ParallelFor(std::size_t n, int threads, const std::string& label,
                  const std::function<void(std::size_t)>& fn) {
@@ -206,7 +153,7 @@ StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
   ParallelFor(n, threads, st.name + " trial", [&](std::size_t i) {
     const StudyItem& item = st.items[i];
     const std::string stem = dir + "/" + item.file_stem;
-    if (FileExists(stem + ".csv") && FileExists(stem + "_truth.csv")) {
+    if (RegularFileExists(stem + ".csv") && RegularFileExists(stem + "_truth.csv")) {
       out.measured[i] = ReadTrialCsv(stem + ".csv");
       out.truth[i] = ReadTrialCsv(stem + "_truth.csv");
     } else {
@@ -248,26 +195,17 @@ StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
 
 FitRunner::FitRunner(std::string cache_dir, std::vector<identification::MethodEntry> methods,
                      Timing* timing)
-    : cache_dir_(std::move(cache_dir)), methods_(std::move(methods)), timing_(timing) {}
-
-std::string FitRunner::Key(const std::vector<std::string>& parts) const {
-  // The cache layout is part of the key: a build with another layout misses instead of failing.
-  std::string all = std::string(FESIM_VERSION) + "\nfit-cache-2";
-  for (const auto& p : parts) all += "\n" + p;
-  return Fnv1a64Hex(all);
-}
+    // The cache layout is part of the key: a build with another layout misses instead of failing.
+    : cache_(std::move(cache_dir), FESIM_VERSION, "fit-cache-2"),
+      methods_(std::move(methods)),
+      timing_(timing) {}
 
 bool FitRunner::Load(const std::vector<std::string>& parts, Json* out) const {
-  const std::string path = cache_dir_ + "/" + Key(parts) + ".json";
-  if (!FileExists(path)) return false;
-  *out = Json::Parse(ReadFile(path), path);
-  return true;
+  return cache_.Load(parts, out);
 }
 
 void FitRunner::Store(const std::vector<std::string>& parts, const Json& value) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  MakeDirs(cache_dir_);
-  WriteFileAtomic(cache_dir_ + "/" + Key(parts) + ".json", value.Dump(0));
+  cache_.Store(parts, value);
 }
 
 FitOutput FitRunner::Run(const std::string& method, const std::vector<Trial>& train,
@@ -284,13 +222,14 @@ FitOutput FitRunner::Run(const std::string& method, const std::vector<Trial>& tr
   for (const auto& t : train) parts.push_back(TrialHash(t));
   parts.emplace_back("test");
   for (const auto& t : test) parts.push_back(TrialHash(t));
-  const std::string dir = cache_dir_ + "/" + Key(parts);
+  const std::string dir = cache_.Path(parts);
   FitOutput out;
-  if (FileExists(dir + "/metrics.json")) {
+  if (RegularFileExists(dir + "/metrics.json")) {
     out.metrics = Json::Parse(ReadFile(dir + "/metrics.json"), dir + "/metrics.json");
     out.model_yaml = ReadFile(dir + "/model.yaml");
-    out.predictions = PredictionsFromJson(
-        Json::Parse(ReadFile(dir + "/predictions.json"), dir + "/predictions.json"));
+    out.predictions =
+        TrialsFromJson(Json::Parse(ReadFile(dir + "/predictions.json"), dir + "/predictions.json"),
+                       dir + "/predictions.json");
     out.cached = true;
     std::lock_guard<std::mutex> lock(mutex_);
     ++fits_cached_;
@@ -307,8 +246,8 @@ FitOutput FitRunner::Run(const std::string& method, const std::vector<Trial>& tr
   out.model_yaml = std::move(r.model_yaml);
   // Round-trip through the cache's text so a fresh and a cached run read the same values
   // (non-finite numbers become NaN either way).
-  const std::string predictions = PredictionsToJson(r.predictions).Dump(0);
-  out.predictions = PredictionsFromJson(Json::Parse(predictions));
+  const std::string predictions = TrialsToJson(r.predictions).Dump(0);
+  out.predictions = TrialsFromJson(Json::Parse(predictions));
   out.metrics = Json::Parse(r.metrics.Dump(0));
   std::lock_guard<std::mutex> lock(mutex_);
   MakeDirs(dir);

@@ -13,13 +13,11 @@
 
 #include "identification/method.h"
 #include "scenarios/json.h"
+#include "scenarios/result_cache.h"
 #include "scenarios/study.h"
 #include "scenarios/trial.h"
 
 namespace fesim::benchmark {
-
-/// Creates a directory and its parents; throws std::runtime_error naming the path on failure.
-void MakeDirs(const std::string& path);
 
 /// Runs fn(0) … fn(n − 1) on `threads` threads (dynamic assignment). Every index runs even when
 /// some throw; afterwards the first failure (lowest index) is rethrown as std::runtime_error
@@ -104,8 +102,7 @@ class FitRunner {
   int fits_cached() const { return fits_cached_; }
 
  private:
-  std::string Key(const std::vector<std::string>& parts) const;
-  std::string cache_dir_;
+  ResultCache cache_;
   std::vector<identification::MethodEntry> methods_;
   Timing* timing_ = nullptr;
   std::mutex mutex_;
