@@ -169,8 +169,9 @@ std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs) {
           (std::isfinite(p.ci95) ? F("%.2g", p.ci95) : std::string("n/a")) + " | " + p.unit +
           " |\n";
   }
-  md += "\n" + std::to_string(d.simulations) + " trial simulations, " + F("%.1f", d.wall_s) +
-        " s wall time.\n";
+  md += "\n" + std::to_string(d.simulations) + " trial simulations, " +
+        std::to_string(d.cached_results) + " results read from the resume cache, " +
+        F("%.1f", d.wall_s) + " s wall time.\n";
   return md;
 }
 
