@@ -111,8 +111,6 @@ BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions&
   const int threads = options.threads > 0
                           ? options.threads
                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  MakeDirs(options.out_dir + "/plots");
-  MakeDirs(options.out_dir + "/cache");
   std::vector<identification::MethodEntry> methods = identification::BuiltinMethods();
   Timing timing_by_kind;
   FitRunner fits(options.out_dir + "/cache/fits", methods, &timing_by_kind);
@@ -163,6 +161,10 @@ BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions&
     progress.Plan(kShoulderFitWeight * np * spec.shoulder->methods.size());
   }
   if (spec.reaching) progress.Plan(kReachingWeight);
+  // Only now, with every study file read and checked: a bad or unreadable study leaves no
+  // output directory behind (issue 10).
+  MakeDirs(options.out_dir + "/plots");
+  MakeDirs(options.out_dir + "/cache");
 
   Json results = Json::Object();
   results.Set("benchmark", spec.name);
