@@ -46,18 +46,24 @@ std::string RunListing(const std::string& dir) {
 
 const std::string kRig = std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/hand_rig.yaml";
 
+/// The hand rig with its stimulation block (and what follows it) replaced by `tail`.
+std::string RigWith(const std::string& tail) {
+  std::string text = ReadFile(kRig);
+  text.replace(text.find("stimulation:"), std::string::npos, tail);
+  return text;
+}
+
 TEST(DiagnoseCmd, DiagnosesASimulatedTrialAndWritesTheReport) {
   const std::string dir = ::testing::TempDir() + "diag_cmd";
   std::filesystem::remove_all(dir);  // no resume cache from an earlier run
   const std::string scenario = dir + "_short.yaml";
-  std::string text = ReadFile(kRig);
-  text.replace(text.find("stimulation:"), std::string::npos,
-               "stimulation:\n  duration_s: 30\n  type: steps\n  steps: [{time_s: 2, values_us: "
-               "{ext: 200}}, {time_s: 8, values_us: {flex: 150}}, {time_s: 14, values_us: {ext: "
-               "100, flex: 100}}, {time_s: 20, values_us: {ext: 250}}, {time_s: 26, values_us: "
-               "{flex: 0}}]\nsensors:\n  angles: {rate_hz: 60, noise_std_deg: 1.0, coordinates: "
-               "[wrist_flexion, mcp_flexion]}\n");
-  WriteFileAtomic(scenario, text);
+  WriteFileAtomic(
+      scenario,
+      RigWith("stimulation:\n  duration_s: 30\n  type: steps\n  steps: [{time_s: 2, values_us: "
+              "{ext: 200}}, {time_s: 8, values_us: {flex: 150}}, {time_s: 14, values_us: {ext: "
+              "100, flex: 100}}, {time_s: 20, values_us: {ext: 250}}, {time_s: 26, values_us: "
+              "{flex: 0}}]\nsensors:\n  angles: {rate_hz: 60, noise_std_deg: 1.0, coordinates: "
+              "[wrist_flexion, mcp_flexion]}\n"));
   ASSERT_EQ(RunFesim("simulate " + scenario + " --out " + dir + "/sim --seed 3").exit_code, 0);
   const Result r = RunFesim("diagnose " + dir + "/sim/hand_rig.csv --scenario " + scenario +
                             " --out " + dir + "/out --threads 2");
@@ -74,12 +80,9 @@ TEST(DiagnoseCmd, InterruptedRunLeavesNoPartialReport) {
   const std::string dir = ::testing::TempDir() + "diag_cmd_interrupt";
   std::filesystem::remove_all(dir);  // no resume cache from an earlier run
   const std::string scenario = dir + "_short.yaml";
-  std::string text = ReadFile(kRig);
-  text.replace(text.find("stimulation:"), std::string::npos,
-               "stimulation:\n  duration_s: 30\n  type: steps\n  steps: [{time_s: 2, values_us: "
-               "{ext: 200}}, {time_s: 12, values_us: {flex: 150}}, {time_s: 22, values_us: "
-               "{ext: 0}}]\n");
-  WriteFileAtomic(scenario, text);
+  WriteFileAtomic(scenario, RigWith("stimulation:\n  duration_s: 30\n  type: steps\n  steps: "
+                                    "[{time_s: 2, values_us: {ext: 200}}, {time_s: 12, values_us: "
+                                    "{flex: 150}}, {time_s: 22, values_us: {ext: 0}}]\n"));
   ASSERT_EQ(RunFesim("simulate " + scenario + " --out " + dir + "/sim --seed 4").exit_code, 0);
   for (const int sig : {SIGINT, SIGTERM}) {
     const std::string out = dir + "/out" + std::to_string(sig);
@@ -134,11 +137,9 @@ TEST(DiagnoseCmd, InterruptedRunResumesFromTheCacheWithTheSameFigures) {
   const std::string dir = ::testing::TempDir() + "diag_cmd_resume";
   std::filesystem::remove_all(dir);
   const std::string rig = dir + "_rig.yaml", planted = dir + "_planted.yaml";
-  std::string text = ReadFile(kRig);
-  text.replace(text.find("stimulation:"), std::string::npos,
-               "stimulation:\n  duration_s: 12\n  type: steps\n  steps: [{time_s: 2, values_us: "
-               "{ext: 200}}, {time_s: 5, values_us: {flex: 150}}, {time_s: 8, values_us: "
-               "{ext: 0}}]\n");
+  const std::string text = RigWith(
+      "stimulation:\n  duration_s: 12\n  type: steps\n  steps: [{time_s: 2, values_us: "
+      "{ext: 200}}, {time_s: 5, values_us: {flex: 150}}, {time_s: 8, values_us: {ext: 0}}]\n");
   WriteFileAtomic(rig, text);
   WriteFileAtomic(planted, text +
                                "mechanisms:\n  tremor: {coordinate: wrist_flexion, frequency_hz: "
