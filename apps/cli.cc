@@ -1,12 +1,8 @@
 #include "apps/cli.h"
 
-#include <sys/stat.h>
-
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <stdexcept>
 
 namespace fesim::cli {
@@ -74,18 +70,6 @@ std::vector<std::string> SplitList(const std::string& s) {
   }
   if (!cur.empty()) out.push_back(cur);
   return out;
-}
-
-void MakeDirs(const std::string& path) {
-  std::string cur;
-  for (std::size_t i = 0; i <= path.size(); ++i) {
-    if (i == path.size() || path[i] == '/') {
-      if (!cur.empty() && ::mkdir(cur.c_str(), 0755) != 0 && errno != EEXIST) {
-        throw std::runtime_error(cur + ": cannot create directory: " + std::strerror(errno));
-      }
-    }
-    if (i < path.size()) cur.push_back(path[i]);
-  }
 }
 
 void ShowProgress(double fraction, const std::string& stage) {

@@ -25,9 +25,6 @@ Args Parse(int argc, char** argv, int first, const std::vector<std::string>& fla
 /// Splits "a,b,c" into its parts (empty parts dropped).
 std::vector<std::string> SplitList(const std::string& s);
 
-/// Creates a directory and its parents; throws naming the path on failure.
-void MakeDirs(const std::string& path);
-
 /// Prints a one-line progress bar on stderr (overwritten in place; newline at fraction 1).
 void ShowProgress(double fraction, const std::string& stage);
 

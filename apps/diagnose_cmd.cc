@@ -9,6 +9,8 @@
 #include "apps/commands.h"
 #include "diagnosis/diagnose.h"
 #include "diagnosis/report.h"
+#include "fesim/version.h"
+#include "scenarios/result_cache.h"
 #include "scenarios/scenario.h"
 #include "scenarios/trial.h"
 
@@ -28,7 +30,9 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
         "none / unexplained, and measures the held-out gain of the extended model.\n"
         "Writes DIR/diagnosis.md, DIR/diagnosis.json, DIR/residuals_<joint>.png and\n"
         "DIR/spectrum_<joint>.png\n"
-        "(default DIR: out/diagnose). Trials need u.<channel> inputs and q.<joint> outputs\n"
+        "(default DIR: out/diagnose); the calibration, score tests and fits are cached in\n"
+        "DIR/cache as they finish, so an interrupted run resumes. Trials need u.<channel> inputs "
+        "and q.<joint> outputs\n"
         "(q.<joint>_deg accepted) of joints that are free in the scenario, one sample rate;\n"
         "NaN gaps are skipped. --threads: simulation threads (default: all cores).\n");
     return 0;
@@ -50,25 +54,34 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
     throw std::runtime_error("--threads: " + std::to_string(threads) + " is outside [1, 256]");
   }
   const Scenario scenario = LoadScenario(args.Get("scenario"));
+  // Resume cache key: the contents of the rig and of every measured file, in order.
+  std::string cache_inputs = "rig " + Fnv1a64Hex(ReadFile(args.Get("scenario")));
   std::vector<Trial> trials;
   std::string inputs = "Measured trials:";
   for (const auto& path : cli::SplitList(args.positional[0])) {
     trials.push_back(ReadTrialCsv(path));
+    cache_inputs += "\ntrial " + Fnv1a64Hex(FormatTrialCsv(trials.back()));  // not the path
     trials.back().metadata["source"] = path;
     inputs += " `" + path + "`";
   }
   if (trials.empty()) throw std::runtime_error("no measured trial given");
   inputs += "; rig `" + args.Get("scenario") + "`.";
+  const std::string out = args.Get("out", "out/diagnose");
+  // Expensive stages are cached under DIR/cache as they finish: a killed run resumes.
+  ResultCache cache(out + "/cache", FESIM_VERSION, "diagnose-cache-1");
   diagnosis::DiagnoseOptions options;
   options.fit.threads = static_cast<int>(threads);
+  options.cache = &cache;
+  options.cache_inputs = cache_inputs;
   const diagnosis::Diagnosis d =
       diagnosis::Diagnose(scenario.model, trials, options, cli::ShowProgress);
-  const std::string out = args.Get("out", "out/diagnose");
-  cli::MakeDirs(out);
+  MakeDirs(out);
   diagnosis::WriteDiagnosisReport(d, inputs, out);
   std::fprintf(stderr,
-               "fesim diagnose: %s (confidence %.2f, held-out gain %.1f %%), report in %s\n",
-               d.cause.c_str(), d.confidence, 100.0 * d.gain, out.c_str());
+               "fesim diagnose: %s (confidence %.2f, held-out gain %.1f %%), report in %s; "
+               "%d trial simulations, %d results from the resume cache %s/cache\n",
+               d.cause.c_str(), d.confidence, 100.0 * d.gain, out.c_str(), d.simulations,
+               d.cached_results, out.c_str());
   return 0;
 }
 

@@ -6,6 +6,7 @@
 #include "apps/cli.h"
 #include "apps/commands.h"
 #include "identification/method.h"
+#include "scenarios/result_cache.h"
 #include "scenarios/trial.h"
 
 namespace fesim {
@@ -60,7 +61,7 @@ int RunIdentify(int argc, char** argv) {
   const auto result = method->run(train, test, cli::ShowProgress);
 
   const std::string out = args.Get("out", "out/identify");
-  cli::MakeDirs(out);
+  MakeDirs(out);
   WriteFileAtomic(out + "/model.yaml", result.model_yaml);
   for (std::size_t k = 0; k < result.predictions.size(); ++k) {
     WriteFileAtomic(out + "/prediction_" + std::to_string(k) + ".csv",

@@ -14,6 +14,7 @@
 #include "apps/commands.h"
 #include "fesim/version.h"
 #include "scenarios/json.h"
+#include "scenarios/result_cache.h"
 #include "scenarios/scenario.h"
 #include "scenarios/study.h"
 #include "scenarios/trial.h"
@@ -144,7 +145,7 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
   for (std::size_t i = 0; i < st.items.size(); ++i) {
     const StudyItem& item = st.items[i];
     const std::string dir = out + "/p" + std::to_string(item.participant + 1);
-    cli::MakeDirs(dir);
+    MakeDirs(dir);
     WriteFileAtomic(out + "/" + item.file_stem + ".csv", files[i].measured);
     WriteFileAtomic(out + "/" + item.file_stem + "_truth.csv", files[i].truth);
     Json j = Json::Object();
@@ -176,7 +177,7 @@ int RunReaching(const Scenario& sc, const std::string& out, long seed) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<Trial> trials = sim::SimulateReaching(sc.model, *sc.reaching, {});
   const std::string hash = Fnv1a64Hex(sc.source_text);
-  cli::MakeDirs(out);
+  MakeDirs(out);
   Json files = Json::Array();
   for (std::size_t k = 0; k < trials.size(); ++k) {
     trials[k].metadata["scenario"] = sc.name;
@@ -249,7 +250,7 @@ int RunSimulate(int argc, char** argv, cluster::Cluster& job) {
       .Set("duration_s", sc.trial.duration_s);
   manifest.Set("integration", StatsJson(r));
 
-  cli::MakeDirs(out);
+  MakeDirs(out);
   const std::string base = out + "/" + sc.name;
   WriteFileAtomic(base + ".csv", FormatTrialCsv(measured));
   WriteFileAtomic(base + ".sto", FormatTrialSto(measured, sc.name));

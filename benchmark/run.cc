@@ -156,9 +156,6 @@ BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions&
                       : distributed
                           ? 1
                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  MakeDirs(options.out_dir + "/plots");
-  MakeDirs(options.out_dir + "/cache");
-  if (distributed) CheckSharedDirectory(*job, options.out_dir + "/cache");
   std::vector<identification::MethodEntry> methods = identification::BuiltinMethods();
   Timing timing_by_kind;
   FitRunner fits(options.out_dir + "/cache/fits", methods, &timing_by_kind);
@@ -186,7 +183,14 @@ BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions&
   // Plan the work (studies are loaded, not simulated) so the bar and the time left cover it all.
   const auto study_weight = [&](const std::optional<BenchmarkSection>& s, int* participants,
                                 int* items) {
-    const Study st = LoadStudy(options.quick ? s->quick_study_path : s->study_path, options.seed);
+    Study st;
+    try {
+      st = LoadStudy(options.quick ? s->quick_study_path : s->study_path, options.seed);
+    } catch (const std::runtime_error& e) {
+      // Every rank reads the same file and fails alike: reported once (apps/main.cc).
+      if (distributed) throw cluster::CollectiveError(e.what());
+      throw;
+    }
     double w = 0.0;
     for (const auto& item : st.items) w += kTrialWeightPerSecond * item.scenario.trial.duration_s;
     *participants = static_cast<int>(st.participants.size());
@@ -218,6 +222,11 @@ BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions&
     progress.Plan(kShoulderFitWeight * np * spec.shoulder->methods.size());
   }
   if (spec.reaching) progress.Plan(kReachingWeight);
+  // Only now, with every study file read and checked: a bad or unreadable study leaves no
+  // output directory behind (issue 10).
+  MakeDirs(options.out_dir + "/plots");
+  MakeDirs(options.out_dir + "/cache");
+  if (distributed) CheckSharedDirectory(*job, options.out_dir + "/cache");
 
   Json results = Json::Object();
   results.Set("benchmark", spec.name);

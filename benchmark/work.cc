@@ -1,11 +1,7 @@
 #include "benchmark/work.h"
 
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <atomic>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -16,16 +12,12 @@
 #include "benchmark/sections.h"
 #include "fesim/version.h"
 #include "scenarios/parallel.h"
+#include "scenarios/result_cache.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
 
 namespace fesim::benchmark {
 namespace {
-
-bool FileExists(const std::string& path) {
-  struct stat st {};
-  return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
-}
 
 /// The truth record reduced to what the benchmark compares against: inputs, joint angles and
 /// velocities, sensor torques (the full record with forces and activations is `fesim simulate`'s).
@@ -91,20 +83,7 @@ std::string HashAndFormat(Trial* t) {
   return FormatTrialCsv(*t);
 }
 
-/// Predictions as JSON for the fit cache: unlike the trial CSV reader, which rejects angles
-/// beyond a full turn as unit errors, JSON keeps what a diverging model predicted.
-
 }  // namespace
-
-void MakeDirs(const std::string& path) {
-  for (std::size_t i = 1; i <= path.size(); ++i) {
-    if (i < path.size() && path[i] != '/') continue;
-    const std::string p = path.substr(0, i);
-    if (::mkdir(p.c_str(), 0777) != 0 && errno != EEXIST) {
-      throw std::runtime_error(p + ": cannot create directory");
-    }
-  }
-}
 
 namespace {
 
@@ -310,7 +289,7 @@ StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
   loop.Run(st.name + " trial", n, [&](std::size_t i) {
     const StudyItem& item = st.items[i];
     const std::string stem = dir + "/" + item.file_stem;
-    if (FileExists(stem + ".csv") && FileExists(stem + "_truth.csv")) {
+    if (RegularFileExists(stem + ".csv") && RegularFileExists(stem + "_truth.csv")) {
       out.measured[i] = ReadTrialCsv(stem + ".csv");
       out.truth[i] = ReadTrialCsv(stem + "_truth.csv");
     } else {
@@ -352,26 +331,17 @@ StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
 
 FitRunner::FitRunner(std::string cache_dir, std::vector<identification::MethodEntry> methods,
                      Timing* timing)
-    : cache_dir_(std::move(cache_dir)), methods_(std::move(methods)), timing_(timing) {}
-
-std::string FitRunner::Key(const std::vector<std::string>& parts) const {
-  // The cache layout is part of the key: a build with another layout misses instead of failing.
-  std::string all = std::string(FESIM_VERSION) + "\nfit-cache-2";
-  for (const auto& p : parts) all += "\n" + p;
-  return Fnv1a64Hex(all);
-}
+    // The cache layout is part of the key: a build with another layout misses instead of failing.
+    : cache_(std::move(cache_dir), FESIM_VERSION, "fit-cache-2"),
+      methods_(std::move(methods)),
+      timing_(timing) {}
 
 bool FitRunner::Load(const std::vector<std::string>& parts, Json* out) const {
-  const std::string path = cache_dir_ + "/" + Key(parts) + ".json";
-  if (!FileExists(path)) return false;
-  *out = Json::Parse(ReadFile(path), path);
-  return true;
+  return cache_.Load(parts, out);
 }
 
 void FitRunner::Store(const std::vector<std::string>& parts, const Json& value) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  MakeDirs(cache_dir_);
-  WriteFileAtomic(cache_dir_ + "/" + Key(parts) + ".json", value.Dump(0));
+  cache_.Store(parts, value);
 }
 
 FitOutput FitRunner::Run(const std::string& method, const std::vector<Trial>& train,
@@ -388,13 +358,14 @@ FitOutput FitRunner::Run(const std::string& method, const std::vector<Trial>& tr
   for (const auto& t : train) parts.push_back(TrialHash(t));
   parts.emplace_back("test");
   for (const auto& t : test) parts.push_back(TrialHash(t));
-  const std::string dir = cache_dir_ + "/" + Key(parts);
+  const std::string dir = cache_.Path(parts);
   FitOutput out;
-  if (FileExists(dir + "/metrics.json")) {
+  if (RegularFileExists(dir + "/metrics.json")) {
     out.metrics = Json::Parse(ReadFile(dir + "/metrics.json"), dir + "/metrics.json");
     out.model_yaml = ReadFile(dir + "/model.yaml");
     out.predictions =
-        TrialsFromJson(Json::Parse(ReadFile(dir + "/predictions.json"), dir + "/predictions.json"));
+        TrialsFromJson(Json::Parse(ReadFile(dir + "/predictions.json"), dir + "/predictions.json"),
+                       dir + "/predictions.json");
     out.cached = true;
     std::lock_guard<std::mutex> lock(mutex_);
     if (counting_) ++fits_cached_;
@@ -443,40 +414,6 @@ std::vector<double> Resample(const Trial& source, const std::string& column,
     while (j > 0 && t[j] > x) --j;
     const double w = std::clamp((x - t[j]) / (t[j + 1] - t[j]), 0.0, 1.0);
     out[i] = (1.0 - w) * y[j] + w * y[j + 1];
-  }
-  return out;
-}
-
-Json TrialsToJson(const std::vector<Trial>& predictions) {
-  Json all = Json::Array();
-  for (const Trial& t : predictions) {
-    Json meta = Json::Object();
-    for (const auto& [k, v] : t.metadata) meta.Set(k, v);
-    Json cols = Json::Object();
-    for (std::size_t k = 0; k < t.names.size(); ++k) cols.Set(t.names[k], Json(t.columns[k]));
-    Json j = Json::Object();
-    j.Set("metadata", meta).Set("time", Json(t.time)).Set("columns", cols);
-    all.Push(j);
-  }
-  return all;
-}
-
-std::vector<Trial> TrialsFromJson(const Json& all) {
-  std::vector<Trial> out;
-  for (const Json& j : all.Items()) {
-    Trial t;
-    const Json& meta = *j.Find("metadata");
-    for (std::size_t k = 0; k < meta.Keys().size(); ++k) {
-      t.metadata[meta.Keys()[k]] = meta.Items()[k].AsString();
-    }
-    for (const Json& v : j.Find("time")->Items()) t.time.push_back(v.AsNumber());
-    const Json& cols = *j.Find("columns");
-    for (std::size_t k = 0; k < cols.Keys().size(); ++k) {
-      std::vector<double> c;
-      for (const Json& v : cols.Items()[k].Items()) c.push_back(v.AsNumber());
-      t.AddColumn(cols.Keys()[k], std::move(c));
-    }
-    out.push_back(std::move(t));
   }
   return out;
 }

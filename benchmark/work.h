@@ -16,13 +16,11 @@
 #include "cluster/cluster.h"
 #include "identification/method.h"
 #include "scenarios/json.h"
+#include "scenarios/result_cache.h"
 #include "scenarios/study.h"
 #include "scenarios/trial.h"
 
 namespace fesim::benchmark {
-
-/// Creates a directory and its parents; throws std::runtime_error naming the path on failure.
-void MakeDirs(const std::string& path);
 
 /// One failed work item of a loop.
 struct FailedItem {
@@ -187,19 +185,13 @@ class FitRunner {
   void SetCounting(bool counting) { counting_ = counting; }
 
  private:
-  std::string Key(const std::vector<std::string>& parts) const;
-  std::string cache_dir_;
+  ResultCache cache_;
   std::vector<identification::MethodEntry> methods_;
   Timing* timing_ = nullptr;
   std::mutex mutex_;
   int fits_run_ = 0, fits_cached_ = 0;
   std::atomic<bool> counting_{true};
 };
-
-/// Trials as JSON (metadata, time, columns; non-finite values as null) and back: the cache's
-/// format for predictions and other trials.
-Json TrialsToJson(const std::vector<Trial>& trials);
-std::vector<Trial> TrialsFromJson(const Json& all);
 
 /// The trial's `trial_hash` metadata (throws std::logic_error when absent).
 const std::string& TrialHash(const Trial& trial);

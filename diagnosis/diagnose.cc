@@ -4,10 +4,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <numeric>
 #include <set>
 #include <stdexcept>
 
+#include "diagnosis/measured.h"
 #include "diagnosis/signatures.h"
 #include "scenarios/parallel.h"
 
@@ -22,8 +24,6 @@ constexpr double kTremorLowHz = 3.0, kTremorHighHz = 12.0;
 constexpr double kCoarseDfHz = 0.01, kFineDfHz = 0.0005;
 /// Largest input–residual lag examined, s.
 constexpr double kMaxLagS = 0.5;
-/// Fewest training samples per trial, and fewest samples in a held-out segment.
-constexpr std::size_t kMinSamples = 50;
 
 std::string Fmt(const char* format, double a, double b = 0.0, double c = 0.0) {
   char buf[160];
@@ -53,67 +53,6 @@ std::vector<double> Masked(const DataView& v, std::size_t t, const std::string& 
   }
   (void)col;
   return out;
-}
-
-/// A trial's name in messages: its `source` metadata (the file) or "trial K".
-std::string Label(const Trial& trial, std::size_t k) {
-  const auto source = trial.metadata.find("source");
-  return source != trial.metadata.end() ? source->second : "trial " + std::to_string(k);
-}
-
-void Validate(const sim::ModelParams& rig, const std::vector<Trial>& measured,
-              std::vector<std::string>* outputs, std::vector<std::string>* channels) {
-  if (measured.empty()) throw std::runtime_error("diagnose: no measured trials");
-  *outputs = measured[0].NamesWithPrefix("q.");
-  if (outputs->empty()) throw std::runtime_error(Label(measured[0], 0) + ": no q.* output column");
-  for (const auto& o : *outputs) {
-    const int c = sim::CoordinateIndex(o.substr(2));
-    if (c < 0)
-      throw std::runtime_error(Label(measured[0], 0) + ": column " + o + ": unknown joint");
-    if (rig.coordinates[c].mode != sim::CoordinateMode::kFree) {
-      throw std::runtime_error(Label(measured[0], 0) + ": column " + o +
-                               ": joint is not free in the scenario (locked or prescribed)");
-    }
-  }
-  std::set<std::string> stimulated;
-  for (std::size_t t = 0; t < measured.size(); ++t) {
-    const Trial& tr = measured[t];
-    const std::string label = Label(tr, t);
-    if (tr.size() < 2 * kMinSamples) {
-      throw std::runtime_error(label + ": " + std::to_string(tr.size()) +
-                               " samples, need at least " + std::to_string(2 * kMinSamples));
-    }
-    if (tr.NamesWithPrefix("q.") != *outputs) {
-      throw std::runtime_error(label + ": q.* columns differ from trial 0's");
-    }
-    const auto inputs = tr.NamesWithPrefix("u.");
-    if (inputs.empty()) throw std::runtime_error(label + ": no u.* input column");
-    for (const auto& u : inputs) {
-      bool found = false;
-      for (const auto& ch : rig.channels) found |= ch.name == u.substr(2);
-      if (!found)
-        throw std::runtime_error(label + ": column " + u + ": no such channel in the rig");
-      bool active = false;
-      for (double v : tr.Column(u)) {
-        if (!std::isfinite(v)) throw std::runtime_error(label + ": column " + u + ": NaN input");
-        active = active || v > 0.0;
-      }
-      if (active) stimulated.insert(u.substr(2));
-    }
-    const double dt0 = tr.time[1] - tr.time[0];
-    for (std::size_t i = 2; i < tr.size(); ++i) {
-      const double dt = tr.time[i] - tr.time[i - 1];
-      if (std::abs(dt - dt0) > 1e-3 * dt0) {
-        throw std::runtime_error(label + ": column time: sampling is not uniform at row " +
-                                 std::to_string(i) + Fmt(" (step %.6g s after %.6g s; ", dt, dt0) +
-                                 "resample to one rate)");
-      }
-    }
-  }
-  for (const auto& ch : rig.channels) {
-    if (stimulated.count(ch.name)) channels->push_back(ch.name);
-  }
-  if (channels->empty()) throw std::runtime_error("diagnose: no trial stimulates any channel");
 }
 
 /// Score test of one candidate at the baseline (see diagnose.h, step 3). Returns S, dof and θ
@@ -178,74 +117,99 @@ SpectrumPeak RefinedPeak(const std::vector<double>& r, double dt) {
   return coarse;
 }
 
-/// The rows of `trial` at which some output was sampled (a measured record's time column is the
-/// union of its sensors' grids; the other rows only carry inputs or other sensors).
-Trial OutputRows(const Trial& trial, const std::vector<std::string>& outputs) {
-  std::vector<std::size_t> rows;
-  for (std::size_t i = 0; i < trial.size(); ++i) {
-    bool any = false;
-    for (const auto& o : outputs) any = any || std::isfinite(trial.Column(o)[i]);
-    if (any) rows.push_back(i);
+/// The options that change results, as cache-key text (not fit.threads).
+std::string OptionsText(const DiagnoseOptions& o) {
+  std::string s;
+  for (const double v : {o.holdout_fraction, o.alpha, o.min_heldout_gain, o.max_structure,
+                         o.fit.relative_tolerance, o.fit.fd_step, o.fit.tolerance}) {
+    s += ExactNumberText(v) + ",";
   }
-  if (rows.size() == trial.size()) return trial;
-  Trial out;
-  out.metadata = trial.metadata;
-  for (std::size_t i : rows) out.time.push_back(trial.time[i]);
-  for (std::size_t k = 0; k < trial.names.size(); ++k) {
-    std::vector<double> col;
-    for (std::size_t i : rows) col.push_back(trial.columns[k][i]);
-    out.AddColumn(trial.names[k], std::move(col));
+  for (const int v : {o.max_fitted, o.max_accepted, o.baseline_iterations, o.screen_iterations,
+                      o.refit_iterations, o.fit.max_iterations}) {
+    s += std::to_string(v) + ",";
   }
-  return out;
+  return s;
 }
+
+const Json& Member(const Json& j, const std::string& key) {
+  const Json* m = j.Find(key);
+  if (m == nullptr) throw std::runtime_error("diagnose: cached result without '" + key + "'");
+  return *m;
+}
+
+Json VectorJson(const Eigen::VectorXd& v) {
+  return Json(std::vector<double>(v.data(), v.data() + v.size()));
+}
+
+Eigen::VectorXd VectorFromJson(const Json& j) {
+  Eigen::VectorXd v(static_cast<Eigen::Index>(j.Items().size()));
+  for (Eigen::Index k = 0; k < v.size(); ++k) v(k) = j.Items()[k].AsNumber();
+  return v;
+}
+
+Json MatrixJson(const Eigen::MatrixXd& m) {
+  Json j = Json::Object();
+  j.Set("rows", static_cast<long>(m.rows())).Set("cols", static_cast<long>(m.cols()));
+  j.Set("column_major", std::vector<double>(m.data(), m.data() + m.size()));
+  return j;
+}
+
+Eigen::MatrixXd MatrixFromJson(const Json& j) {
+  const auto rows = static_cast<Eigen::Index>(Member(j, "rows").AsNumber());
+  const auto cols = static_cast<Eigen::Index>(Member(j, "cols").AsNumber());
+  const Eigen::VectorXd data = VectorFromJson(Member(j, "column_major"));
+  if (rows < 0 || cols < 0 || data.size() != rows * cols) {
+    throw std::runtime_error("diagnose: cached matrix has the wrong size");
+  }
+  return Eigen::Map<const Eigen::MatrixXd>(data.data(), rows, cols);
+}
+
+/// A fit without its Jacobian (cached separately where it is needed).
+Json FitJson(const FitResult& f) {
+  Json j = Json::Object();
+  j.Set("x", VectorJson(f.x)).Set("ci95", VectorJson(f.ci95)).Set("cost", f.cost);
+  j.Set("residuals", f.residuals).Set("simulations", f.simulations);
+  return j;
+}
+
+FitResult FitFromJson(const Json& j) {
+  FitResult f;
+  f.x = VectorFromJson(Member(j, "x"));
+  f.ci95 = VectorFromJson(Member(j, "ci95"));
+  f.cost = Member(j, "cost").AsNumber();
+  f.residuals = static_cast<long>(Member(j, "residuals").AsNumber());
+  f.simulations = static_cast<int>(Member(j, "simulations").AsNumber());
+  return f;
+}
+
+/// The diagnosis' stages through DiagnoseOptions::cache: Get returns the cached value of a stage
+/// or computes, stores and returns it. A computed value goes through the cache's text either way
+/// (Parse(Dump)), so a fresh and a resumed run continue from the same numbers.
+class StageCache {
+ public:
+  StageCache(const DiagnoseOptions& o, int* cached)
+      : cache_(o.cache), prefix_{"diagnose", o.cache_inputs, OptionsText(o)}, cached_(cached) {}
+
+  Json Get(const std::vector<std::string>& stage, const std::function<Json()>& compute) const {
+    std::vector<std::string> parts = prefix_;
+    parts.insert(parts.end(), stage.begin(), stage.end());
+    Json value;
+    if (cache_ != nullptr && cache_->Load(parts, &value)) {
+      ++*cached_;
+      return value;
+    }
+    value = Json::Parse(compute().Dump(0));
+    if (cache_ != nullptr) cache_->Store(parts, value);
+    return value;
+  }
+
+ private:
+  ResultCache* cache_;
+  std::vector<std::string> prefix_;
+  int* cached_;
+};
 
 }  // namespace
-
-void SplitTrials(const std::vector<Trial>& measured, const std::vector<std::string>& outputs,
-                 double holdout_fraction, DataView* train, DataView* heldout, std::string* how) {
-  if (!(holdout_fraction > 0.0 && holdout_fraction <= 0.8)) {
-    throw std::invalid_argument("holdout_fraction must be in (0, 0.8]");
-  }
-  train->outputs = heldout->outputs = outputs;
-  train->trials.clear();
-  heldout->trials.clear();
-  train->use.clear();
-  heldout->use.clear();
-  if (measured.size() >= 2) {
-    for (std::size_t t = 0; t + 1 < measured.size(); ++t) {
-      train->trials.push_back(measured[t]);
-      train->use.emplace_back(measured[t].size(), 1);
-    }
-    heldout->trials.push_back(measured.back());
-    heldout->use.emplace_back(measured.back().size(), 1);
-    *how = "trials 0-" + std::to_string(measured.size() - 2) + " train, trial " +
-           std::to_string(measured.size() - 1) + " (the last) held out whole";
-    return;
-  }
-  const Trial& tr = measured[0];
-  const double t_cut =
-      tr.time.front() + (1.0 - holdout_fraction) * (tr.time.back() - tr.time.front());
-  std::size_t n_train = 0;
-  while (n_train < tr.size() && tr.time[n_train] < t_cut) ++n_train;
-  if (n_train < kMinSamples || tr.size() - n_train < kMinSamples) {
-    throw std::runtime_error(Label(tr, 0) + ": " + std::to_string(tr.size()) +
-                             " samples are too few to split into training and held-out segments");
-  }
-  Trial head;
-  head.metadata = tr.metadata;
-  head.time.assign(tr.time.begin(), tr.time.begin() + n_train);
-  for (std::size_t k = 0; k < tr.names.size(); ++k) {
-    head.AddColumn(tr.names[k],
-                   std::vector<double>(tr.columns[k].begin(), tr.columns[k].begin() + n_train));
-  }
-  train->trials.push_back(head);
-  train->use.emplace_back(n_train, 1);
-  heldout->trials.push_back(tr);
-  std::vector<char> use(tr.size(), 0);
-  for (std::size_t i = n_train; i < tr.size(); ++i) use[i] = 1;
-  heldout->use.push_back(use);
-  *how = Fmt("one trial: t < %.1f s trains, t >= %.1f s held out (blocked segments)", t_cut, t_cut);
-}
 
 Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measured,
                    const DiagnoseOptions& options, const DiagnoseProgress& progress) {
@@ -255,12 +219,12 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   };
   Diagnosis out;
   LibraryContext ctx;
-  if (measured.empty()) throw std::runtime_error("diagnose: no measured trials");
-  std::vector<Trial> trials;
-  for (const auto& t : measured) trials.push_back(OutputRows(t, t.NamesWithPrefix("q.")));
-  Validate(rig, trials, &ctx.outputs, &ctx.channels);
-  DataView train, held;
-  SplitTrials(trials, ctx.outputs, options.holdout_fraction, &train, &held, &out.split);
+  MeasuredData data = PrepareMeasured(rig, measured, options.holdout_fraction);
+  ctx.outputs = data.outputs;
+  ctx.channels = data.channels;
+  const DataView& train = data.train;
+  const DataView& held = data.heldout;
+  out.split = data.split;
   const FitOptions& fo = options.fit;
 
   // 2. Baseline calibration of the subject parameters.
@@ -268,27 +232,40 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   const std::vector<ModelParameter> subject = SubjectParameters(rig, ctx);
   Eigen::VectorXd xs0(subject.size());
   for (std::size_t k = 0; k < subject.size(); ++k) xs0(k) = subject[k].start;
-  const FitResult base_fit =
-      FitParameters(rig, subject, xs0, train, fo, 0, options.baseline_iterations);
-  out.simulations += base_fit.simulations;
+  const StageCache stages(options, &out.cached_results);
+  const Json base_stage = stages.Get({"baseline"}, [&] {
+    const FitResult f = FitParameters(rig, subject, xs0, train, fo, 0, options.baseline_iterations);
+    out.simulations += f.simulations;
+    const std::vector<Trial> train_pred =
+        Predict(rig, subject, f.x, train, fo.tolerance, fo.threads);
+    const std::vector<Trial> held_pred = Predict(rig, subject, f.x, held, fo.tolerance, fo.threads);
+    out.simulations += static_cast<int>(train.trials.size() + held.trials.size());
+    Eigen::MatrixXd jacobian = f.jacobian;
+    const Eigen::VectorXd r = StackResiduals(train, train_pred);
+    if (jacobian.rows() != r.size()) {
+      jacobian = ResidualJacobian(rig, subject, f.x, r, train, fo, &out.simulations);
+    }
+    Json j = Json::Object();
+    j.Set("fit", FitJson(f)).Set("jacobian", MatrixJson(jacobian));
+    j.Set("train_predictions", TrialsToJson(train_pred));
+    j.Set("heldout_predictions", TrialsToJson(held_pred));
+    return j;
+  });
+  const FitResult base_fit = FitFromJson(Member(base_stage, "fit"));
   for (std::size_t k = 0; k < subject.size(); ++k) {
     out.subject_parameters.push_back(
         {subject[k].name, subject[k].unit, base_fit.x(k), base_fit.ci95(k)});
   }
-  const std::vector<Trial> train_base =
-      Predict(rig, subject, base_fit.x, train, fo.tolerance, fo.threads);
+  const std::vector<Trial> train_base = TrialsFromJson(Member(base_stage, "train_predictions"));
   const Eigen::VectorXd r0 = StackResiduals(train, train_base);
   const double rss0 = r0.squaredNorm();
   const long n = r0.size();
   const double sigma2 = rss0 / static_cast<double>(std::max<long>(1, n - base_fit.x.size()));
   out.heldout = held;
-  out.heldout_baseline = Predict(rig, subject, base_fit.x, held, fo.tolerance, fo.threads);
+  out.heldout_baseline = TrialsFromJson(Member(base_stage, "heldout_predictions"));
   out.baseline_heldout_nrmse = ViewNrmse(held, out.heldout_baseline);
-  out.simulations += static_cast<int>(train.trials.size() + held.trials.size());
-  Eigen::MatrixXd Js = base_fit.jacobian;
-  if (Js.rows() != n) {
-    Js = ResidualJacobian(rig, subject, base_fit.x, r0, train, fo, &out.simulations);
-  }
+  const Eigen::MatrixXd Js = MatrixFromJson(Member(base_stage, "jacobian"));
+  if (Js.rows() != n) throw std::runtime_error("diagnose: cached Jacobian has the wrong size");
 
   // Descriptive signatures on the first training trial.
   report(0.3, "residual signatures");
@@ -341,8 +318,7 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   std::vector<Candidate> library = CandidateLibrary(rig, ctx);
   int applicable = 0;
   for (const auto& c : library) applicable += c.applicable ? 1 : 0;
-  std::vector<ScoreTest> tests(library.size());
-  {
+  const Json score_stage = stages.Get({"score_tests"}, [&] {
     // All probe simulations in one parallel batch.
     struct Job {
       int cand, probe, trial;
@@ -373,6 +349,7 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
       }
     });
     out.simulations += static_cast<int>(jobs.size());
+    Json all = Json::Object();
     std::size_t j = 0;
     for (std::size_t c = 0; c < library.size(); ++c) {
       if (!library[c].applicable) continue;
@@ -387,8 +364,20 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
         }
         if (all_ok) D.col(p) = StackResiduals(train, pred) - r0;
       }
-      tests[c] = RunScoreTest(r0, D, Js, library[c].one_sided, sigma2);
+      const ScoreTest st = RunScoreTest(r0, D, Js, library[c].one_sided, sigma2);
+      Json e = Json::Object();
+      e.Set("statistic", st.statistic).Set("dof", st.dof).Set("theta", VectorJson(st.theta));
+      all.Set(std::to_string(c), e);
     }
+    return all;
+  });
+  std::vector<ScoreTest> tests(library.size());
+  for (std::size_t c = 0; c < library.size(); ++c) {
+    const Json* e = score_stage.Find(std::to_string(c));
+    if (e == nullptr) continue;  // not applicable
+    tests[c].statistic = Member(*e, "statistic").AsNumber();
+    tests[c].dof = static_cast<int>(Member(*e, "dof").AsNumber());
+    tests[c].theta = VectorFromJson(Member(*e, "theta"));
   }
   for (std::size_t c = 0; c < library.size(); ++c) {
     CandidateResult cr;
@@ -483,13 +472,29 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   auto fit_extension = [&](const std::vector<int>& cands, const Eigen::VectorXd& x0, int first_free,
                            int iterations) {
     std::vector<ModelParameter> params = subject;
-    for (int c : cands) params = Join(params, library[c].params);
+    std::vector<std::string> stage = {"extension"};
+    for (int c : cands) {
+      params = Join(params, library[c].params);
+      stage.push_back(std::to_string(c) + ":" + library[c].label);
+    }
+    std::string x0_text = "x0=";
+    for (Eigen::Index k = 0; k < x0.size(); ++k) x0_text += ExactNumberText(x0(k)) + ",";
+    stage.push_back(x0_text);
+    stage.push_back("free_from=" + std::to_string(first_free));
+    stage.push_back("iterations=" + std::to_string(iterations));
+    const Json st = stages.Get(stage, [&] {
+      const FitResult fit = FitParameters(rig, params, x0, train, fo, first_free, iterations);
+      out.simulations += fit.simulations;
+      const std::vector<Trial> pred = Predict(rig, params, fit.x, held, fo.tolerance, fo.threads);
+      out.simulations += static_cast<int>(held.trials.size());
+      Json j = Json::Object();
+      j.Set("fit", FitJson(fit)).Set("heldout_predictions", TrialsToJson(pred));
+      return j;
+    });
     Fitted f;
     f.cands = cands;
-    f.fit = FitParameters(rig, params, x0, train, fo, first_free, iterations);
-    out.simulations += f.fit.simulations;
-    f.heldout_pred = Predict(rig, params, f.fit.x, held, fo.tolerance, fo.threads);
-    out.simulations += static_cast<int>(held.trials.size());
+    f.fit = FitFromJson(Member(st, "fit"));
+    f.heldout_pred = TrialsFromJson(Member(st, "heldout_predictions"));
     f.heldout_nrmse = ViewNrmse(held, f.heldout_pred);
     return f;
   };

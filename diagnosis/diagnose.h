@@ -43,6 +43,8 @@
 
 #include "diagnosis/candidates.h"
 #include "diagnosis/extended_model.h"
+#include "diagnosis/measured.h"
+#include "scenarios/result_cache.h"
 #include "scenarios/trial.h"
 #include "sim/model_params.h"
 
@@ -60,6 +62,13 @@ struct DiagnoseOptions {
   int screen_iterations = 5;       ///< LM steps of a candidate's own parameters.
   int refit_iterations = 3;        ///< LM steps of the accepted extension with the subject.
   FitOptions fit = DefaultFitOptions();  ///< integrator, threads, finite differences.
+  /// Resume cache (null: none). The baseline calibration, the score tests and every extension
+  /// fit (screening, refits) are stored as they finish, keyed by `cache_inputs` (the caller's
+  /// identity of the rig and the measured data, e.g. hashes of the files), these options (not
+  /// `fit.threads`, which does not change results) and the stage's own inputs; a rerun reads
+  /// them back instead of simulating, so an interrupted diagnosis resumes where it stopped.
+  ResultCache* cache = nullptr;
+  std::string cache_inputs;
   static FitOptions DefaultFitOptions() {
     FitOptions f;
     f.tolerance = 1e-5;
@@ -116,7 +125,8 @@ struct Diagnosis {
   std::string split;                                      ///< how the data were split, one line.
   DataView heldout;                                       ///< for plots.
   std::vector<Trial> heldout_baseline, heldout_extended;  ///< predictions on the held-out trials.
-  int simulations = 0;                                    ///< trial simulations spent.
+  int simulations = 0;                                    ///< trial simulations spent in this run.
+  int cached_results = 0;  ///< stages read back from DiagnoseOptions::cache instead.
   double wall_s = 0.0;
 };
 
@@ -127,9 +137,5 @@ using DiagnoseProgress = std::function<void(double fraction, const std::string& 
 /// not free in the rig, unknown channel, too few samples, differing outputs across trials).
 Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measured,
                    const DiagnoseOptions& options, const DiagnoseProgress& progress = {});
-
-/// The split of step 1 (exposed for tests): training and held-out views.
-void SplitTrials(const std::vector<Trial>& measured, const std::vector<std::string>& outputs,
-                 double holdout_fraction, DataView* train, DataView* heldout, std::string* how);
 
 }  // namespace fesim::diagnosis

@@ -169,8 +169,9 @@ std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs) {
           (std::isfinite(p.ci95) ? F("%.2g", p.ci95) : std::string("n/a")) + " | " + p.unit +
           " |\n";
   }
-  md += "\n" + std::to_string(d.simulations) + " trial simulations, " + F("%.1f", d.wall_s) +
-        " s wall time.\n";
+  md += "\n" + std::to_string(d.simulations) + " trial simulations, " +
+        std::to_string(d.cached_results) + " results read from the resume cache, " +
+        F("%.1f", d.wall_s) + " s wall time.\n";
   return md;
 }
 
@@ -221,9 +222,21 @@ void WriteDiagnosisReport(const Diagnosis& d, const std::string& inputs, const s
   }
   std::vector<render::Image> images;
   for (const auto& f : figures) images.push_back(render::LinePlot(f.axes, f.series));
-  for (std::size_t k = 0; k < figures.size(); ++k) render::WritePng(figures[k].path, images[k]);
-  WriteFileAtomic(dir + "/diagnosis.json", json);
-  WriteFileAtomic(dir + "/diagnosis.md", md);
+  // The whole report or none of it (issue 10): when a write fails half-way (a full disk), the
+  // files this call already wrote are removed again, so no plots without their report remain.
+  std::vector<std::string> written;
+  try {
+    for (std::size_t k = 0; k < figures.size(); ++k) {
+      render::WritePng(figures[k].path, images[k]);
+      written.push_back(figures[k].path);
+    }
+    WriteFileAtomic(dir + "/diagnosis.json", json);
+    written.push_back(dir + "/diagnosis.json");
+    WriteFileAtomic(dir + "/diagnosis.md", md);
+  } catch (...) {
+    for (const auto& path : written) std::remove(path.c_str());
+    throw;
+  }
 }
 
 }  // namespace fesim::diagnosis

@@ -24,7 +24,7 @@ std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs);
 
 /// Writes DIR/diagnosis.json, DIR/diagnosis.md, DIR/residuals_<joint>.png and
 /// DIR/spectrum_<joint>.png per output, each atomically (WriteFileAtomic / render::WritePng);
-/// DIR must exist.
+/// DIR must exist. A failed write removes the files this call wrote before it, then rethrows.
 void WriteDiagnosisReport(const Diagnosis& d, const std::string& inputs, const std::string& dir);
 
 }  // namespace fesim::diagnosis

@@ -84,23 +84,10 @@ FullModelBudget LoadBudget(const Node& h, const std::string& key, FullModelBudge
   return m;
 }
 
-}  // namespace
-
-const std::map<std::string, std::vector<std::string>>& BenchmarkSectionMethods() {
-  static const std::map<std::string, std::vector<std::string>> kMethods = {
-      {"hand_array", {"full-model", "hammerstein-mimo"}},
-      {"elbow_tests", {"spline-arx", "spline-oe"}},
-      {"tremor_wrist", {"tremor-arx"}},
-      {"shoulder", {"shoulder-model1", "shoulder-model2", "shoulder-ekf"}},
-      {"reaching", {"invdyn-parametric", "invdyn-gp", "invdyn-semiparametric"}},
-  };
-  return kMethods;
-}
-
-BenchmarkSpec LoadBenchmarkSpec(const std::string& path) {
+BenchmarkSpec ParseChecked(const std::string& text, const std::string& path) {
   BenchmarkSpec b;
   b.path = path;
-  b.source_text = ReadFile(path);
+  b.source_text = text;
   YAML::Node root;
   try {
     root = YAML::Load(b.source_text);
@@ -136,6 +123,27 @@ BenchmarkSpec LoadBenchmarkSpec(const std::string& path) {
     top.Fail("needs at least one of hand_array, elbow_tests, tremor_wrist, shoulder, reaching");
   }
   return b;
+}
+
+}  // namespace
+
+const std::map<std::string, std::vector<std::string>>& BenchmarkSectionMethods() {
+  static const std::map<std::string, std::vector<std::string>> kMethods = {
+      {"hand_array", {"full-model", "hammerstein-mimo"}},
+      {"elbow_tests", {"spline-arx", "spline-oe"}},
+      {"tremor_wrist", {"tremor-arx"}},
+      {"shoulder", {"shoulder-model1", "shoulder-model2", "shoulder-ekf"}},
+      {"reaching", {"invdyn-parametric", "invdyn-gp", "invdyn-semiparametric"}},
+  };
+  return kMethods;
+}
+
+BenchmarkSpec LoadBenchmarkSpec(const std::string& path) {
+  return ParseBenchmarkSpec(ReadFile(path), path);
+}
+
+BenchmarkSpec ParseBenchmarkSpec(const std::string& text, const std::string& path) {
+  return internal::WithYamlErrorsNamed(path, [&] { return ParseChecked(text, path); });
 }
 
 }  // namespace fesim

@@ -62,6 +62,9 @@ struct BenchmarkSpec {
 /// Loads and validates a benchmark file; errors name the file, the key path and the range.
 BenchmarkSpec LoadBenchmarkSpec(const std::string& path);
 
+/// The same from the file's text; `path` names it in errors and anchors relative study files.
+BenchmarkSpec ParseBenchmarkSpec(const std::string& text, const std::string& path);
+
 /// The methods each section accepts, in report order.
 const std::map<std::string, std::vector<std::string>>& BenchmarkSectionMethods();
 

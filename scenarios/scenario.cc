@@ -10,8 +10,8 @@
 #include <stdexcept>
 
 #include "scenarios/protocols.h"
-#include "scenarios/yaml_node.h"
 #include "scenarios/trial.h"
+#include "scenarios/yaml_node.h"
 #include "sim/default_model.h"
 
 namespace fesim {
@@ -639,14 +639,7 @@ static Scenario ParseScenarioText(const std::string& text, const std::string& pa
 }
 
 Scenario ParseScenario(const std::string& text, const std::string& path) {
-  try {
-    return ParseScenarioText(text, path);
-  } catch (const YAML::Exception& e) {
-    // E.g. a mapping used as a key ("{{ext: 1}}"): yaml-cpp's bad conversion, found by fuzzing.
-    throw std::runtime_error(path +
-                             (e.mark.is_null() ? "" : ":" + std::to_string(e.mark.line + 1)) +
-                             ": unexpected YAML structure (" + e.msg + ")");
-  }
+  return internal::WithYamlErrorsNamed(path, [&] { return ParseScenarioText(text, path); });
 }
 
 Scenario LoadScenario(const std::string& path) {

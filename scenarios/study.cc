@@ -98,7 +98,9 @@ bool IsStudy(const std::string& text) {
   }
 }
 
-Study LoadStudy(const std::string& path, std::uint64_t noise_seed) {
+namespace {
+
+Study LoadStudyChecked(const std::string& path, std::uint64_t noise_seed) {
   Study st;
   st.path = path;
   st.source_text = ReadFile(path);
@@ -202,6 +204,12 @@ Study LoadStudy(const std::string& path, std::uint64_t noise_seed) {
     }
   }
   return st;
+}
+
+}  // namespace
+
+Study LoadStudy(const std::string& path, std::uint64_t noise_seed) {
+  return internal::WithYamlErrorsNamed(path, [&] { return LoadStudyChecked(path, noise_seed); });
 }
 
 }  // namespace fesim

@@ -20,6 +20,20 @@ inline std::string Fmt(double v) {
   return s.str();
 }
 
+/// Returns parse(), turning a yaml-cpp exception that escapes a loader's checks into a one-line
+/// error naming the file and line: e.g. a mapping used as a key (`{{ext: 1}}`), which makes
+/// yaml-cpp throw "bad conversion" from a key check (found by fuzzing, docs/reliability.md).
+template <typename Parse>
+auto WithYamlErrorsNamed(const std::string& path, Parse&& parse) -> decltype(parse()) {
+  try {
+    return parse();
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(path +
+                             (e.mark.is_null() ? "" : ":" + std::to_string(e.mark.line + 1)) +
+                             ": unexpected YAML structure (" + e.msg + ")");
+  }
+}
+
 /// A YAML mapping with its key path, which checks types, ranges and unknown keys.
 class YamlNode {
  public:

@@ -180,6 +180,21 @@ TEST(BenchmarkCli, BadInputIsOneLineAndNonZero) {
   EXPECT_EQ(RunFesim("benchmark " + kSrc + "/scenarios/default_study.yaml --bogus", err), 1);
   EXPECT_NE(ReadFile(err).find("--bogus"), std::string::npos);
   EXPECT_EQ(RunFesim("benchmark --help", err), 0);
+
+  // A study whose rig scenario is missing: found while the studies are planned, before any
+  // output directory is made (issue 10; the directories used to be created first).
+  const std::string dir = ::testing::TempDir() + "benchmark_bad_rig";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  WriteFileAtomic(dir + "/study.yaml", "study: s\nscenario: missing_rig.yaml\n");
+  WriteFileAtomic(dir + "/bench.yaml", "benchmark: b\nelbow_tests: {study: study.yaml}\n");
+  EXPECT_EQ(RunFesim("benchmark " + dir + "/bench.yaml --out " + dir + "/out", err), 1);
+  EXPECT_NE(ReadFile(err).find(dir + "/study.yaml: scenario: " + dir +
+                               "/missing_rig.yaml: cannot "
+                               "open for reading: No such file or directory"),
+            std::string::npos)
+      << ReadFile(err);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
 }
 
 }  // namespace

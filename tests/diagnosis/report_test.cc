@@ -79,5 +79,20 @@ TEST(Report, WritesMarkdownJsonAndPlots) {
   EXPECT_NE(ReadFile(dir + "/diagnosis.json").find("\"cause\": \"tremor\""), std::string::npos);
 }
 
+// Issue 10: when a write fails half-way (here diagnosis.md cannot replace a directory of that
+// name; a full disk behaves alike, docs/reliability.md), the plots and the JSON already written
+// are removed: the whole report or none of it.
+TEST(Report, AFailedWriteLeavesNoPartOfTheReport) {
+  const std::string dir = ::testing::TempDir() + "diag_report_fail";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir + "/diagnosis.md");
+  EXPECT_THROW(WriteDiagnosisReport(Example(), "inputs", dir), std::runtime_error);
+  std::string left;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    left += e.path().filename().string() + " ";
+  }
+  EXPECT_EQ(left, "diagnosis.md ");  // only the obstacle
+}
+
 }  // namespace
 }  // namespace fesim::diagnosis

@@ -76,5 +76,15 @@ TEST(BenchmarkSpec, BadInputNamesFileKeyAndRange) {
   }
 }
 
+// Fuzz finding (fuzz/fuzz_benchmark_spec.cc, docs/reliability.md): a mapping used as a key made
+// yaml-cpp throw "bad conversion" from the key check, a message naming neither file nor line.
+TEST(BenchmarkSpecBadInput, FuzzFinding1MappingAsKey) {
+  const std::string dir = ::testing::TempDir() + "_test_";
+  EXPECT_EQ(LoadError("fuzz1", "benchmark: tiyem\n{ nsuhodstudy.yaml}"),
+            dir + "fuzz1.yaml:2: unexpected YAML structure (bad conversion)");
+  EXPECT_EQ(LoadError("fuzz1b", "benchmark: b\nelbow_tests: {{study: a}: 1}\n"),
+            dir + "fuzz1b.yaml:2: unexpected YAML structure (bad conversion)");
+}
+
 }  // namespace
 }  // namespace fesim

@@ -103,5 +103,19 @@ protocols:
   EXPECT_FALSE(IsStudy("name: x\n"));
 }
 
+// The same class as the scenario and benchmark-file fuzz findings (docs/reliability.md): a
+// mapping used as a key is a one-line error naming the file and line, not yaml-cpp's bare
+// "bad conversion".
+TEST(StudyBadInput, MappingAsKeyNamesTheFile) {
+  const std::string path = ::testing::TempDir() + "study_mapping_key.yaml";
+  WriteFileAtomic(path, "study: s\n{a: 1}: 2\n");
+  try {
+    LoadStudy(path, 1);
+    FAIL() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()), path + ":2: unexpected YAML structure (bad conversion)");
+  }
+}
+
 }  // namespace
 }  // namespace fesim

@@ -1,0 +1,57 @@
+// A directory of results keyed by a hash of their inputs, so that a killed `fesim benchmark` or
+// `fesim diagnose` resumes where it stopped (issue 10): every entry is one JSON file written
+// atomically (scenarios/trial.h WriteFileAtomic), so an interrupted run leaves complete entries
+// or none. The key hashes the fesim version, a layout tag (a build with another layout misses
+// instead of misreading) and the caller's parts (input contents, options).
+#pragma once
+
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "scenarios/json.h"
+#include "scenarios/trial.h"
+
+namespace fesim {
+
+/// Creates a directory and its parents; throws std::runtime_error naming the path and the
+/// system's reason on failure.
+void MakeDirs(const std::string& path);
+
+/// True when `path` is a regular file.
+bool RegularFileExists(const std::string& path);
+
+class ResultCache {
+ public:
+  /// Entries live in `dir` (created on the first Store); `version` and `layout` enter every key.
+  ResultCache(std::string dir, std::string version, std::string layout);
+
+  /// 16 hex digits: FNV-1a of version, layout and parts, newline-separated.
+  std::string Key(const std::vector<std::string>& parts) const;
+  /// `dir`/<Key(parts)>: a sub-directory name for callers that store several files per entry.
+  std::string Path(const std::vector<std::string>& parts) const;
+
+  /// Reads the entry of `parts` into *out; false when there is none. A present but malformed
+  /// entry throws std::runtime_error naming the file.
+  bool Load(const std::vector<std::string>& parts, Json* out) const;
+  /// Writes the entry of `parts` (atomically, creating `dir`). Thread-safe.
+  void Store(const std::vector<std::string>& parts, const Json& value);
+
+  const std::string& dir() const { return dir_; }
+
+ private:
+  std::string dir_, version_, layout_;
+  std::mutex mutex_;
+};
+
+/// Trials as JSON (metadata, time, columns) for cached predictions: unlike the trial CSV reader,
+/// which rejects angles beyond a full turn as unit errors, JSON keeps what a diverging model
+/// predicted. Non-finite numbers come back as NaN.
+Json TrialsToJson(const std::vector<Trial>& trials);
+/// The inverse; throws std::runtime_error (prefixed with `what`) on a malformed value.
+std::vector<Trial> TrialsFromJson(const Json& all, const std::string& what = "json");
+
+/// A double as its shortest round-trip decimal text (for cache keys of numeric inputs).
+std::string ExactNumberText(double v);
+
+}  // namespace fesim

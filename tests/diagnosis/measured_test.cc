@@ -1,0 +1,99 @@
+// Step 1 of `fesim diagnose` on measured trials (diagnosis/measured.h): output rows, tracker
+// dropouts, checks against the rig and their one-line messages.
+#include "diagnosis/measured.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+
+#include "scenarios/scenario.h"
+
+namespace fesim::diagnosis {
+namespace {
+
+const sim::ModelParams& Rig() {
+  static const Scenario rig =
+      LoadScenario(std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/hand_rig.yaml");
+  return rig.model;
+}
+
+/// `n` rows at `rate_hz`: `input` = 100 µs, q.wrist_flexion = 0.1 sin t, q.mcp_flexion = 0.05.
+Trial Record(int n, double rate_hz, const std::string& input = "u.ext") {
+  Trial t;
+  t.metadata["source"] = "m.csv";
+  std::vector<double> w, m;
+  for (int i = 0; i < n; ++i) {
+    t.time.push_back(i / rate_hz);
+    w.push_back(0.1 * std::sin(t.time.back()));
+    m.push_back(0.05);
+  }
+  t.AddColumn(input, std::vector<double>(n, 100.0));
+  t.AddColumn("q.wrist_flexion", w);
+  t.AddColumn("q.mcp_flexion", m);
+  return t;
+}
+
+void SetRow(Trial* t, std::size_t row, double value) {
+  for (std::size_t k = 0; k < t->names.size(); ++k) {
+    if (t->names[k].rfind("q.", 0) == 0) t->columns[k][row] = value;
+  }
+}
+
+// Found while writing the fuzz seeds (issue 10): a row at which every output is NaN (a tracker
+// dropout) was dropped as if it belonged to another sensor's grid, and the record was then
+// rejected as "sampling is not uniform". --help promises that NaN gaps are skipped.
+TEST(PrepareMeasured, TrackerDropoutsStayOnTheGridAndAreMasked) {
+  Trial t = Record(200, 50.0);
+  for (std::size_t row : {10u, 57u, 58u, 170u}) SetRow(&t, row, NAN);
+  const MeasuredData d = PrepareMeasured(Rig(), {t}, 0.3);
+  ASSERT_EQ(d.heldout.trials.size(), 1u);
+  EXPECT_EQ(d.heldout.trials[0].size(), 200u);
+  EXPECT_TRUE(std::isnan(d.heldout.trials[0].Column("q.wrist_flexion")[57]));
+  EXPECT_EQ(d.train.trials[0].size() + 60, 200u);  // t < 2.8 s trains: 140 rows
+  EXPECT_EQ(d.outputs, (std::vector<std::string>{"q.wrist_flexion", "q.mcp_flexion"}));
+  EXPECT_EQ(d.channels, std::vector<std::string>{"ext"});
+  const long counted = d.train.Count() + d.heldout.Count();
+  EXPECT_EQ(counted, 2 * (200 - 4));  // dropouts do not count
+}
+
+TEST(PrepareMeasured, ATwoRateRecordKeepsTheOutputGridWithItsDropouts) {
+  // Inputs at 100 Hz, angles at 50 Hz (NaN on the odd rows), one angle dropout at row 100.
+  Trial t = Record(400, 100.0);
+  for (std::size_t row = 1; row < 400; row += 2) SetRow(&t, row, NAN);
+  SetRow(&t, 100, NAN);
+  const MeasuredData d = PrepareMeasured(Rig(), {t}, 0.3);
+  const Trial& all = d.heldout.trials[0];
+  ASSERT_EQ(all.size(), 200u);  // rows 0, 2, …, 398
+  for (std::size_t i = 1; i < all.size(); ++i) {
+    EXPECT_NEAR(all.time[i] - all.time[i - 1], 0.02, 1e-12) << i;
+  }
+  EXPECT_TRUE(std::isnan(all.Column("q.wrist_flexion")[50]));  // the dropout, kept
+}
+
+TEST(PrepareMeasured, BadTrialsAreOneLineErrorsNamingFileAndColumn) {
+  const auto error = [](const Trial& t) {
+    try {
+      PrepareMeasured(Rig(), {t}, 0.3);
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  Trial t = Record(200, 50.0);
+  t.columns[0][7] = NAN;
+  EXPECT_EQ(error(t), "m.csv: column u.ext: NaN input");
+  EXPECT_EQ(error(Record(200, 50.0, "u.nope")), "m.csv: column u.nope: no such channel in the rig");
+  t = Record(200, 50.0);
+  t.time[120] += 0.01;
+  EXPECT_NE(error(t).find("m.csv: column time: sampling is not uniform at row 120"),
+            std::string::npos)
+      << error(t);
+  EXPECT_EQ(error(Record(90, 50.0)), "m.csv: 90 samples, need at least 100");
+  t = Record(200, 50.0);
+  t.columns[0].assign(200, 0.0);
+  EXPECT_EQ(error(t), "diagnose: no trial stimulates any channel");
+}
+
+}  // namespace
+}  // namespace fesim::diagnosis
