@@ -1,6 +1,7 @@
 // `fesim diagnose MEASURED.csv[,MORE.csv…] --scenario RIG.yaml [--out DIR] [--model full]
 //  [--threads N]` (PRODUCT.md "Diagnosis", issue 7).
 #include <cstdio>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -41,15 +42,14 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
     throw std::runtime_error("expected one argument MEASURED.csv[,MORE.csv...] (see --help)");
   }
   if (!args.Has("scenario")) throw std::runtime_error("--scenario is required (see --help)");
-  if (job.size() > 1) {
-    throw cluster::CollectiveError("diagnose does not run on several MPI ranks yet");
-  }
   const std::string model = args.Get("model", "full");
   if (model != "full") {
     throw std::runtime_error("--model: '" + model +
                              "' is not available for diagnosis (allowed: full)");
   }
-  const long threads = args.GetInt("threads", std::max(1u, std::thread::hardware_concurrency()));
+  // On an MPI job, one thread per rank unless asked (the ranks share the cores).
+  const long threads = args.GetInt(
+      "threads", job.size() > 1 ? 1u : std::max(1u, std::thread::hardware_concurrency()));
   if (threads < 1 || threads > 256) {
     throw std::runtime_error("--threads: " + std::to_string(threads) + " is outside [1, 256]");
   }
@@ -73,15 +73,37 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
   options.fit.threads = static_cast<int>(threads);
   options.cache = &cache;
   options.cache_inputs = cache_inputs;
+  if (job.size() > 1) {
+    // An MPI job: every rank runs the diagnosis; the probe simulations and the candidates'
+    // screening fits are spread over the ranks, each rank gets every result back, rank 0 writes.
+    options.map = [&job](std::size_t n, const std::function<std::string(std::size_t)>& fn) {
+      const std::vector<cluster::ItemOutcome> outcomes = job.MapAll(n, fn);
+      std::vector<std::string> texts;
+      std::string failed;
+      for (std::size_t i = 0; i < outcomes.size(); ++i) {
+        if (!outcomes[i].ok) {
+          failed += (failed.empty() ? "" : "; ") + std::string("diagnosis item ") +
+                    std::to_string(i) + " (rank " + std::to_string(outcomes[i].rank) +
+                    "): " + outcomes[i].payload;
+        }
+        texts.push_back(outcomes[i].payload);
+      }
+      if (!failed.empty()) throw cluster::CollectiveError(failed);
+      return texts;
+    };
+  }
   const diagnosis::Diagnosis d =
-      diagnosis::Diagnose(scenario.model, trials, options, cli::ShowProgress);
+      diagnosis::Diagnose(scenario.model, trials, options,
+                          job.is_root() ? diagnosis::DiagnoseProgress(cli::ShowProgress) : nullptr);
+  if (!job.is_root()) return 0;
   MakeDirs(out);
   diagnosis::WriteDiagnosisReport(d, inputs, out);
   std::fprintf(stderr,
                "fesim diagnose: %s (confidence %.2f, held-out gain %.1f %%), report in %s; "
-               "%d trial simulations, %d results from the resume cache %s/cache\n",
+               "%d trial simulations, %d results from the resume cache %s/cache%s\n",
                d.cause.c_str(), d.confidence, 100.0 * d.gain, out.c_str(), d.simulations,
-               d.cached_results, out.c_str());
+               d.cached_results, out.c_str(),
+               job.size() > 1 ? (", " + std::to_string(job.size()) + " MPI ranks").c_str() : "");
   return 0;
 }
 

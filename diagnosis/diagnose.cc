@@ -334,7 +334,7 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     }
     std::vector<Trial> sims(jobs.size());
     std::vector<char> ok(jobs.size(), 1);
-    ParallelFor(static_cast<int>(jobs.size()), fo.threads, [&](int j) {
+    const auto probe = [&](std::size_t j) {
       const Candidate& c = library[jobs[j].cand];
       const std::vector<ModelParameter> params = Join(subject, c.params);
       const Eigen::VectorXd x = Concat(base_fit.x, c.probes[jobs[j].probe]);
@@ -347,7 +347,20 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
       } catch (const std::exception&) {
         ok[j] = 0;
       }
-    });
+    };
+    if (options.map) {
+      // Elsewhere (MPI ranks): each probe's simulation comes back as JSON; "" = it failed.
+      const std::vector<std::string> texts = options.map(jobs.size(), [&](std::size_t j) {
+        probe(j);
+        return ok[j] ? TrialsToJson({sims[j]}).Dump(0) : std::string();
+      });
+      for (std::size_t j = 0; j < jobs.size(); ++j) {
+        ok[j] = texts[j].empty() ? 0 : 1;
+        if (ok[j]) sims[j] = TrialsFromJson(Json::Parse(texts[j], "probe"), "probe")[0];
+      }
+    } else {
+      ParallelFor(jobs.size(), fo.threads, probe);
+    }
     out.simulations += static_cast<int>(jobs.size());
     Json all = Json::Object();
     std::size_t j = 0;
@@ -469,8 +482,10 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   };
   // Fits `cands`' parameters on top of the subject parameters, holding the first `first_free`
   // entries of x0 (subject ⊕ earlier mechanisms) when first_free > 0.
-  auto fit_extension = [&](const std::vector<int>& cands, const Eigen::VectorXd& x0, int first_free,
-                           int iterations) {
+  // The extension fit's cache stage: {fit, held-out predictions}; `sims` counts the simulations
+  // it ran (none when cached).
+  auto extension_stage = [&](const std::vector<int>& cands, const Eigen::VectorXd& x0,
+                             int first_free, int iterations, int* sims) {
     std::vector<ModelParameter> params = subject;
     std::vector<std::string> stage = {"extension"};
     for (int c : cands) {
@@ -482,21 +497,27 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     stage.push_back(x0_text);
     stage.push_back("free_from=" + std::to_string(first_free));
     stage.push_back("iterations=" + std::to_string(iterations));
-    const Json st = stages.Get(stage, [&] {
+    return stages.Get(stage, [&] {
       const FitResult fit = FitParameters(rig, params, x0, train, fo, first_free, iterations);
-      out.simulations += fit.simulations;
+      *sims += fit.simulations;
       const std::vector<Trial> pred = Predict(rig, params, fit.x, held, fo.tolerance, fo.threads);
-      out.simulations += static_cast<int>(held.trials.size());
+      *sims += static_cast<int>(held.trials.size());
       Json j = Json::Object();
       j.Set("fit", FitJson(fit)).Set("heldout_predictions", TrialsToJson(pred));
       return j;
     });
+  };
+  auto fitted_from = [&](const std::vector<int>& cands, const Json& st) {
     Fitted f;
     f.cands = cands;
     f.fit = FitFromJson(Member(st, "fit"));
     f.heldout_pred = TrialsFromJson(Member(st, "heldout_predictions"));
     f.heldout_nrmse = ViewNrmse(held, f.heldout_pred);
     return f;
+  };
+  auto fit_extension = [&](const std::vector<int>& cands, const Eigen::VectorXd& x0, int first_free,
+                           int iterations) {
+    return fitted_from(cands, extension_stage(cands, x0, first_free, iterations, &out.simulations));
   };
   auto lr_p_adj = [&](double rss_before, double rss_after, int p) {
     const double lr = static_cast<double>(n) * std::log(rss_before / std::max(rss_after, 1e-300));
@@ -505,12 +526,33 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   const int ns = static_cast<int>(subject.size());
 
   // Screening: each plausible candidate alone, subject parameters held at the baseline.
+  const auto screen_start = [&](int c) {
+    return Concat(base_fit.x, library[c].start_from_step(tests[c].theta));
+  };
+  std::vector<Json> screened(order.size());
+  if (options.map) {
+    // Elsewhere (MPI ranks): one candidate per item; the stage and its simulation count return.
+    report(0.35, "fitting " + std::to_string(order.size()) + " extensions");
+    const std::vector<std::string> texts = options.map(order.size(), [&](std::size_t k) {
+      int sims = 0;
+      Json j = Json::Object();
+      j.Set("stage", extension_stage({order[k]}, screen_start(order[k]), ns,
+                                     options.screen_iterations, &sims));
+      j.Set("simulations", sims);
+      return j.Dump(0);
+    });
+    for (std::size_t k = 0; k < order.size(); ++k) {
+      const Json j = Json::Parse(texts[k], "screening fit");
+      screened[k] = Member(j, "stage");
+      out.simulations += static_cast<int>(Member(j, "simulations").AsNumber());
+    }
+  }
   std::vector<Fitted> round1;
   for (std::size_t k = 0; k < order.size(); ++k) {
     const int c = order[k];
     report(0.35 + 0.4 * k / order.size(), "fitting extension " + library[c].label);
-    Fitted f = fit_extension({c}, Concat(base_fit.x, library[c].start_from_step(tests[c].theta)),
-                             ns, options.screen_iterations);
+    Fitted f = options.map ? fitted_from({c}, screened[k])
+                           : fit_extension({c}, screen_start(c), ns, options.screen_iterations);
     CandidateResult& cr = out.candidates[c];
     cr.fitted = true;
     cr.lr_p_adjusted = lr_p_adj(rss0, f.fit.cost, static_cast<int>(library[c].params.size()));

@@ -69,6 +69,15 @@ struct DiagnoseOptions {
   /// them back instead of simulating, so an interrupted diagnosis resumes where it stopped.
   ResultCache* cache = nullptr;
   std::string cache_inputs;
+  /// Where the independent items of a stage run (issue 9): the score tests' probe simulations
+  /// and the screening fit of each candidate. Called with n and an item function that returns
+  /// the item's result as text; returns the n results in index order (on every process that
+  /// calls Diagnose) or throws naming the failed items. Empty: on fit.threads threads here
+  /// (probes) or one after another (screening fits, parallel inside). apps/diagnose_cmd.cc
+  /// sets it to spread the items over the ranks of an MPI job (cluster::Cluster::MapAll).
+  std::function<std::vector<std::string>(std::size_t,
+                                         const std::function<std::string(std::size_t)>&)>
+      map;
   static FitOptions DefaultFitOptions() {
     FitOptions f;
     f.tolerance = 1e-5;

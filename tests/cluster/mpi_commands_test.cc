@@ -159,5 +159,61 @@ TEST(MpiBenchmark, QuickStudySameFiguresOnAnyRankCountAndFailedItemRedoneAlone) 
   EXPECT_EQ(Figures(one).Dump(), Figures(rerun).Dump());
 }
 
+/// diagnosis.json without its run-dependent members (wall time, counts of simulations and of
+/// cached results).
+Json DiagnosisFigures(const Json& j) {
+  if (j.IsObject()) {
+    Json out = Json::Object();
+    static const std::set<std::string> kRun = {"wall_s", "simulations", "cached_results",
+                                               "threads"};
+    for (std::size_t k = 0; k < j.Keys().size(); ++k) {
+      if (!kRun.count(j.Keys()[k])) out.Set(j.Keys()[k], DiagnosisFigures(j.Items()[k]));
+    }
+    return out;
+  }
+  if (j.IsArray()) {
+    Json out = Json::Array();
+    for (const auto& v : j.Items()) out.Push(DiagnosisFigures(v));
+    return out;
+  }
+  return j;
+}
+
+TEST(MpiDiagnose, SameDiagnosisOnThreeRanks) {
+  if (!MpiAvailable()) GTEST_SKIP() << "built without MPI or no mpirun";
+  const std::string base = ::testing::TempDir() + "mpi_diagnose";
+  fs::remove_all(base);
+  fs::create_directories(base);
+  // The hand rig, 12 s of steps, with a planted wrist tremor the diagnosis must name.
+  std::string rig = ReadFile(kSrc + "/scenarios/hand_rig.yaml");
+  rig.replace(rig.find("stimulation:"), std::string::npos,
+              "stimulation:\n  duration_s: 12\n  type: steps\n  steps: [{time_s: 2, values_us: "
+              "{ext: 200}}, {time_s: 5, values_us: {flex: 150}}, {time_s: 8, values_us: {ext: "
+              "0}}]\n");
+  WriteFileAtomic(base + "/rig.yaml", rig);
+  WriteFileAtomic(base + "/planted.yaml",
+                  rig +
+                      "mechanisms:\n  tremor: {coordinate: wrist_flexion, frequency_hz: 6.3, "
+                      "amplitude_nm: 0.12}\n");
+  ASSERT_EQ(RunFesim(0, "simulate " + base + "/planted.yaml --seed 4 --out " + base + "/sim",
+                     base + "/e0"),
+            0)
+      << ReadFile(base + "/e0");
+  const std::string args =
+      "diagnose " + base + "/sim/hand_rig.csv --scenario " + base + "/rig.yaml --out ";
+  ASSERT_EQ(RunFesim(0, args + base + "/one --threads 2", base + "/e1"), 0)
+      << ReadFile(base + "/e1");
+  ASSERT_EQ(RunFesim(3, args + base + "/three", base + "/e3"), 0) << ReadFile(base + "/e3");
+  const Json one = Json::Parse(ReadFile(base + "/one/diagnosis.json"));
+  const Json three = Json::Parse(ReadFile(base + "/three/diagnosis.json"));
+  EXPECT_EQ(one.Find("cause")->AsString(), "tremor");
+  EXPECT_EQ(DiagnosisFigures(one).Dump(), DiagnosisFigures(three).Dump());
+  EXPECT_NE(ReadFile(base + "/e3").find("3 MPI ranks"), std::string::npos)
+      << ReadFile(base + "/e3");
+  for (const char* png : {"residuals_wrist_flexion.png", "spectrum_wrist_flexion.png"}) {
+    EXPECT_EQ(ReadFile(base + "/one/" + png), ReadFile(base + "/three/" + png)) << png;
+  }
+}
+
 }  // namespace
 }  // namespace fesim
