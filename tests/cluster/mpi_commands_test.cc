@@ -38,29 +38,32 @@ int RunFesim(int ranks, const std::string& args, const std::string& err_file,
   return WEXITSTATUS(std::system(cmd.c_str()));
 }
 
-/// results.json without what measures the run rather than the cohort: wall times, thread and
-/// rank counts, work counters, and findings on measured times.
-Json Figures(const Json& j) {
+/// `j` without the members named in `drop`, members whose key contains "wall_s", and objects
+/// flagged `measured_time`: what measures the run (wall times, thread and rank counts, work
+/// counters, findings on measured times) rather than the data.
+Json WithoutRunFigures(const Json& j, const std::set<std::string>& drop) {
   if (j.IsObject()) {
     if (const Json* m = j.Find("measured_time"); m != nullptr && m->AsBool()) return Json();
     Json out = Json::Object();
-    static const std::set<std::string> kRun = {"threads",          "ranks",
-                                               "fits_run",         "fits_cached",
-                                               "trials_simulated", "thread_seconds_by_kind",
-                                               "work_loops",       "scaling_estimate"};
     for (std::size_t k = 0; k < j.Keys().size(); ++k) {
       const std::string& key = j.Keys()[k];
-      if (kRun.count(key) || key.find("wall_s") != std::string::npos) continue;
-      out.Set(key, Figures(j.Items()[k]));
+      if (drop.count(key) || key.find("wall_s") != std::string::npos) continue;
+      out.Set(key, WithoutRunFigures(j.Items()[k], drop));
     }
     return out;
   }
   if (j.IsArray()) {
     Json out = Json::Array();
-    for (const auto& v : j.Items()) out.Push(Figures(v));
+    for (const auto& v : j.Items()) out.Push(WithoutRunFigures(v, drop));
     return out;
   }
   return j;
+}
+
+/// results.json's figures of the cohort.
+Json Figures(const Json& j) {
+  return WithoutRunFigures(j, {"threads", "ranks", "fits_run", "fits_cached", "trials_simulated",
+                               "thread_seconds_by_kind", "work_loops", "scaling_estimate"});
 }
 
 Json Results(const std::string& dir) {
@@ -159,24 +162,9 @@ TEST(MpiBenchmark, QuickStudySameFiguresOnAnyRankCountAndFailedItemRedoneAlone) 
   EXPECT_EQ(Figures(one).Dump(), Figures(rerun).Dump());
 }
 
-/// diagnosis.json without its run-dependent members (wall time, counts of simulations and of
-/// cached results).
+/// diagnosis.json's figures (without wall time and the counts of simulations and cached results).
 Json DiagnosisFigures(const Json& j) {
-  if (j.IsObject()) {
-    Json out = Json::Object();
-    static const std::set<std::string> kRun = {"wall_s", "simulations", "cached_results",
-                                               "threads"};
-    for (std::size_t k = 0; k < j.Keys().size(); ++k) {
-      if (!kRun.count(j.Keys()[k])) out.Set(j.Keys()[k], DiagnosisFigures(j.Items()[k]));
-    }
-    return out;
-  }
-  if (j.IsArray()) {
-    Json out = Json::Array();
-    for (const auto& v : j.Items()) out.Push(DiagnosisFigures(v));
-    return out;
-  }
-  return j;
+  return WithoutRunFigures(j, {"simulations", "cached_results", "threads"});
 }
 
 TEST(MpiDiagnose, SameDiagnosisOnThreeRanks) {
