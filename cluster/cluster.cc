@@ -1,6 +1,7 @@
 #include "cluster/cluster.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <climits>
@@ -84,10 +85,10 @@ int CountOf(std::size_t bytes) {
 bool BuiltWithMpi() { return FESIM_WITH_MPI != 0; }
 
 bool StartedByMpiLauncher() {
-  for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK"}) {
-    if (std::getenv(v) != nullptr) return true;
-  }
-  return false;
+  const std::array<const char*, 3> launcher_variables = {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK",
+                                                         "PMI_RANK"};
+  return std::any_of(launcher_variables.begin(), launcher_variables.end(),
+                     [](const char* v) { return std::getenv(v) != nullptr; });
 }
 
 std::unique_ptr<Cluster> Cluster::Single() { return std::unique_ptr<Cluster>(new Cluster()); }
@@ -266,7 +267,7 @@ std::vector<ItemOutcome> Cluster::MapAll(std::size_t n, const ItemFn& fn, int th
   return out;
 }
 
-std::string Cluster::Broadcast(const std::string& value) {
+std::string Cluster::Broadcast(const std::string& value) const {
   if (size_ == 1) return value;
 #if FESIM_WITH_MPI
   std::uint64_t length = value.size();
@@ -283,7 +284,7 @@ std::string Cluster::Broadcast(const std::string& value) {
 #endif
 }
 
-std::vector<std::string> Cluster::Gather(const std::string& value) {
+std::vector<std::string> Cluster::Gather(const std::string& value) const {
   if (size_ == 1) return {value};
 #if FESIM_WITH_MPI
   int length = CountOf(value.size());
@@ -314,7 +315,7 @@ std::vector<std::string> Cluster::Gather(const std::string& value) {
 #endif
 }
 
-void Cluster::Barrier() {
+void Cluster::Barrier() const {
   if (size_ == 1) return;
 #if FESIM_WITH_MPI
   MPI_Request request;
@@ -323,7 +324,7 @@ void Cluster::Barrier() {
 #endif
 }
 
-void Cluster::Abort(int code) {
+void Cluster::Abort(int code) const {
 #if FESIM_WITH_MPI
   if (mpi_) MPI_Abort(MPI_COMM_WORLD, code);
 #endif

@@ -74,13 +74,13 @@ class Cluster {
                                   const std::function<void(std::size_t)>& done = {});
 
   /// Rank 0's `value` on every rank.
-  std::string Broadcast(const std::string& value);
+  std::string Broadcast(const std::string& value) const;
   /// Every rank's `value`, by rank, on rank 0 (empty on the others).
-  std::vector<std::string> Gather(const std::string& value);
-  void Barrier();
+  std::vector<std::string> Gather(const std::string& value) const;
+  void Barrier() const;
   /// Ends the whole job at once with `code` (after a rank-local failure that the other ranks
   /// would wait on forever); does not return.
-  [[noreturn]] void Abort(int code);
+  [[noreturn]] void Abort(int code) const;
 
  private:
   Cluster() = default;
