@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -16,6 +17,7 @@
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
+#include <string>
 
 namespace fesim {
 namespace {
@@ -329,8 +331,20 @@ const char* RegisteredTempFile(int slot) {
   return g_registered_tmp[slot];
 }
 
+std::string TempSuffixHost() {
+  // MPI ranks on several hosts may write the same file (identical contents) on a shared file
+  // system, with equal pids: the host name keeps their temporary files apart.
+  char host[256] = {};
+  if (::gethostname(host, sizeof host - 1) != 0) return "host";
+  std::string h(host);
+  for (char& c : h) {
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '.') c = '_';
+  }
+  return h.empty() ? "host" : h;
+}
+
 void WriteFileAtomic(const std::string& path, const std::string& contents) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid()) + "." + TempSuffixHost();
   SetPendingTemp(tmp);
   std::FILE* f = std::fopen(tmp.c_str(), "wb");
   if (f == nullptr) {

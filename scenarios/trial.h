@@ -84,6 +84,10 @@ const char* RegisteredTempFile(int slot);
 /// FNV-1a 64-bit hash of `bytes` as 16 lower-case hex digits (cache keys, manifest hashes).
 std::string Fnv1a64Hex(const std::string& bytes);
 
+/// The host part of WriteFileAtomic's temporary names, `PATH.tmp.PID.HOST` (the host name with
+/// characters other than letters, digits, '-' and '.' replaced by '_').
+std::string TempSuffixHost();
+
 /// Reads a whole file; throws std::runtime_error naming the path when it cannot be read.
 std::string ReadFile(const std::string& path);
 

@@ -202,8 +202,8 @@ TEST(CliInterrupt, SignalMidSimulationLeavesNoOutput) {
 }
 
 // The signal arrives while an output file is being written: the handler removes the temporary
-// file. A FIFO at the temporary file's name (path.tmp.PID) holds the writer in open() until the
-// signal, so the test does not depend on timing; without the handler the FIFO stays behind.
+// file. A FIFO at the temporary file's name (path.tmp.PID.HOST) holds the writer in open() until
+// the signal, so the test does not depend on timing; without the handler the FIFO stays behind.
 TEST(CliInterrupt, SignalDuringAtomicWriteRemovesTheTemporaryFile) {
   const std::string dir = Dir("fifo");
   const std::string sc = WriteScenario(dir, "short", "0.3");
@@ -211,7 +211,7 @@ TEST(CliInterrupt, SignalDuringAtomicWriteRemovesTheTemporaryFile) {
   ::mkdir(out.c_str(), 0755);
   const std::string err = dir + "/err.txt";
   const pid_t pid = Spawn({"simulate", sc, "--out", out}, err);
-  const std::string fifo = out + "/short.csv.tmp." + std::to_string(pid);
+  const std::string fifo = out + "/short.csv.tmp." + std::to_string(pid) + "." + TempSuffixHost();
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
   ASSERT_TRUE(WaitFor(err, "100%", 60.0)) << "simulation did not finish";
   // Give the writer time to reach open() on the FIFO (it then blocks there).
