@@ -32,10 +32,10 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
         "Writes DIR/diagnosis.md, DIR/diagnosis.json, DIR/residuals_<joint>.png and\n"
         "DIR/spectrum_<joint>.png\n"
         "(default DIR: out/diagnose); the calibration, score tests and fits are cached in\n"
-        "DIR/cache as they finish, so an interrupted run resumes. Trials need u.<channel> inputs "
-        "and q.<joint> outputs\n"
-        "(q.<joint>_deg accepted) of joints that are free in the scenario, one sample rate;\n"
-        "NaN gaps are skipped. --threads: simulation threads (default: all cores).\n");
+        "DIR/cache as they finish, so an interrupted run resumes. Trials need u.<channel>\n"
+        "inputs and q.<joint> outputs (q.<joint>_deg accepted) of joints that are free in the\n"
+        "scenario, one sample rate; NaN gaps are skipped. --threads: simulation threads\n"
+        "(default: all cores).\n");
     return 0;
   }
   if (args.positional.size() != 1) {

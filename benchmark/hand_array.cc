@@ -195,7 +195,7 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
                                       budget.rank_once ? "rank_once" : "rank_each",
                                       ReadFile(st.scenario_path)};
       for (const auto& t : train) key.push_back(TrialHash(t));
-      key.push_back("test");
+      key.emplace_back("test");
       for (const auto& t : test) key.push_back(TrialHash(t));
       if (budget.rank_once && k > 0) {
         for (const auto& n : kept_names[p]) key.push_back(n);
@@ -304,8 +304,10 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
       if (!on[m]) continue;
       Json jm = Json::Object();
       std::vector<double> steps;
+      steps.reserve(reps);
       for (int j = 0; j < nj; ++j) {
         std::vector<double> e;
+        e.reserve(reps);
         for (int k = 0; k < reps; ++k) e.push_back((*models[m].second)[p * reps + k].error[j]);
         const double me = MeanFinite(e);
         mean_err[m][j] += me / np;
@@ -394,6 +396,7 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
         "data:";
     for (int j = 0; j < nj; ++j) {
       std::vector<double> e;
+      e.reserve(nominal.size());
       for (const auto& f : nominal) e.push_back(f[j]);
       jn.Set(joints[j].substr(2), MeanFinite(e));
       md += " " + joints[j].substr(2) + " " + Fixed(MeanFinite(e), 3) + (j + 1 < nj ? "," : ".");
@@ -430,6 +433,7 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
   {
     std::vector<render::BarSeries> bars;
     std::vector<std::string> cats;
+    cats.reserve(joints.size());
     for (const auto& j : joints) cats.push_back(j.substr(2));
     for (int m = 0; m < 2; ++m) {
       if (!on[m]) continue;

@@ -263,6 +263,7 @@ std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const Libra
     std::vector<int> forearm = WristGroup(rig, true), flex = WristGroup(rig, false);
     forearm.insert(forearm.end(), flex.begin(), flex.end());
     std::vector<double> vmax;
+    vmax.reserve(forearm.size());
     for (int m : forearm) vmax.push_back(rig.muscles[m].hill.max_contraction_velocity);
     c.params.push_back(Param("hill.vmax_scale", "1", 1.0, 0.05, 5.0, 1.0,
                              [forearm, vmax](double v, sim::ModelParams* m) {

@@ -138,7 +138,7 @@ const Json& Member(const Json& j, const std::string& key) {
 }
 
 Json VectorJson(const Eigen::VectorXd& v) {
-  return Json(std::vector<double>(v.data(), v.data() + v.size()));
+  return {std::vector<double>(v.data(), v.data() + v.size())};
 }
 
 Eigen::VectorXd VectorFromJson(const Json& j) {
@@ -273,6 +273,7 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   const double dt = tr0.time[1] - tr0.time[0];
   std::vector<std::vector<double>> inputs;
   const auto input_names = tr0.NamesWithPrefix("u.");
+  inputs.reserve(input_names.size());
   for (const auto& u : input_names) inputs.push_back(tr0.Column(u));
   const std::vector<double> cumulative = CumulativeStimulation(tr0.time, inputs);
   for (const auto& o : ctx.outputs) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -140,7 +141,7 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
   }
   std::vector<Trial> sims(static_cast<std::size_t>(p) * nt);
   std::vector<char> ok(sims.size(), 1);
-  ParallelFor(p * nt, options.threads, [&](int task) {
+  ParallelFor(sims.size(), options.threads, [&](int task) {
     const int c = task / nt, t = task % nt;
     try {
       sims[task] = PredictOne(models[c], params, xs[c], view.trials[t], options.tolerance);
@@ -154,7 +155,8 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
     bool column_ok = true;
     for (int t = 0; t < nt; ++t) column_ok = column_ok && ok[c * nt + t];
     if (!column_ok) continue;
-    std::vector<Trial> pred(sims.begin() + c * nt, sims.begin() + (c + 1) * nt);
+    const auto first = sims.begin() + static_cast<std::ptrdiff_t>(c) * nt;
+    std::vector<Trial> pred(first, first + nt);
     J.col(c) = (StackResiduals(view, pred) - r0) / h[c];
   }
   return J;

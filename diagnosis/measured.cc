@@ -122,6 +122,7 @@ MeasuredData PrepareMeasured(const sim::ModelParams& rig, const std::vector<Tria
   if (measured.empty()) throw std::runtime_error("diagnose: no measured trials");
   MeasuredData d;
   std::vector<Trial> trials;
+  trials.reserve(measured.size());
   for (const auto& t : measured) trials.push_back(OutputRows(t, t.NamesWithPrefix("q.")));
   Validate(rig, trials, &d.outputs, &d.channels);
   SplitTrials(trials, d.outputs, holdout_fraction, &d.train, &d.heldout, &d.split);

@@ -221,6 +221,7 @@ void WriteDiagnosisReport(const Diagnosis& d, const std::string& inputs, const s
     figures.push_back(spec);
   }
   std::vector<render::Image> images;
+  images.reserve(figures.size());
   for (const auto& f : figures) images.push_back(render::LinePlot(f.axes, f.series));
   // The whole report or none of it (issue 10): when a write fails half-way (a full disk), the
   // files this call already wrote are removed again, so no plots without their report remain.

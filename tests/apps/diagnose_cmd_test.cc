@@ -186,24 +186,25 @@ TEST(DiagnoseCmd, InterruptedRunResumesFromTheCacheWithTheSameFigures) {
   const int entries = CacheEntries(out + "/cache");
   EXPECT_GE(entries, 3);
   EXPECT_LT(entries, ref_entries);
-  EXPECT_EQ(RunListing(out + "/cache").find(".tmp"), std::string::npos);
+  EXPECT_EQ(RunListing(out + "/cache").find(".tmp"), std::string::npos)
+      << RunListing(out + "/cache");
 
   // The rerun reads the finished stages back and simulates only the rest.
   r = RunFesim(args + out);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   int simulations = 0, cached = 0;
   WorkDone(r.err, &simulations, &cached);
-  EXPECT_EQ(cached, entries);
-  EXPECT_LT(simulations, ref_simulations);
+  EXPECT_EQ(cached, entries) << r.err;
+  EXPECT_LT(simulations, ref_simulations) << r.err;
   EXPECT_EQ(ReadFile(out + "/diagnosis.json"), ref_json);
-  EXPECT_EQ(CacheEntries(out + "/cache"), ref_entries);
+  EXPECT_EQ(CacheEntries(out + "/cache"), ref_entries) << RunListing(out + "/cache");
 
   // A complete diagnosis rerun simulates nothing and reports the same figures.
   r = RunFesim(args + dir + "/ref");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   WorkDone(r.err, &simulations, &cached);
-  EXPECT_EQ(simulations, 0);
-  EXPECT_EQ(cached, ref_entries);
+  EXPECT_EQ(simulations, 0) << r.err;
+  EXPECT_EQ(cached, ref_entries) << r.err;
   EXPECT_EQ(ReadFile(dir + "/ref/diagnosis.json"), ref_json);
 }
 
