@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <mutex>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -65,10 +66,11 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
   const auto t0 = std::chrono::steady_clock::now();
 
   // Each item's files as bytes (measured CSV, truth CSV, integration statistics), made on
-  // whichever rank (or thread) ran it and written by rank 0.
-  struct ItemFiles {
-    std::string measured, truth, stats;
-  };
+  // whichever rank (or thread) ran it and written by rank 0 as soon as it arrives, so that an
+  // interrupted or partly failed run keeps the finished trials and a rerun does the others.
+  // The truth file's metadata carries what a rerun needs to recognise a finished item (study
+  // hash, seed, version) and the integration statistics for the manifest.
+  const std::string seed_text = std::to_string(seed);
   const auto item_files = [&](std::size_t i) {
     const StudyItem& item = st.items[i];
     sim::TrialRequest req = item.scenario.trial;
@@ -80,45 +82,96 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
     for (Trial* t : {&measured, &truth}) {
       t->metadata["study"] = st.name;
       t->metadata["study_hash"] = hash;
+      t->metadata["study_seed"] = seed_text;
       t->metadata["participant"] = "p" + std::to_string(item.participant + 1);
       t->metadata["protocol"] = item.protocol;
       t->metadata["repetition"] = std::to_string(item.repetition + 1);
       t->metadata["fesim_version"] = FESIM_VERSION;
     }
+    std::string stats_line = StatsJson(r).Dump(0);
+    while (!stats_line.empty() && stats_line.back() == '\n') stats_line.pop_back();
+    truth.metadata["integration"] = stats_line;  // one metadata line
     Json packed = Json::Object();
     packed.Set("measured", FormatTrialCsv(measured))
         .Set("truth", FormatTrialCsv(truth))
-        .Set("integration", StatsJson(r));
+        .Set("integration", truth.metadata["integration"]);
     return packed.Dump(0);
   };
+  const auto measured_path = [&](std::size_t i) {
+    return out + "/" + st.items[i].file_stem + ".csv";
+  };
+  const auto truth_path = [&](std::size_t i) {
+    return out + "/" + st.items[i].file_stem + "_truth.csv";
+  };
+  // Rank 0 finds the items a previous run finished (same study text, seed and version); the
+  // integration statistics of every item end up in `stats` on rank 0.
+  std::vector<std::string> stats(st.items.size());
+  std::string todo_text;
+  if (job.is_root()) {
+    for (std::size_t i = 0; i < st.items.size(); ++i) {
+      bool finished = false;
+      if (RegularFileExists(measured_path(i)) && RegularFileExists(truth_path(i))) {
+        try {
+          const Trial t = ReadTrialCsv(truth_path(i));
+          const auto meta = [&](const char* key) {
+            const auto it = t.metadata.find(key);
+            return it == t.metadata.end() ? std::string() : it->second;
+          };
+          finished = meta("study_hash") == hash && meta("study_seed") == seed_text &&
+                     meta("fesim_version") == FESIM_VERSION && !meta("integration").empty();
+          if (finished) stats[i] = meta("integration");
+        } catch (const std::exception&) {
+          finished = false;  // unreadable: simulated again
+        }
+      }
+      if (!finished) todo_text += std::to_string(i) + " ";
+    }
+  }
+  todo_text = job.Broadcast(todo_text);
+  std::vector<std::size_t> todo;
+  {
+    std::istringstream in(todo_text);
+    for (std::size_t i; in >> i;) todo.push_back(i);
+  }
+  const std::size_t resumed = st.items.size() - todo.size();
   std::mutex progress_mutex;
-  const auto outcomes = job.Map(st.items.size(), item_files, threads, [&](std::size_t n) {
-    std::lock_guard<std::mutex> lock(progress_mutex);
-    const double elapsed =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const double left = elapsed / static_cast<double>(n) * static_cast<double>(st.items.size() - n);
-    cli::ShowProgress(static_cast<double>(n) / static_cast<double>(st.items.size()),
-                      st.name + " " + std::to_string(n) + "/" + std::to_string(st.items.size()) +
-                          ", ~" + std::to_string(static_cast<int>(left + 0.5)) + " s left");
-  });
-  // Failed items, as rank 0 saw them, on every rank: one message, and no files.
+  const auto outcomes = job.Map(
+      todo.size(), [&](std::size_t k) { return item_files(todo[k]); }, threads,
+      [&](std::size_t n, std::size_t k, const cluster::ItemOutcome& o) {
+        // Rank 0, one item at a time: its files, then the progress line.
+        const std::size_t i = todo[k];
+        if (o.ok) {
+          const Json j = Json::Parse(o.payload, "study item " + st.items[i].file_stem);
+          MakeDirs(out + "/p" + std::to_string(st.items[i].participant + 1));
+          WriteFileAtomic(truth_path(i), j.Find("truth")->AsString());
+          WriteFileAtomic(measured_path(i), j.Find("measured")->AsString());  // last: complete
+          stats[i] = j.Find("integration")->AsString();
+        }
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        const double elapsed =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const double left = elapsed / static_cast<double>(n) * static_cast<double>(todo.size() - n);
+        cli::ShowProgress(static_cast<double>(n) / static_cast<double>(todo.size()),
+                          st.name + " " + std::to_string(n) + "/" + std::to_string(todo.size()) +
+                              ", ~" + std::to_string(static_cast<int>(left + 0.5)) + " s left");
+      });
+  // Failed items, as rank 0 saw them, on every rank: one message; the finished ones are written.
   std::string failed;
-  for (std::size_t i = 0; i < outcomes.size(); ++i) {
-    if (!outcomes[i].ok) {
-      failed += (failed.empty() ? "" : "; ") + std::string("study item ") + st.items[i].file_stem +
-                (job.size() > 1 ? " (rank " + std::to_string(outcomes[i].rank) + ")" : "") + ": " +
-                outcomes[i].payload;
+  for (std::size_t k = 0; k < outcomes.size(); ++k) {
+    if (!outcomes[k].ok) {
+      failed += (failed.empty() ? "" : "; ") + std::string("study item ") +
+                st.items[todo[k]].file_stem +
+                (job.size() > 1 ? " (rank " + std::to_string(outcomes[k].rank) + ")" : "") + ": " +
+                outcomes[k].payload;
     }
   }
   failed = job.Broadcast(failed);
-  if (!failed.empty()) throw cluster::CollectiveError(failed);
-  if (!job.is_root()) return 0;
-  std::vector<ItemFiles> files(outcomes.size());
-  for (std::size_t i = 0; i < outcomes.size(); ++i) {
-    const Json j = Json::Parse(outcomes[i].payload, "study item " + st.items[i].file_stem);
-    files[i] = {j.Find("measured")->AsString(), j.Find("truth")->AsString(),
-                j.Find("integration")->Dump(0)};
+  if (!failed.empty()) {
+    throw cluster::CollectiveError(failed +
+                                   " (the other trials are written; a rerun simulates "
+                                   "only the missing ones)");
   }
+  if (!job.is_root()) return 0;
 
   Json manifest = Json::Object();
   manifest.Set("fesim_version", FESIM_VERSION)
@@ -144,10 +197,6 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
   Json items = Json::Array();
   for (std::size_t i = 0; i < st.items.size(); ++i) {
     const StudyItem& item = st.items[i];
-    const std::string dir = out + "/p" + std::to_string(item.participant + 1);
-    MakeDirs(dir);
-    WriteFileAtomic(out + "/" + item.file_stem + ".csv", files[i].measured);
-    WriteFileAtomic(out + "/" + item.file_stem + "_truth.csv", files[i].truth);
     Json j = Json::Object();
     j.Set("participant", "p" + std::to_string(item.participant + 1))
         .Set("protocol", item.protocol)
@@ -156,19 +205,19 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
         .Set("measured", item.file_stem + ".csv")
         .Set("truth", item.file_stem + "_truth.csv")
         .Set("duration_s", item.scenario.trial.duration_s)
-        .Set("integration", Json::Parse(files[i].stats));
+        .Set("integration", Json::Parse(stats[i], truth_path(i) + ": integration"));
     items.Push(j);
   }
   manifest.Set("trials", items);
   WriteFileAtomic(out + "/manifest.json", manifest.Dump());
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (job.size() > 1) {
-    std::fprintf(stderr, "fesim simulate: study %s, %zu trials on %d MPI ranks in %.1f s -> %s\n",
-                 st.name.c_str(), st.items.size(), job.size(), wall, out.c_str());
-  } else {
-    std::fprintf(stderr, "fesim simulate: study %s, %zu trials on %d threads in %.1f s -> %s\n",
-                 st.name.c_str(), st.items.size(), threads, wall, out.c_str());
-  }
+  const std::string where = job.size() > 1 ? std::to_string(job.size()) + " MPI ranks"
+                                           : std::to_string(threads) + " threads";
+  std::fprintf(stderr,
+               "fesim simulate: study %s, %zu trials (%zu simulated, %zu from an earlier run) on "
+               "%s in %.1f s -> %s\n",
+               st.name.c_str(), st.items.size(), todo.size(), resumed, where.c_str(), wall,
+               out.c_str());
   return 0;
 }
 

@@ -131,7 +131,7 @@ Cluster::~Cluster() {
 }
 
 std::vector<ItemOutcome> Cluster::Map(std::size_t n, const ItemFn& fn, int threads,
-                                      const std::function<void(std::size_t)>& done) {
+                                      const ItemDone& done) {
   std::vector<ItemOutcome> out(n);
   std::mutex mutex;
   std::size_t finished = 0;
@@ -139,7 +139,7 @@ std::vector<ItemOutcome> Cluster::Map(std::size_t n, const ItemFn& fn, int threa
     std::lock_guard<std::mutex> lock(mutex);
     out[i] = std::move(o);
     ++finished;
-    if (done) done(finished);
+    if (done) done(finished, i, out[i]);
   };
   if (size_ == 1) {
     ParallelFor(n, std::max(threads, 1), [&](std::size_t i) { record(i, RunItem(fn, i, rank_)); });
@@ -226,7 +226,7 @@ std::vector<ItemOutcome> Cluster::Map(std::size_t n, const ItemFn& fn, int threa
 }
 
 std::vector<ItemOutcome> Cluster::MapAll(std::size_t n, const ItemFn& fn, int threads,
-                                         const std::function<void(std::size_t)>& done) {
+                                         const ItemDone& done) {
   std::vector<ItemOutcome> out = Map(n, fn, threads, done);
   if (size_ == 1) return out;
   // Rank 0 packs [uint8 ok][int32 rank][double seconds][uint64 length][payload] per item.

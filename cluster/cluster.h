@@ -39,6 +39,10 @@ class CollectiveError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Told on rank 0 as each item finishes: how many have finished, the item's index and outcome.
+using ItemDone =
+    std::function<void(std::size_t finished, std::size_t index, const ItemOutcome& outcome)>;
+
 /// A work item's result bytes (any serialisation the caller likes; empty is fine).
 using ItemFn = std::function<std::string(std::size_t)>;
 
@@ -64,14 +68,15 @@ class Cluster {
   /// Runs fn(i) for i in [0, n), each exactly once on some rank (dynamic assignment; one item at
   /// a time per rank; on a single process, `threads` threads). An exception from fn makes that
   /// item's outcome failed with the message; the other items still run. Returns the n outcomes
-  /// in index order on rank 0 and an empty vector on the other ranks. `done(k)` (may be empty) is
-  /// called on rank 0 after k items have finished, from one thread at a time.
+  /// in index order on rank 0 and an empty vector on the other ranks. `done` (may be empty) is
+  /// called on rank 0 as each item finishes, from one thread at a time (e.g. to write its result
+  /// at once, so that an interrupted run keeps what finished).
   std::vector<ItemOutcome> Map(std::size_t n, const ItemFn& fn, int threads = 1,
-                               const std::function<void(std::size_t)>& done = {});
+                               const ItemDone& done = {});
 
   /// Map, then the n outcomes on every rank (for runs whose every rank continues from them).
   std::vector<ItemOutcome> MapAll(std::size_t n, const ItemFn& fn, int threads = 1,
-                                  const std::function<void(std::size_t)>& done = {});
+                                  const ItemDone& done = {});
 
   /// Rank 0's `value` on every rank.
   std::string Broadcast(const std::string& value) const;

@@ -231,5 +231,50 @@ TEST(CliInterrupt, SignalDuringAtomicWriteRemovesTheTemporaryFile) {
   EXPECT_EQ(List(out).size(), 4u);
 }
 
+// A study interrupted after some trials were written: the rerun simulates only the others and
+// the outputs are the bytes of an uninterrupted run.
+TEST(CliInterrupt, InterruptedStudyResumesWithTheSameBytes) {
+  const std::string dir = Dir("study_resume");
+  const std::string study =
+      std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/bench_hand_array_quick.yaml";
+  const std::string err = dir + "/err.txt";
+  ASSERT_EQ(RunFesim({"simulate", study, "--threads", "2", "--out", dir + "/ref"}, err).exit_code,
+            0)
+      << ReadFile(err);
+  const std::string out = dir + "/out";
+  const pid_t pid = Spawn({"simulate", study, "--threads", "1", "--out", out}, err);
+  // Stopped once the first trial is on disk (its measured CSV is written last).
+  bool some = false;
+  for (int waited_ms = 0; waited_ms < 300000 && !some; waited_ms += 10) {
+    if (Exists(out + "/p1")) {
+      for (const auto& f : List(out + "/p1")) {
+        some =
+            some || (f.find("_truth") == std::string::npos && f.find(".tmp.") == std::string::npos);
+      }
+    }
+    if (!some) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(some) << ReadFile(err);
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "finished before the signal: " << ReadFile(err);
+  EXPECT_FALSE(Exists(out + "/manifest.json"));
+  const Result r = RunFesim({"simulate", study, "--threads", "2", "--out", out}, err);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::size_t at = r.err.find(" from an earlier run");
+  ASSERT_NE(at, std::string::npos) << r.err;
+  const std::size_t comma = r.err.rfind(", ", at);
+  EXPECT_GE(std::stoi(r.err.substr(comma + 2)), 1) << r.err;  // "(k simulated, m from an …"
+  EXPECT_EQ(List(out + "/p1"), List(dir + "/ref/p1"));
+  for (const auto& p : {std::string("p1"), std::string("p2")}) {
+    if (!Exists(dir + "/ref/" + p)) continue;
+    for (const auto& f : List(dir + "/ref/" + p)) {
+      EXPECT_EQ(ReadFile(out + "/" + p + "/" + f), ReadFile(dir + "/ref/" + p + "/" + f)) << f;
+    }
+  }
+  EXPECT_EQ(ReadFile(out + "/manifest.json"), ReadFile(dir + "/ref/manifest.json"));
+}
+
 }  // namespace
 }  // namespace fesim

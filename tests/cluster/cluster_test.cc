@@ -34,7 +34,11 @@ TEST(ClusterMap, EveryItemOnceInIndexOrder) {
         std::this_thread::sleep_for(std::chrono::milliseconds(2 + (i % 5) * 2));
         return Square(i);
       },
-      2, [&](std::size_t k) { last_done = k; });
+      2,
+      [&](std::size_t k, std::size_t i, const ItemOutcome& o) {
+        last_done = k;
+        EXPECT_EQ(o.payload, Square(i));  // told with the item's own outcome
+      });
   if (!c.is_root()) {
     EXPECT_TRUE(out.empty());
     return;
