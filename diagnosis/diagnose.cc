@@ -24,9 +24,11 @@ constexpr double kCoarseDfHz = 0.01, kFineDfHz = 0.0005;
 constexpr double kMaxLagS = 0.5;
 /// Fewest training samples per trial, and fewest samples in a held-out segment.
 constexpr std::size_t kMinSamples = 50;
+/// Relative spread of the sample steps below which a record counts as uniformly sampled.
+constexpr double kUniformTolerance = 1e-3;
 
 std::string Fmt(const char* format, double a, double b = 0.0, double c = 0.0) {
-  char buf[160];
+  char buf[320];
   std::snprintf(buf, sizeof buf, format, a, b, c);
   return buf;
 }
@@ -99,15 +101,6 @@ void Validate(const sim::ModelParams& rig, const std::vector<Trial>& measured,
         active = active || v > 0.0;
       }
       if (active) stimulated.insert(u.substr(2));
-    }
-    const double dt0 = tr.time[1] - tr.time[0];
-    for (std::size_t i = 2; i < tr.size(); ++i) {
-      const double dt = tr.time[i] - tr.time[i - 1];
-      if (std::abs(dt - dt0) > 1e-3 * dt0) {
-        throw std::runtime_error(label + ": column time: sampling is not uniform at row " +
-                                 std::to_string(i) + Fmt(" (step %.6g s after %.6g s; ", dt, dt0) +
-                                 "resample to one rate)");
-      }
     }
   }
   for (const auto& ch : rig.channels) {
@@ -201,6 +194,55 @@ Trial OutputRows(const Trial& trial, const std::vector<std::string>& outputs) {
 
 }  // namespace
 
+bool IsUniformlySampled(const std::vector<double>& time) {
+  if (time.size() < 2) return true;
+  const double dt0 = time[1] - time[0];
+  for (std::size_t i = 2; i < time.size(); ++i) {
+    if (std::abs(time[i] - time[i - 1] - dt0) > kUniformTolerance * dt0) return false;
+  }
+  return dt0 > 0.0;
+}
+
+Trial ResampleToUniform(const Trial& trial, const std::string& label) {
+  const std::size_t n = trial.size();
+  std::vector<double> steps;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double dt = trial.time[i] - trial.time[i - 1];
+    if (!(dt > 0.0)) {
+      throw std::runtime_error(label + ": column time: not increasing at row " + std::to_string(i) +
+                               Fmt(" (%.9g s after %.9g s)", trial.time[i], trial.time[i - 1]));
+    }
+    steps.push_back(dt);
+  }
+  if (steps.empty()) return trial;
+  std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
+  const double dt = steps[steps.size() / 2];
+  const double t0 = trial.time.front();
+  const long m = static_cast<long>(std::floor((trial.time.back() - t0) / dt + 1e-9));
+  Trial out;
+  out.metadata = trial.metadata;
+  for (long k = 0; k <= m; ++k) out.time.push_back(t0 + static_cast<double>(k) * dt);
+  for (std::size_t c = 0; c < trial.names.size(); ++c) {
+    const std::vector<double>& v = trial.columns[c];
+    const bool input = trial.names[c].rfind("u.", 0) == 0;
+    std::vector<double> col(out.time.size(), NAN);
+    std::size_t j = 0;  // last source row with time ≤ t
+    for (std::size_t f = 0; f < out.time.size(); ++f) {
+      const double t = out.time[f];
+      while (j + 1 < n && trial.time[j + 1] <= t + 1e-9 * dt) ++j;
+      if (input || std::abs(trial.time[j] - t) <= 1e-9 * dt || j + 1 >= n) {
+        col[f] = v[j];  // inputs: zero-order hold; outputs: a sample at t
+      } else if (std::isfinite(v[j]) && std::isfinite(v[j + 1])) {
+        const double w = (t - trial.time[j]) / (trial.time[j + 1] - trial.time[j]);
+        col[f] = (1.0 - w) * v[j] + w * v[j + 1];
+      }
+    }
+    out.AddColumn(trial.names[c], std::move(col));
+  }
+  out.metadata["resampled"] = Fmt("%.6g", dt);
+  return out;
+}
+
 void SplitTrials(const std::vector<Trial>& measured, const std::vector<std::string>& outputs,
                  double holdout_fraction, DataView* train, DataView* heldout, std::string* how) {
   if (!(holdout_fraction > 0.0 && holdout_fraction <= 0.8)) {
@@ -257,7 +299,19 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   LibraryContext ctx;
   if (measured.empty()) throw std::runtime_error("diagnose: no measured trials");
   std::vector<Trial> trials;
-  for (const auto& t : measured) trials.push_back(OutputRows(t, t.NamesWithPrefix("q.")));
+  for (std::size_t k = 0; k < measured.size(); ++k) {
+    trials.push_back(OutputRows(measured[k], measured[k].NamesWithPrefix("q.")));
+    if (!IsUniformlySampled(trials.back().time)) {
+      const double before = trials.back().size();
+      trials.back() = ResampleToUniform(trials.back(), Label(measured[k], k));
+      out.notes.push_back(Label(measured[k], k) + ": sampling not uniform; resampled to " +
+                          Fmt("%.0f samples at %.6g s (the median step; outputs linearly "
+                              "interpolated between finite samples, gaps kept; inputs held) from "
+                              "%.0f",
+                              trials.back().size(), trials.back().time[1] - trials.back().time[0],
+                              before));
+    }
+  }
   Validate(rig, trials, &ctx.outputs, &ctx.channels);
   DataView train, held;
   SplitTrials(trials, ctx.outputs, options.holdout_fraction, &train, &held, &out.split);
@@ -478,24 +532,41 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     double heldout_nrmse = NAN;
     std::vector<Trial> heldout_pred;
   };
-  // Fits `cands`' parameters on top of the subject parameters, holding the first `first_free`
-  // entries of x0 (subject ⊕ earlier mechanisms) when first_free > 0.
+  auto lr_p_adj = [&](double rss_before, double rss_after, int p) {
+    const double lr = static_cast<double>(n) * std::log(rss_before / std::max(rss_after, 1e-300));
+    return std::min(1.0, applicable * ChiSquareSurvival(lr, p));
+  };
+  // Fits `cands`' parameters on top of the subject parameters. With first_free > 0 the first
+  // `first_free` entries of x0 (subject ⊕ earlier mechanisms) are profiled: re-optimised to
+  // first order through their Jacobian `held_jacobian` at x0 (FitParameters), and moved by
+  // their linearised step (within bounds) before the held-out prediction.
   auto fit_extension = [&](const std::vector<int>& cands, const Eigen::VectorXd& x0, int first_free,
-                           int iterations) {
+                           int iterations, const Eigen::MatrixXd* held_jacobian = nullptr) {
     std::vector<ModelParameter> params = subject;
     for (int c : cands) params = Join(params, library[c].params);
     Fitted f;
     f.cands = cands;
-    f.fit = FitParameters(rig, params, x0, train, fo, first_free, iterations);
+    const bool profiled = first_free > 0 && held_jacobian && held_jacobian->cols() == first_free;
+    f.fit = FitParameters(rig, params, x0, train, fo, first_free, iterations,
+                          profiled ? held_jacobian : nullptr);
+    // Polish only a profiled fit that explains something (its training LR test on the profiled
+    // cost passes); the others keep their profiled fit, which fails the LR test anyway.
+    if (profiled && lr_p_adj(f.fit.cost_at_start, f.fit.cost,
+                             static_cast<int>(params.size()) - first_free) < options.alpha) {
+      out.simulations += f.fit.simulations;
+      Eigen::VectorXd x1 = f.fit.x;
+      for (int k = 0; k < first_free; ++k) {
+        x1(k) = std::clamp(x1(k) + f.fit.nuisance_step(k), params[k].lower, params[k].upper);
+      }
+      // The linearised step is poor when the held parameters must move far (a strong mechanism
+      // the baseline absorbed): polish everything together from there.
+      f.fit = FitParameters(rig, params, x1, train, fo, 0, options.refit_iterations);
+    }
     out.simulations += f.fit.simulations;
     f.heldout_pred = Predict(rig, params, f.fit.x, held, fo.tolerance, fo.threads);
     out.simulations += static_cast<int>(held.trials.size());
     f.heldout_nrmse = ViewNrmse(held, f.heldout_pred);
     return f;
-  };
-  auto lr_p_adj = [&](double rss_before, double rss_after, int p) {
-    const double lr = static_cast<double>(n) * std::log(rss_before / std::max(rss_after, 1e-300));
-    return std::min(1.0, applicable * ChiSquareSurvival(lr, p));
   };
   const int ns = static_cast<int>(subject.size());
 
@@ -505,7 +576,7 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     const int c = order[k];
     report(0.35 + 0.4 * k / order.size(), "fitting extension " + library[c].label);
     Fitted f = fit_extension({c}, Concat(base_fit.x, library[c].start_from_step(tests[c].theta)),
-                             ns, options.screen_iterations);
+                             ns, options.screen_iterations, &Js);
     CandidateResult& cr = out.candidates[c];
     cr.fitted = true;
     cr.lr_p_adjusted = lr_p_adj(rss0, f.fit.cost, static_cast<int>(library[c].params.size()));
@@ -563,7 +634,7 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
       const Eigen::VectorXd x0 =
           Concat(current.fit.x, round1[k].fit.x.tail(library[c].params.size()));
       Fitted both = fit_extension(both_c, x0, static_cast<int>(current.fit.x.size()),
-                                  options.screen_iterations);
+                                  options.screen_iterations, &current.fit.jacobian);
       const double g = (current.heldout_nrmse - both.heldout_nrmse) / current.heldout_nrmse;
       const double p =
           lr_p_adj(current.fit.cost, both.fit.cost, static_cast<int>(library[c].params.size()));

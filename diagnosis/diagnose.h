@@ -25,8 +25,14 @@
 //    parameters), then a second mechanism on top by the same test relative to the extended
 //    model, and the whole refitted again. A second-round candidate needs only its training LR
 //    test from the first round (the first mechanism may mask its held-out gain there).
-//    Subject parameters are held during a candidate's own fit (screening) and refitted with the
-//    accepted extension.
+//    During a candidate's own fit (screening) the subject parameters are profiled, not frozen:
+//    re-optimised to first order through their baseline Jacobian J_s (variable projection,
+//    FitParameters' `nuisance`), so the fit minimises ‖(I − P_s) r‖² like the score test; then,
+//    from the subject parameters moved by their linearised step, all parameters are polished
+//    together (refit_iterations LM steps) and LR and held-out gain use that fit. (Freezing
+//    them lost crosstalk: the baseline had taken its gain on the reached muscles into
+//    strength_scale, so any crosstalk fraction made the frozen fit worse.) The second-round fit
+//    treats the first extension's parameters the same way.
 // 5. Verdict. Nothing accepted: `none`, unless the held-out residual of the baseline keeps
 //    structure (StructuredVarianceFraction > max_structure on some output): `unexplained`.
 //    Otherwise the accepted mechanism with the larger gain, confidence
@@ -113,8 +119,10 @@ struct Diagnosis {
   std::vector<NamedValue> subject_parameters;    ///< baseline calibration.
   std::vector<CandidateResult> candidates;       ///< ranked by score, then held-out gain.
   std::vector<OutputSignature> signatures;
-  std::string split;                                      ///< how the data were split, one line.
-  DataView heldout;                                       ///< for plots.
+  std::string split;  ///< how the data were split, one line.
+  std::vector<std::string>
+      notes;         ///< pre-processing done to the input (resampling), one line each.
+  DataView heldout;  ///< for plots.
   std::vector<Trial> heldout_baseline, heldout_extended;  ///< predictions on the held-out trials.
   int simulations = 0;                                    ///< trial simulations spent.
   double wall_s = 0.0;
@@ -127,6 +135,19 @@ using DiagnoseProgress = std::function<void(double fraction, const std::string& 
 /// not free in the rig, unknown channel, too few samples, differing outputs across trials).
 Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measured,
                    const DiagnoseOptions& options, const DiagnoseProgress& progress = {});
+
+/// True when the steps of `time` are equal to within 0.1 % (and positive).
+bool IsUniformlySampled(const std::vector<double>& time);
+
+/// A measured record on a uniform grid (step 0 of the diagnosis, for records whose sample steps
+/// differ, e.g. a tracker with jittered time stamps or a merged multi-rate log): step = the
+/// median of the record's steps, from its first time to its last. Outputs and other measured
+/// columns are interpolated linearly between the two bracketing samples when both are finite,
+/// else NaN (a dropout stays a gap: nothing is invented across it); u.* inputs are held from the
+/// last sample at or before the grid time (stimulation is piecewise constant, so interpolating
+/// would invent pulse widths never applied). Throws std::runtime_error naming `label` and the
+/// row when the times are not strictly increasing.
+Trial ResampleToUniform(const Trial& trial, const std::string& label);
 
 /// The split of step 1 (exposed for tests): training and held-out views.
 void SplitTrials(const std::vector<Trial>& measured, const std::vector<std::string>& outputs,
