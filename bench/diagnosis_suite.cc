@@ -5,6 +5,7 @@
 //
 //   diagnosis_suite [--per N] [--clean N] [--pairs N] [--outside N] [--trials T]
 //                   [--duration S] [--mechanisms a,b,…] [--threads N] [--out FILE]
+//                   [--seed S]   (datasets get seeds S+1, S+2, … in order; default 1000)
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -56,6 +57,7 @@ int main(int argc, char** argv) {
   int per = 10, clean = 20, pairs = 10, outside = 5, trials = 3, threads = 2, verbose = 0,
       effects_only = 0;
   double duration = 60.0;
+  std::uint64_t first_seed = 1000;
   std::string out_path = "docs/diagnosis.md";
   std::vector<std::string> mechanisms;
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -76,6 +78,8 @@ int main(int argc, char** argv) {
       verbose = std::atoi(v.c_str());
     else if (k == "--effects-only")
       effects_only = std::atoi(v.c_str());
+    else if (k == "--seed")
+      first_seed = std::strtoull(v.c_str(), nullptr, 10);
     else if (k == "--duration")
       duration = std::atof(v.c_str());
     else if (k == "--mechanisms")
@@ -95,7 +99,7 @@ int main(int argc, char** argv) {
     }
   }
   std::vector<Case> cases;
-  std::uint64_t seed = 1000;
+  std::uint64_t seed = first_seed;
   const double scales[] = {1.0, 1.5, 2.0};
   for (const auto& id : mechanisms) {
     for (int k = 0; k < per; ++k) {
@@ -184,6 +188,17 @@ int main(int argc, char** argv) {
                      "    %-40s S %9.1f dof %d padj %.2g fitted %d lr_padj %.2g gain %.4f%s\n",
                      cr.label.c_str(), cr.score_statistic, cr.dof, cr.p_adjusted, cr.fitted,
                      cr.lr_p_adjusted, cr.heldout_gain, ps.c_str());
+      }
+    }
+    if (verbose >= 1) {
+      for (const auto& p : c.data.planted) {
+        const double e = ParamError(c, p);
+        std::fprintf(stderr, "    planted %s = %.5g, fitted rel. error %s\n", p.name.c_str(),
+                     p.value, std::isfinite(e) ? std::to_string(e).c_str() : "-");
+      }
+      for (const auto& p : c.result.extension_parameters) {
+        std::fprintf(stderr, "    extension %s = %.5g +- %.2g %s\n", p.name.c_str(), p.value,
+                     p.ci95, p.unit.c_str());
       }
     }
     wall_sum += c.result.wall_s;

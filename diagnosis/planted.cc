@@ -16,7 +16,10 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-sim::StimulationSchedule RandomSteps(const sim::ModelParams& m, double duration_s,
+/// Pseudo-random steps; step times are sample times k / rate_hz of the record (SampleTimes)
+/// so that the logged u.* columns are the applied input (a step between two samples would reach
+/// the model up to one period early, a timing error outside the candidate library).
+sim::StimulationSchedule RandomSteps(const sim::ModelParams& m, double duration_s, double rate_hz,
                                      std::mt19937_64* rng) {
   std::vector<int> idx;
   for (const char* name : {"ext", "flex"}) {
@@ -29,8 +32,8 @@ sim::StimulationSchedule RandomSteps(const sim::ModelParams& m, double duration_
   std::uniform_int_distribution<int> level(0, 5);
   std::uniform_real_distribution<double> hold(1.0, 3.0);
   sim::StimulationSchedule s;
-  double t = 0.0;
-  while (t < duration_s) {
+  long k = 0;  // step time in samples
+  for (double t = 0.0; t < duration_s; t = static_cast<double>(k) / rate_hz) {
     std::vector<double> u(m.channels.size(), 0.0);
     double a = 50.0 * level(*rng), b = 50.0 * level(*rng);
     if (a + b > 300.0) b = 300.0 - a;
@@ -38,7 +41,7 @@ sim::StimulationSchedule RandomSteps(const sim::ModelParams& m, double duration_
     u[idx[1]] = b;
     s.times.push_back(t);
     s.values.push_back(u);
-    t += hold(*rng);
+    k += std::max(1L, std::lround(hold(*rng) * rate_hz));
   }
   return s;
 }
@@ -130,7 +133,7 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
       out.planted.push_back({"tremor@wrist_flexion:tremor.amplitude_nm", "N*m", 0.08 * s, NAN});
       out.planted.push_back({"tremor@wrist_flexion:tremor.frequency_hz", "Hz", tremor_f, NAN});
     } else if (id == "crosstalk") {
-      SetViaLibrary(id, "crosstalk.fraction", 0.015 * s, ctx, &truth, &out.planted);
+      SetViaLibrary(id, "crosstalk.fraction", 0.06 * s, ctx, &truth, &out.planted);
     } else if (id == "moment_arm_posture") {
       SetViaLibrary(id, "momentarm.posture_ratio", 2.0 * s, ctx, &truth, &out.planted);
     } else if (id == "force_length_velocity") {
@@ -168,7 +171,7 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
     req.seed = sim::DeriveSeed(spec.seed, 100 + t);
     req.steady_state_times_s.clear();
     if (spec.protocol == "steps") {
-      req.stimulation = RandomSteps(truth, spec.duration_s, &rng);
+      req.stimulation = RandomSteps(truth, spec.duration_s, sensors.angles.rate_hz, &rng);
       req.duration_s = spec.duration_s;
     } else if (spec.protocol == "grid") {
       req.stimulation = Grid(truth, t + static_cast<int>(spec.seed));

@@ -6,7 +6,8 @@
 // Participant: the rig's model with ApplyParticipant (scenarios/study.h) stiffness_scale and
 // strength_scale drawn uniformly in [0.8, 1.25] (other draws at 1).
 // Protocols (both ext/flex array channels of the hand rig): "steps" — pseudo-random levels
-// {0, 50, …, 250} µs per channel held U(1, 3) s, Σu ≤ 300 µs; "grid" — paper 000's step grid
+// {0, 50, …, 250} µs per channel held U(1, 3) s (step times on the record's sample grid), Σu ≤
+// 300 µs; "grid" — paper 000's step grid
 // (50 µs spacing, Σu ≤ 300) with 2 s steps, order alternating between trials.
 // Planted strengths at effect_scale s (chosen so that s = 1 gives an effect RMS of the order of the
 // 1° sensor noise RMS on the hand rig; the generator reports the measured ratio):
