@@ -230,8 +230,11 @@ Trial ResampleToUniform(const Trial& trial, const std::string& label) {
     for (std::size_t f = 0; f < out.time.size(); ++f) {
       const double t = out.time[f];
       while (j + 1 < n && trial.time[j + 1] <= t + 1e-9 * dt) ++j;
-      if (input || std::abs(trial.time[j] - t) <= 1e-9 * dt || j + 1 >= n) {
-        col[f] = v[j];  // inputs: zero-order hold; outputs: a sample at t
+      if (input) {  // the nearest row (ties: the earlier)
+        const bool next = j + 1 < n && trial.time[j + 1] - t < t - trial.time[j];
+        col[f] = v[next ? j + 1 : j];
+      } else if (std::abs(trial.time[j] - t) <= 1e-9 * dt || j + 1 >= n) {
+        col[f] = v[j];  // a sample at t
       } else if (std::isfinite(v[j]) && std::isfinite(v[j + 1])) {
         const double w = (t - trial.time[j]) / (trial.time[j + 1] - trial.time[j]);
         col[f] = (1.0 - w) * v[j] + w * v[j + 1];
@@ -306,8 +309,8 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
       trials.back() = ResampleToUniform(trials.back(), Label(measured[k], k));
       out.notes.push_back(Label(measured[k], k) + ": sampling not uniform; resampled to " +
                           Fmt("%.0f samples at %.6g s (the median step; outputs linearly "
-                              "interpolated between finite samples, gaps kept; inputs held) from "
-                              "%.0f",
+                              "interpolated between finite samples, gaps kept; inputs from the "
+                              "nearest row) from %.0f",
                               trials.back().size(), trials.back().time[1] - trials.back().time[0],
                               before));
     }
@@ -541,7 +544,8 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   // first order through their Jacobian `held_jacobian` at x0 (FitParameters), and moved by
   // their linearised step (within bounds) before the held-out prediction.
   auto fit_extension = [&](const std::vector<int>& cands, const Eigen::VectorXd& x0, int first_free,
-                           int iterations, const Eigen::MatrixXd* held_jacobian = nullptr) {
+                           int iterations, const Eigen::MatrixXd* held_jacobian = nullptr,
+                           double rss_held = 0.0) {
     std::vector<ModelParameter> params = subject;
     for (int c : cands) params = Join(params, library[c].params);
     Fitted f;
@@ -549,10 +553,11 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     const bool profiled = first_free > 0 && held_jacobian && held_jacobian->cols() == first_free;
     f.fit = FitParameters(rig, params, x0, train, fo, first_free, iterations,
                           profiled ? held_jacobian : nullptr);
-    // Polish only a profiled fit that explains something (its training LR test on the profiled
-    // cost passes); the others keep their profiled fit, which fails the LR test anyway.
-    if (profiled && lr_p_adj(f.fit.cost_at_start, f.fit.cost,
-                             static_cast<int>(params.size()) - first_free) < options.alpha) {
+    // Polish only a profiled fit that explains something (its training LR test against the
+    // fit without it, RSS `rss_held`, passes on the profiled cost); the others keep their
+    // profiled fit, which fails the LR test anyway.
+    if (profiled && lr_p_adj(rss_held, f.fit.cost, static_cast<int>(params.size()) - first_free) <
+                        options.alpha) {
       out.simulations += f.fit.simulations;
       Eigen::VectorXd x1 = f.fit.x;
       for (int k = 0; k < first_free; ++k) {
@@ -563,9 +568,16 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
       f.fit = FitParameters(rig, params, x1, train, fo, 0, options.refit_iterations);
     }
     out.simulations += f.fit.simulations;
-    f.heldout_pred = Predict(rig, params, f.fit.x, held, fo.tolerance, fo.threads);
     out.simulations += static_cast<int>(held.trials.size());
-    f.heldout_nrmse = ViewNrmse(held, f.heldout_pred);
+    try {
+      f.heldout_pred = Predict(rig, params, f.fit.x, held, fo.tolerance, fo.threads);
+      f.heldout_nrmse = ViewNrmse(held, f.heldout_pred);
+    } catch (const std::runtime_error&) {
+      // The extended model fails to simulate the held-out data (e.g. driven past a joint's
+      // range): it predicts nothing there, so its held-out gain is −∞ and it is not accepted.
+      f.heldout_pred = out.heldout_baseline;
+      f.heldout_nrmse = INFINITY;
+    }
     return f;
   };
   const int ns = static_cast<int>(subject.size());
@@ -576,7 +588,7 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     const int c = order[k];
     report(0.35 + 0.4 * k / order.size(), "fitting extension " + library[c].label);
     Fitted f = fit_extension({c}, Concat(base_fit.x, library[c].start_from_step(tests[c].theta)),
-                             ns, options.screen_iterations, &Js);
+                             ns, options.screen_iterations, &Js, rss0);
     CandidateResult& cr = out.candidates[c];
     cr.fitted = true;
     cr.lr_p_adjusted = lr_p_adj(rss0, f.fit.cost, static_cast<int>(library[c].params.size()));
@@ -633,8 +645,9 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
       both_c.push_back(c);
       const Eigen::VectorXd x0 =
           Concat(current.fit.x, round1[k].fit.x.tail(library[c].params.size()));
-      Fitted both = fit_extension(both_c, x0, static_cast<int>(current.fit.x.size()),
-                                  options.screen_iterations, &current.fit.jacobian);
+      Fitted both =
+          fit_extension(both_c, x0, static_cast<int>(current.fit.x.size()),
+                        options.screen_iterations, &current.fit.jacobian, current.fit.cost);
       const double g = (current.heldout_nrmse - both.heldout_nrmse) / current.heldout_nrmse;
       const double p =
           lr_p_adj(current.fit.cost, both.fit.cost, static_cast<int>(library[c].params.size()));

@@ -143,10 +143,12 @@ bool IsUniformlySampled(const std::vector<double>& time);
 /// differ, e.g. a tracker with jittered time stamps or a merged multi-rate log): step = the
 /// median of the record's steps, from its first time to its last. Outputs and other measured
 /// columns are interpolated linearly between the two bracketing samples when both are finite,
-/// else NaN (a dropout stays a gap: nothing is invented across it); u.* inputs are held from the
-/// last sample at or before the grid time (stimulation is piecewise constant, so interpolating
-/// would invent pulse widths never applied). Throws std::runtime_error naming `label` and the
-/// row when the times are not strictly increasing.
+/// else NaN (a dropout stays a gap: nothing is invented across it); u.* inputs take the value of
+/// the row nearest in time (stimulation is piecewise constant, so interpolating would invent
+/// pulse widths never applied; holding the last row would place every change up to one step
+/// late, half a step on average — a delay the diagnosis would then find — while the nearest row
+/// places it within ± half a step). Throws std::runtime_error naming `label` and the row when
+/// the times are not strictly increasing.
 Trial ResampleToUniform(const Trial& trial, const std::string& label);
 
 /// The split of step 1 (exposed for tests): training and held-out views.

@@ -228,7 +228,6 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   // units of the parameters. J₀ and r₀ are computed once and handed to LM's first calls.
   const Eigen::VectorXd x0_free = x0.tail(p);
   const Eigen::VectorXd r0 = raw_residual(x0_free);
-  out.cost_at_start = project(r0).squaredNorm();
   const Eigen::MatrixXd j0 =
       ResidualJacobian(base, params, x0, r0, view, options, &out.simulations, first_free);
   const double max_diag = project(j0).colwise().squaredNorm().maxCoeff();

@@ -76,7 +76,6 @@ struct FitResult {
   Eigen::VectorXd x;     ///< best values, in the parameters' units.
   Eigen::VectorXd ci95;  ///< 95 % half-widths (NaN: not estimable or held).
   double cost = 0.0;  ///< Σ (y − ŷ)², rad² (profiled: ‖(I − P) r‖², see FitParameters).
-  double cost_at_start = 0.0;  ///< the same at x0, rad².
   /// Profiled fits only: the linearised least-squares step of the profiled (held) parameters
   /// at x, δ = −(J_nᵀJ_n)⁻¹ J_nᵀ r(x), one entry per column of the nuisance Jacobian.
   Eigen::VectorXd nuisance_step;
