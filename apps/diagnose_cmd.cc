@@ -29,8 +29,10 @@ int RunDiagnose(int argc, char** argv) {
         "Writes DIR/diagnosis.md, DIR/diagnosis.json, DIR/residuals_<joint>.png and\n"
         "DIR/spectrum_<joint>.png\n"
         "(default DIR: out/diagnose). Trials need u.<channel> inputs and q.<joint> outputs\n"
-        "(q.<joint>_deg accepted) of joints that are free in the scenario, one sample rate;\n"
-        "NaN gaps are skipped. --threads: simulation threads (default: all cores).\n");
+        "(q.<joint>_deg accepted) of joints that are free in the scenario; a record with\n"
+        "uneven time steps is resampled to its median step (outputs interpolated, inputs from\n"
+        "the nearest row; said in the report); NaN gaps are skipped.\n"
+        "--threads: simulation threads (default: all cores).\n");
     return 0;
   }
   if (args.positional.size() != 1) {
