@@ -34,8 +34,9 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
         "(default DIR: out/diagnose); the calibration, score tests and fits are cached in\n"
         "DIR/cache as they finish, so an interrupted run resumes. Trials need u.<channel>\n"
         "inputs and q.<joint> outputs (q.<joint>_deg accepted) of joints that are free in the\n"
-        "scenario, one sample rate; NaN gaps are skipped. --threads: simulation threads\n"
-        "(default: all cores).\n");
+        "scenario; a record with uneven time steps is resampled to its median step (outputs\n"
+        "interpolated, inputs from the nearest row; said in the report); NaN gaps are skipped.\n"
+        "--threads: simulation threads (default: all cores; 1 per rank under mpirun).\n");
     return 0;
   }
   if (args.positional.size() != 1) {
@@ -68,7 +69,7 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
   inputs += "; rig `" + args.Get("scenario") + "`.";
   const std::string out = args.Get("out", "out/diagnose");
   // Expensive stages are cached under DIR/cache as they finish: a killed run resumes.
-  ResultCache cache(out + "/cache", FESIM_VERSION, "diagnose-cache-1");
+  ResultCache cache(out + "/cache", FESIM_VERSION, "diagnose-cache-2");
   diagnosis::DiagnoseOptions options;
   options.fit.threads = static_cast<int>(threads);
   options.cache = &cache;

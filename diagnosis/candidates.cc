@@ -76,6 +76,39 @@ std::vector<double> RestPosture(const sim::ModelParams& m) {
 
 }  // namespace
 
+double ForearmWeightN(const sim::ModelParams& rig) {
+  const auto& g = rig.gravity_m_s2;
+  return rig.segments[sim::kForearm].mass_kg * std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+}
+
+SupportCuff ForearmSupportCuff(const sim::ModelParams& rig) {
+  SupportCuff cuff;
+  cuff.cuff_in_segment_m = rig.segments[sim::kForearm].com_in_body_m;
+  for (std::size_t k = 0; k < rig.weight_compensation.size(); ++k) {
+    if (rig.weight_compensation[k].segment == sim::kForearm) {
+      cuff.index = static_cast<int>(k);
+      cuff.cuff_in_segment_m = rig.weight_compensation[k].cuff_in_segment_m;
+      cuff.force_n = rig.weight_compensation[k].force_n;
+      break;
+    }
+  }
+  return cuff;
+}
+
+void SetForearmSupportForce(const SupportCuff& cuff, double force_n, sim::ModelParams* m) {
+  if (cuff.index >= 0) {
+    m->weight_compensation[cuff.index].force_n = force_n;
+    return;
+  }
+  for (auto& w : m->weight_compensation) {  // added by an earlier call on this copy
+    if (w.segment == sim::kForearm && w.cuff_in_segment_m == cuff.cuff_in_segment_m) {
+      w.force_n = force_n;
+      return;
+    }
+  }
+  m->weight_compensation.push_back({sim::kForearm, cuff.cuff_in_segment_m, force_n});
+}
+
 const std::vector<std::string>& MechanismIds() {
   static const std::vector<std::string> ids = {"fatigue",
                                                "potentiation",
@@ -331,15 +364,37 @@ std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const Libra
     };
     add(c);
   }
-  {
+  {  // arm_support: the support lifts the forearm more (or less) than the rig says.
     Candidate c;
     c.id = "arm_support";
     bool arm_output = false;
     for (int j : joints) arm_output |= j <= sim::kElbowFlexion;
-    c.applicable = false;
-    c.not_applicable_reason =
-        arm_output ? "arm-support extension not implemented (missing, see issue 7 report)"
-                   : "no output joint is a shoulder or elbow coordinate (the support acts there)";
+    if (!arm_output) {
+      c.applicable = false;
+      c.not_applicable_reason =
+          "no output joint is a shoulder or elbow coordinate (the support acts there)";
+    } else {
+      const SupportCuff cuff = ForearmSupportCuff(rig);
+      const double weight = ForearmWeightN(rig);
+      c.params.push_back(
+          Param("support.weight_compensation_n", "N", cuff.force_n, 0.0,
+                cuff.force_n + 2.0 * weight, 0.1 * weight,
+                [cuff](double v, sim::ModelParams* m) { SetForearmSupportForce(cuff, v, m); }));
+      c.probes = {ProbeAt(c.params, 0, cuff.force_n + 0.1 * weight)};
+      c.one_sided = {cuff.force_n == 0.0};  // no support: only a lifting force can appear
+      if (!rig.bands.empty()) {
+        std::vector<double> k;
+        for (const auto& b : rig.bands) k.push_back(b.stiffness_n_per_m);
+        c.params.push_back(Param("support.band_stiffness_scale", "1", 1.0, 0.0, 5.0, 1.0,
+                                 [k](double v, sim::ModelParams* m) {
+                                   for (std::size_t i = 0; i < k.size(); ++i) {
+                                     m->bands[i].stiffness_n_per_m = v * k[i];
+                                   }
+                                 }));
+        c.probes.push_back(ProbeAt(c.params, 1, 1.2));
+        c.one_sided.push_back(false);
+      }
+    }
     add(c);
   }
   for (int j : joints) {  // stiction

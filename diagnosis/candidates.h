@@ -19,10 +19,13 @@
 //                               wrist flexors (eq. 6; Assumption 6 of paper 000 broken)
 //   passive_stiffness_nonlinear@<joint>  passive.limit_scale (K_L × s), passive.sharpness_per_rad
 //                               κ (eq. 14 range limits, passive_joint.h)
-//   arm_support                 NOT IMPLEMENTED: always reported not applicable (with the reason
-//                               "extension not implemented" when an output joint is the elbow or
-//                               a shoulder coordinate). Planned: support.weight_compensation_n on
-//                               the forearm cuff.
+//   arm_support                 support.weight_compensation_n F_w, N: the vertical
+//                               weight-compensation force on the forearm cuff (sim/arm_support.h;
+//                               the rig's forearm entry, or a cuff at the forearm's centre of mass
+//                               with start 0 when the rig has none), and, when the rig has elastic
+//                               bands, support.band_stiffness_scale (k of every band × s).
+//                               Applicable only when an output is the elbow or a shoulder
+//                               coordinate (the support moves nothing distal to the forearm).
 //   stiction@<joint>            friction.coulomb_nm F_c, friction.static_excess_nm F_s − F_c
 //   spasticity@<joint>          reflex.gain_nms_per_rad G, reflex.threshold_rad_s v_th
 //   sensor_drift                drift.<output>, rad/s (one per output: value · t added)
@@ -80,5 +83,21 @@ std::vector<ModelParameter> SubjectParameters(const sim::ModelParams& rig,
 
 /// Nominal torque scale of a joint, T_j = max(k_j, 0.05) · 1 rad, N·m.
 double JointTorqueScale(const sim::ModelParams& rig, int coordinate);
+
+/// Weight of the forearm segment m_forearm · |g|, N (the arm_support force scale).
+double ForearmWeightN(const sim::ModelParams& rig);
+
+/// Where the arm_support force acts: the rig's forearm weight-compensation entry (index, cuff,
+/// force), else index −1, the forearm's centre of mass and force 0.
+struct SupportCuff {
+  int index = -1;
+  sim::Vec3d cuff_in_segment_m{};  ///< in the forearm frame, m.
+  double force_n = 0.0;            ///< F_w, N.
+};
+SupportCuff ForearmSupportCuff(const sim::ModelParams& rig);
+
+/// Sets the forearm weight-compensation force F_w (N, ≥ 0) at `cuff`, adding the entry when the
+/// rig had none.
+void SetForearmSupportForce(const SupportCuff& cuff, double force_n, sim::ModelParams* m);
 
 }  // namespace fesim::diagnosis

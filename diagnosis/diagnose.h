@@ -25,8 +25,14 @@
 //    parameters), then a second mechanism on top by the same test relative to the extended
 //    model, and the whole refitted again. A second-round candidate needs only its training LR
 //    test from the first round (the first mechanism may mask its held-out gain there).
-//    Subject parameters are held during a candidate's own fit (screening) and refitted with the
-//    accepted extension.
+//    During a candidate's own fit (screening) the subject parameters are profiled, not frozen:
+//    re-optimised to first order through their baseline Jacobian J_s (variable projection,
+//    FitParameters' `nuisance`), so the fit minimises ‖(I − P_s) r‖² like the score test; then,
+//    from the subject parameters moved by their linearised step, all parameters are polished
+//    together (refit_iterations LM steps) and LR and held-out gain use that fit. (Freezing
+//    them lost crosstalk: the baseline had taken its gain on the reached muscles into
+//    strength_scale, so any crosstalk fraction made the frozen fit worse.) The second-round fit
+//    treats the first extension's parameters the same way.
 // 5. Verdict. Nothing accepted: `none`, unless the held-out residual of the baseline keeps
 //    structure (StructuredVarianceFraction > max_structure on some output): `unexplained`.
 //    Otherwise the accepted mechanism with the larger gain, confidence
@@ -131,8 +137,10 @@ struct Diagnosis {
   std::vector<NamedValue> subject_parameters;    ///< baseline calibration.
   std::vector<CandidateResult> candidates;       ///< ranked by score, then held-out gain.
   std::vector<OutputSignature> signatures;
-  std::string split;                                      ///< how the data were split, one line.
-  DataView heldout;                                       ///< for plots.
+  std::string split;  ///< how the data were split, one line.
+  std::vector<std::string>
+      notes;         ///< pre-processing done to the input (resampling), one line each.
+  DataView heldout;  ///< for plots.
   std::vector<Trial> heldout_baseline, heldout_extended;  ///< predictions on the held-out trials.
   int simulations = 0;                                    ///< trial simulations spent in this run.
   int cached_results = 0;  ///< stages read back from DiagnoseOptions::cache instead.

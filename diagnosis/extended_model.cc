@@ -164,7 +164,7 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
 
 FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
                         const Eigen::VectorXd& x0, const DataView& view, const FitOptions& options,
-                        int first_free, int max_iterations) {
+                        int first_free, int max_iterations, const Eigen::MatrixXd* nuisance) {
   const int np = static_cast<int>(params.size());
   if (x0.size() != np || first_free < 0 || first_free >= np) {
     throw std::invalid_argument("FitParameters: x0 size or first_free out of range");
@@ -182,15 +182,47 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   };
   FitResult out;
   const long n = view.Count();
+  // Profiled fit: an orthonormal basis Q of the nuisance columns' span; project = (I − QQᵀ).
+  Eigen::MatrixXd q_basis;
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> nuisance_qr;
+  if (nuisance) {
+    if (nuisance->rows() != n) {
+      throw std::invalid_argument("FitParameters: nuisance Jacobian has " +
+                                  std::to_string(nuisance->rows()) + " rows, residuals " +
+                                  std::to_string(n));
+    }
+    nuisance_qr.compute(*nuisance);
+    const Eigen::Index rank = nuisance_qr.rank();
+    q_basis = (nuisance_qr.householderQ() * Eigen::MatrixXd::Identity(n, rank)).eval();
+  }
+  const auto project = [&](const Eigen::MatrixXd& m) -> Eigen::MatrixXd {
+    if (!nuisance) return m;
+    return m - q_basis * (q_basis.transpose() * m);
+  };
   constexpr double kFailedResidualRad = 10.0;  // a failed simulation: make LM reject the step
+  // The raw residual of the best (smallest projected cost) point evaluated, for nuisance_step.
+  Eigen::VectorXd best_free, best_raw, last_free, last_raw;
+  double best_cost = INFINITY;
   const auto raw_residual = [&](const Eigen::VectorXd& free) {
     out.simulations += static_cast<int>(view.trials.size());
+    Eigen::VectorXd r;
     try {
-      return StackResiduals(
+      r = StackResiduals(
           view, Predict(base, params, full(free), view, options.tolerance, options.threads));
     } catch (const std::exception&) {
-      return Eigen::VectorXd::Constant(n, kFailedResidualRad).eval();
+      r = Eigen::VectorXd::Constant(n, kFailedResidualRad);
     }
+    last_free = free;
+    last_raw = r;
+    if (nuisance) {
+      const double cost = project(r).squaredNorm();
+      if (cost < best_cost) {
+        best_cost = cost;
+        best_free = free;
+        best_raw = r;
+      }
+    }
+    return r;
   };
   // identification::LevenbergMarquardt starts its damping at 1e-3 · max diag(JᵀJ) and adds it
   // times diag(JᵀJ), i.e. relative to the largest column scale; residuals are scaled here by
@@ -200,16 +232,16 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   const Eigen::VectorXd r0 = raw_residual(x0_free);
   const Eigen::MatrixXd j0 =
       ResidualJacobian(base, params, x0, r0, view, options, &out.simulations, first_free);
-  const double max_diag = j0.colwise().squaredNorm().maxCoeff();
+  const double max_diag = project(j0).colwise().squaredNorm().maxCoeff();
   const double c = max_diag > 0.0 ? 1.0 / std::sqrt(max_diag) : 1.0;
   bool first_residual = true, first_jacobian = true;
   const identification::ResidualFn residual = [&](const Eigen::VectorXd& free) {
     if (first_residual && free == x0_free) {
       first_residual = false;
-      return (c * r0).eval();
+      return (c * project(r0)).eval();
     }
     first_residual = false;
-    return (c * raw_residual(free)).eval();
+    return (c * project(raw_residual(free))).eval();
   };
   out.jacobian = j0;
   const identification::JacobianFn jacobian = [&](const Eigen::VectorXd& free,
@@ -217,12 +249,16 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
     *evaluations += p;
     if (first_jacobian && free == x0_free) {
       first_jacobian = false;
-      return (c * j0).eval();
+      return (c * project(j0)).eval();
     }
     first_jacobian = false;
-    out.jacobian = ResidualJacobian(base, params, full(free), r / c, view, options,
-                                    &out.simulations, first_free);
-    return (c * out.jacobian).eval();
+    // A profiled residual r is projected; the finite differences need the raw one at `free`.
+    const Eigen::VectorXd raw =
+        !nuisance ? (r / c).eval()
+                  : (last_free.size() == p && last_free == free ? last_raw : raw_residual(free));
+    out.jacobian = ResidualJacobian(base, params, full(free), raw, view, options, &out.simulations,
+                                    first_free);
+    return (c * project(out.jacobian)).eval();
   };
   identification::LmOptions lm;
   lm.max_iterations = max_iterations > 0 ? max_iterations : options.max_iterations;
@@ -237,6 +273,10 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   out.residuals = n;
   out.ci95 = Eigen::VectorXd::Constant(np, NAN);
   out.ci95.tail(p) = identification::ConfidenceHalfWidths95(res.jtj, res.cost, n);
+  if (nuisance) {
+    if (!(best_free.size() == p && best_free == res.x)) best_raw = raw_residual(res.x);
+    out.nuisance_step = -nuisance_qr.solve(best_raw);
+  }
   return out;
 }
 

@@ -73,9 +73,12 @@ struct FitOptions {
 };
 
 struct FitResult {
-  Eigen::VectorXd x;         ///< best values, in the parameters' units.
-  Eigen::VectorXd ci95;      ///< 95 % half-widths (NaN: not estimable or held).
-  double cost = 0.0;         ///< Σ (y − ŷ)², rad².
+  Eigen::VectorXd x;     ///< best values, in the parameters' units.
+  Eigen::VectorXd ci95;  ///< 95 % half-widths (NaN: not estimable or held).
+  double cost = 0.0;  ///< Σ (y − ŷ)², rad² (profiled: ‖(I − P) r‖², see FitParameters).
+  /// Profiled fits only: the linearised least-squares step of the profiled (held) parameters
+  /// at x, δ = −(J_nᵀJ_n)⁻¹ J_nᵀ r(x), one entry per column of the nuisance Jacobian.
+  Eigen::VectorXd nuisance_step;
   long residuals = 0;        ///< N.
   int simulations = 0;       ///< trial simulations spent.
   Eigen::MatrixXd jacobian;  ///< ∂r/∂x of the free parameters at the last linearisation point.
@@ -84,9 +87,19 @@ struct FitResult {
 /// Bounded LM of the parameters from x0 on the counted samples of `view`. Parameters with index
 /// < first_free are held at their x0 values (not fitted; their ci95 is NaN); `max_iterations`
 /// overrides options.max_iterations when > 0.
+///
+/// Profiled fit (variable projection with a fixed Jacobian, Golub & Pereyra 1973): when
+/// `nuisance` (N × q, the residual Jacobian of the held parameters at x0) is given, the held
+/// parameters are not frozen but re-optimised to first order at every evaluation: LM minimises
+/// ‖(I − P) r(x)‖² with P = J_n (J_nᵀJ_n)⁺ J_nᵀ, and its Jacobian is (I − P) J. This is the fit
+/// that matches the score test of diagnose.h (a mechanism judged by what the held parameters
+/// cannot produce); freezing them instead loses every mechanism that they partly absorb (e.g.
+/// crosstalk, whose gain on the reached muscles the baseline took into strength_scale).
+/// FitResult::nuisance_step is then the held parameters' linearised adjustment at x.
 FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
                         const Eigen::VectorXd& x0, const DataView& view, const FitOptions& options,
-                        int first_free = 0, int max_iterations = 0);
+                        int first_free = 0, int max_iterations = 0,
+                        const Eigen::MatrixXd* nuisance = nullptr);
 
 /// Forward-difference Jacobian ∂r/∂x_k (N × (p − first_free)) for the columns k ≥ first_free
 /// at x with residual r0; one simulation per column and trial, in parallel. Adds the simulations

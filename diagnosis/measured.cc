@@ -15,12 +15,22 @@ std::string Label(const Trial& trial, std::size_t k) {
   return source != trial.metadata.end() ? source->second : "trial " + std::to_string(k);
 }
 
-/// " (step DT s after DT0 s; " for the non-uniform sampling message.
-std::string Steps(double dt, double dt0) {
+/// " (T s after T0 s)" for the non-increasing time message.
+std::string Fmt9(double t, double t0) {
   char buf[96];
-  std::snprintf(buf, sizeof buf, " (step %.6g s after %.6g s; ", dt, dt0);
+  std::snprintf(buf, sizeof buf, " (%.9g s after %.9g s)", t, t0);
   return buf;
 }
+
+/// `v` as %.6g text.
+std::string Fmt6(double v) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+/// Relative spread of the sample steps below which a record counts as uniformly sampled.
+constexpr double kUniformTolerance = 1e-3;
 
 void Validate(const sim::ModelParams& rig, const std::vector<Trial>& measured,
               std::vector<std::string>* outputs, std::vector<std::string>* channels) {
@@ -60,14 +70,6 @@ void Validate(const sim::ModelParams& rig, const std::vector<Trial>& measured,
         active = active || v > 0.0;
       }
       if (active) stimulated.insert(u.substr(2));
-    }
-    const double dt0 = tr.time[1] - tr.time[0];
-    for (std::size_t i = 2; i < tr.size(); ++i) {
-      const double dt = tr.time[i] - tr.time[i - 1];
-      if (std::abs(dt - dt0) > 1e-3 * dt0) {
-        throw std::runtime_error(label + ": column time: sampling is not uniform at row " +
-                                 std::to_string(i) + Steps(dt, dt0) + "resample to one rate)");
-      }
     }
   }
   for (const auto& ch : rig.channels) {
@@ -117,13 +119,78 @@ Trial OutputRows(const Trial& trial, const std::vector<std::string>& outputs) {
 
 }  // namespace
 
+bool IsUniformlySampled(const std::vector<double>& time) {
+  if (time.size() < 2) return true;
+  const double dt0 = time[1] - time[0];
+  for (std::size_t i = 2; i < time.size(); ++i) {
+    if (std::abs(time[i] - time[i - 1] - dt0) > kUniformTolerance * dt0) return false;
+  }
+  return dt0 > 0.0;
+}
+
+Trial ResampleToUniform(const Trial& trial, const std::string& label) {
+  const std::size_t n = trial.size();
+  std::vector<double> steps;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double dt = trial.time[i] - trial.time[i - 1];
+    if (!(dt > 0.0)) {
+      throw std::runtime_error(label + ": column time: not increasing at row " + std::to_string(i) +
+                               Fmt9(trial.time[i], trial.time[i - 1]));
+    }
+    steps.push_back(dt);
+  }
+  if (steps.empty()) return trial;
+  std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
+  const double dt = steps[steps.size() / 2];
+  const double t0 = trial.time.front();
+  const long m = static_cast<long>(std::floor((trial.time.back() - t0) / dt + 1e-9));
+  Trial out;
+  out.metadata = trial.metadata;
+  for (long k = 0; k <= m; ++k) out.time.push_back(t0 + static_cast<double>(k) * dt);
+  for (std::size_t c = 0; c < trial.names.size(); ++c) {
+    const std::vector<double>& v = trial.columns[c];
+    const bool input = trial.names[c].rfind("u.", 0) == 0;
+    std::vector<double> col(out.time.size(), NAN);
+    std::size_t j = 0;  // last source row with time ≤ t
+    for (std::size_t f = 0; f < out.time.size(); ++f) {
+      const double t = out.time[f];
+      while (j + 1 < n && trial.time[j + 1] <= t + 1e-9 * dt) ++j;
+      if (input) {  // the nearest row (ties: the earlier)
+        const bool next = j + 1 < n && trial.time[j + 1] - t < t - trial.time[j];
+        col[f] = v[next ? j + 1 : j];
+      } else if (std::abs(trial.time[j] - t) <= 1e-9 * dt || j + 1 >= n) {
+        col[f] = v[j];  // a sample at t
+      } else if (std::isfinite(v[j]) && std::isfinite(v[j + 1])) {
+        const double w = (t - trial.time[j]) / (trial.time[j + 1] - trial.time[j]);
+        col[f] = (1.0 - w) * v[j] + w * v[j + 1];
+      }
+    }
+    out.AddColumn(trial.names[c], std::move(col));
+  }
+  out.metadata["resampled"] = Fmt6(dt);
+  return out;
+}
+
 MeasuredData PrepareMeasured(const sim::ModelParams& rig, const std::vector<Trial>& measured,
                              double holdout_fraction) {
   if (measured.empty()) throw std::runtime_error("diagnose: no measured trials");
   MeasuredData d;
   std::vector<Trial> trials;
   trials.reserve(measured.size());
-  for (const auto& t : measured) trials.push_back(OutputRows(t, t.NamesWithPrefix("q.")));
+  for (std::size_t k = 0; k < measured.size(); ++k) {
+    trials.push_back(OutputRows(measured[k], measured[k].NamesWithPrefix("q.")));
+    if (!IsUniformlySampled(trials.back().time)) {
+      const std::size_t before = trials.back().size();
+      trials.back() = ResampleToUniform(trials.back(), Label(measured[k], k));
+      const Trial& r = trials.back();
+      d.notes.push_back(Label(measured[k], k) + ": sampling not uniform; resampled to " +
+                        std::to_string(r.size()) + " samples at " +
+                        (r.size() > 1 ? Fmt6(r.time[1] - r.time[0]) : std::string("–")) +
+                        " s (the median step; outputs linearly interpolated between finite "
+                        "samples, gaps kept; inputs from the nearest row) from " +
+                        std::to_string(before));
+    }
+  }
   Validate(rig, trials, &d.outputs, &d.channels);
   SplitTrials(trials, d.outputs, holdout_fraction, &d.train, &d.heldout, &d.split);
   return d;

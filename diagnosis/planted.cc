@@ -16,36 +16,36 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-sim::StimulationSchedule RandomSteps(const sim::ModelParams& m, double duration_s,
+/// Pseudo-random steps; step times are sample times k / rate_hz of the record (SampleTimes)
+/// so that the logged u.* columns are the applied input (a step between two samples would reach
+/// the model up to one period early, a timing error outside the candidate library).
+sim::StimulationSchedule RandomSteps(const sim::ModelParams& m, const std::vector<int>& idx,
+                                     double duration_s, double rate_hz, double max_us,
                                      std::mt19937_64* rng) {
-  std::vector<int> idx;
-  for (const char* name : {"ext", "flex"}) {
-    for (std::size_t k = 0; k < m.channels.size(); ++k) {
-      if (m.channels[k].name == name) idx.push_back(static_cast<int>(k));
-    }
-  }
-  if (idx.size() != 2)
-    throw std::invalid_argument("planted data: the rig needs channels ext, flex");
   std::uniform_int_distribution<int> level(0, 5);
   std::uniform_real_distribution<double> hold(1.0, 3.0);
   sim::StimulationSchedule s;
-  double t = 0.0;
-  while (t < duration_s) {
+  long k = 0;  // step time in samples
+  for (double t = 0.0; t < duration_s; t = static_cast<double>(k) / rate_hz) {
     std::vector<double> u(m.channels.size(), 0.0);
-    double a = 50.0 * level(*rng), b = 50.0 * level(*rng);
-    if (a + b > 300.0) b = 300.0 - a;
-    u[idx[0]] = a;
-    u[idx[1]] = b;
+    double total = 0.0;  // Σu ≤ max_us
+    for (int c : idx) {
+      u[c] = std::min(max_us / 6.0 * level(*rng), max_us - total);
+      total += u[c];
+    }
     s.times.push_back(t);
     s.values.push_back(u);
-    t += hold(*rng);
+    k += std::max(1L, std::lround(hold(*rng) * rate_hz));
   }
   return s;
 }
 
-sim::StimulationSchedule Grid(const sim::ModelParams& m, int order) {
+sim::StimulationSchedule Grid(const sim::ModelParams& m, const std::vector<std::string>& channels,
+                              double max_us, int order) {
   protocols::StepGridParams g;
-  g.channels = {"ext", "flex"};
+  g.channels = channels;
+  g.u_max_us = max_us;
+  g.spacing_us = max_us / 6.0;
   g.step_duration_s = 2.0;
   g.order = order % 2 ? protocols::GridOrder::kLastChannelFastest
                       : protocols::GridOrder::kFirstChannelFastest;
@@ -102,7 +102,16 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
   const double s = spec.effect_scale;
   LibraryContext ctx;
   for (int c : sensors.angles.coordinates) ctx.outputs.push_back("q." + sim::CoordinateNames()[c]);
-  ctx.channels = {"ext", "flex"};
+  ctx.channels = spec.channels;
+  std::vector<int> channel_index;
+  for (const auto& name : spec.channels) {
+    for (std::size_t k = 0; k < clean.channels.size(); ++k) {
+      if (clean.channels[k].name == name) channel_index.push_back(static_cast<int>(k));
+    }
+  }
+  if (spec.channels.size() != 2 || channel_index.size() != 2) {
+    throw std::invalid_argument("planted data: need two channels of the rig (spec.channels)");
+  }
   double wander_rad = 0.0;
   const double tremor_f = 5.0 + 3.0 * unit(rng), tremor_phase = 2.0 * kPi * unit(rng);
   for (const auto& id : spec.mechanisms) {
@@ -130,7 +139,7 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
       out.planted.push_back({"tremor@wrist_flexion:tremor.amplitude_nm", "N*m", 0.08 * s, NAN});
       out.planted.push_back({"tremor@wrist_flexion:tremor.frequency_hz", "Hz", tremor_f, NAN});
     } else if (id == "crosstalk") {
-      SetViaLibrary(id, "crosstalk.fraction", 0.015 * s, ctx, &truth, &out.planted);
+      SetViaLibrary(id, "crosstalk.fraction", 0.06 * s, ctx, &truth, &out.planted);
     } else if (id == "moment_arm_posture") {
       SetViaLibrary(id, "momentarm.posture_ratio", 2.0 * s, ctx, &truth, &out.planted);
     } else if (id == "force_length_velocity") {
@@ -151,6 +160,10 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
       for (const auto& o : ctx.outputs) {
         out.planted.push_back({"sensor_drift:drift." + o, "rad/s", 0.0005 * s, NAN});
       }
+    } else if (id == "arm_support") {
+      SetViaLibrary(id, "support.weight_compensation_n",
+                    ForearmSupportCuff(truth).force_n + 0.05 * s * ForearmWeightN(truth), ctx,
+                    &truth, &out.planted);
     } else if (id == "outside") {
       wander_rad = 1.5 * s * kPi / 180.0;
     } else {
@@ -168,10 +181,11 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
     req.seed = sim::DeriveSeed(spec.seed, 100 + t);
     req.steady_state_times_s.clear();
     if (spec.protocol == "steps") {
-      req.stimulation = RandomSteps(truth, spec.duration_s, &rng);
+      req.stimulation = RandomSteps(truth, channel_index, spec.duration_s, sensors.angles.rate_hz,
+                                    spec.max_us, &rng);
       req.duration_s = spec.duration_s;
     } else if (spec.protocol == "grid") {
-      req.stimulation = Grid(truth, t + static_cast<int>(spec.seed));
+      req.stimulation = Grid(truth, spec.channels, spec.max_us, t + static_cast<int>(spec.seed));
       req.duration_s = 56.0;
     } else {
       throw std::invalid_argument("planted data: unknown protocol '" + spec.protocol + "'");

@@ -5,19 +5,25 @@
 //
 // Participant: the rig's model with ApplyParticipant (scenarios/study.h) stiffness_scale and
 // strength_scale drawn uniformly in [0.8, 1.25] (other draws at 1).
-// Protocols (both ext/flex array channels of the hand rig): "steps" — pseudo-random levels
-// {0, 50, …, 250} µs per channel held U(1, 3) s, Σu ≤ 300 µs; "grid" — paper 000's step grid
-// (50 µs spacing, Σu ≤ 300) with 2 s steps, order alternating between trials.
+// Protocols (two channels, by default the ext/flex array channels of the hand rig): "steps" —
+// pseudo-random levels {0, 1, …, 5} · u_max / 6 per channel held U(1, 3) s (step times on the
+// record's sample grid), Σu ≤ u_max (300 µs: levels 0, 50, …, 250 µs); "grid" — paper 000's step
+// grid (u_max / 6 spacing, Σu ≤ u_max) with 2 s steps, order alternating between trials.
 // Planted strengths at effect_scale s (chosen so that s = 1 gives an effect RMS of the order of the
 // 1° sensor noise RMS on the hand rig; the generator reports the measured ratio):
 //   fatigue        T_fat = 5 s / s                   potentiation  g = 2.0 s
 //   delay          δ = 0.07 s · s                    tremor        A = 0.08 s N·m on the wrist,
 //                                                                  f ∈ [5, 8] Hz, φ seeded
-//   crosstalk      c = 0.015 s                       moment_arm_posture  ρ = 2.0 s (wrist)
+//   crosstalk      c = 0.06 s (at 0.015 s the effect RMS is ≈ the noise RMS, but 95 % of it is
+//                  absorbed by the subject calibration: strength and input scales)
+//                                                    moment_arm_posture  ρ = 2.0 s (wrist)
 //   force_length_velocity  v_max × 1/(1 + 2 s)       unequal_muscle_dynamics  ratio 1 + 0.4 s
 //   passive_stiffness_nonlinear (wrist)  K_L × (1 + 30 s), κ = 8/rad
 //   stiction (wrist)  F_c = F_s − F_c = 0.04 s T_j   spasticity (wrist)  G = 0.4 s T_j, v_th 0.5
 //   sensor_drift   0.0005 s rad/s on every angle channel
+//   arm_support    (rigs with an elbow / shoulder output, e.g. scenarios/elbow_support_rig.yaml
+//                  with channels bic, tri) the forearm weight-compensation force raised by
+//                  0.05 s × the forearm weight (candidates.h; u_max 180 µs there)
 //   outside        (not in the library) a 0.1 Hz sinusoidal baseline wander of 1.5° s on every
 //                  angle channel (a breathing / strap-movement artefact)
 #pragma once
@@ -35,9 +41,11 @@ struct PlantedSpec {
   std::vector<std::string> mechanisms;  ///< MechanismIds() entries or "outside"; empty = clean.
   double effect_scale = 1.0;            ///< s above, > 0.
   std::string protocol = "steps";       ///< "steps" or "grid".
-  int trials = 3;                       ///< ≥ 1.
-  double duration_s = 60.0;             ///< per trial, s ("grid": 56 s, the grid's length).
-  std::uint64_t seed = 1;               ///< participant, protocol, tremor phase and noise.
+  std::vector<std::string> channels = {"ext", "flex"};  ///< the two stimulated rig channels.
+  double max_us = 300.0;     ///< u_max: levels (and grid spacing) max_us / 6, Σu ≤ max_us, µs.
+  int trials = 3;            ///< ≥ 1.
+  double duration_s = 60.0;  ///< per trial, s ("grid": 56 s, the grid's length).
+  std::uint64_t seed = 1;    ///< participant, protocol, tremor phase and noise.
 };
 
 struct PlantedDataset {

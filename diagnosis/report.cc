@@ -90,8 +90,10 @@ Json DiagnosisJson(const Diagnosis& d) {
 }
 
 std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs) {
-  std::string md =
-      "# fesim diagnose\n\n" + inputs + "\n\nSplit: " + d.split + ".\n\n## Verdict\n\n";
+  std::string notes;
+  for (const auto& line : d.notes) notes += "Input: " + line + ".\n\n";
+  std::string md = "# fesim diagnose\n\n" + inputs + "\n\nSplit: " + d.split + ".\n\n" + notes +
+                   "## Verdict\n\n";
   if (d.cause == "none") {
     md +=
         "The calibrated simulation reproduces the held-out data to within the measurement "

@@ -5,6 +5,7 @@
 #include <set>
 
 #include "identification/fullmodel/full_model_fit.h"
+#include "sim/default_model.h"
 
 namespace fesim::diagnosis {
 namespace {
@@ -91,6 +92,62 @@ TEST(Candidates, StictionExcessIsAddedToTheCoulombLevelAndJointTorquesScaleWithS
   for (const auto& p : subject) names.insert(p.name);
   EXPECT_EQ(names, (std::set<std::string>{"k.wrist_flexion", "k.mcp_flexion", "k.pip_flexion",
                                           "strength_scale", "u_scale.ext", "u_scale.flex"}));
+}
+
+TEST(Candidates, ArmSupportLiftsTheForearmByItsStaticTorqueOnTheElbowRig) {
+  // Elbow free, everything else held, no stimulation: at equilibrium k (q_rest − q) equals the
+  // gravity torque of the forearm and hand minus the support torque F_w · r_⊥ (the cuff at the
+  // forearm's centre of mass, r_⊥ its horizontal distance from the elbow). A support force F_w
+  // must therefore move the rest posture by ≈ F_w r_⊥ / (k + ∂τ_g/∂q) towards flexion.
+  sim::ModelParams rig = sim::DefaultModelParams();
+  for (int c = 0; c < sim::kNumCoordinates; ++c) {
+    rig.coordinates[c].mode = sim::CoordinateMode::kLocked;
+    rig.coordinates[c].initial_speed_rad_s = 0.0;
+  }
+  rig.coordinates[sim::kElbowFlexion].mode = sim::CoordinateMode::kFree;
+  LibraryContext ctx;
+  ctx.outputs = {"q.elbow_flexion"};
+  ctx.channels = {"bic"};
+  const Candidate* support = nullptr;
+  const auto lib = CandidateLibrary(rig, ctx);
+  for (const auto& c : lib) {
+    if (c.id == "arm_support") support = &c;
+  }
+  ASSERT_NE(support, nullptr);
+  ASSERT_TRUE(support->applicable);
+  ASSERT_EQ(support->params.size(), 1u);  // no bands on this rig
+  EXPECT_EQ(support->params[0].start, 0.0);
+  EXPECT_TRUE(support->one_sided[0]);
+  Eigen::VectorXd x(1);
+  x << 2.0;
+  const sim::ModelParams m = ApplyModelParameters(rig, support->params, x);
+  ASSERT_EQ(m.weight_compensation.size(), 1u);
+  EXPECT_EQ(m.weight_compensation[0].segment, sim::kForearm);
+  EXPECT_DOUBLE_EQ(m.weight_compensation[0].force_n, 2.0);
+  EXPECT_EQ(m.weight_compensation[0].cuff_in_segment_m, rig.segments[sim::kForearm].com_in_body_m);
+  // Applying twice on the same copy sets, not adds.
+  const sim::ModelParams m2 = ApplyModelParameters(m, support->params, x);
+  EXPECT_EQ(m2.weight_compensation.size(), 1u);
+
+  Trial t;
+  for (int i = 0; i <= 400; ++i) t.time.push_back(i / 20.0);
+  t.AddColumn("u.bic", std::vector<double>(t.size(), 0.0));
+  t.AddColumn("q.elbow_flexion", std::vector<double>(t.size(), 0.0));
+  DataView v;
+  v.trials = {t};
+  v.use = {std::vector<char>(t.size(), 1)};
+  v.outputs = ctx.outputs;
+  const double q0 =
+      Predict(rig, {}, Eigen::VectorXd(0), v, 1e-7, 1)[0].Column("q.elbow_flexion").back();
+  const double q1 =
+      Predict(rig, support->params, x, v, 1e-7, 1)[0].Column("q.elbow_flexion").back();
+  Eigen::VectorXd x_small(1);
+  x_small << 0.5;
+  const double q_small =
+      Predict(rig, support->params, x_small, v, 1e-7, 1)[0].Column("q.elbow_flexion").back();
+  EXPECT_GT(q1, q0 + 0.01);  // lifted (flexion positive)
+  // Small forces: the shift is linear in F_w (static equilibrium, smooth torques).
+  EXPECT_NEAR((q1 - q0) / (q_small - q0), 4.0, 0.4);
 }
 
 }  // namespace

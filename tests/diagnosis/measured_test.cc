@@ -84,11 +84,18 @@ TEST(PrepareMeasured, BadTrialsAreOneLineErrorsNamingFileAndColumn) {
   t.columns[0][7] = NAN;
   EXPECT_EQ(error(t), "m.csv: column u.ext: NaN input");
   EXPECT_EQ(error(Record(200, 50.0, "u.nope")), "m.csv: column u.nope: no such channel in the rig");
+  // Uneven sampling is resampled (ResampleToUniform), but time must increase.
+  t = Record(200, 50.0);
+  t.time[120] = t.time[119];
+  EXPECT_NE(error(t).find("m.csv: column time: not increasing at row 120"), std::string::npos)
+      << error(t);
   t = Record(200, 50.0);
   t.time[120] += 0.01;
-  EXPECT_NE(error(t).find("m.csv: column time: sampling is not uniform at row 120"),
-            std::string::npos)
-      << error(t);
+  EXPECT_EQ(error(t), "no error");
+  const MeasuredData d = PrepareMeasured(Rig(), {t}, 0.3);
+  ASSERT_EQ(d.notes.size(), 1u);
+  EXPECT_NE(d.notes[0].find("m.csv: sampling not uniform; resampled to"), std::string::npos)
+      << d.notes[0];
   EXPECT_EQ(error(Record(90, 50.0)), "m.csv: 90 samples, need at least 100");
   t = Record(200, 50.0);
   t.columns[0].assign(200, 0.0);
