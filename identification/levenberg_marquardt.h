@@ -7,6 +7,7 @@
 
 #include <Eigen/Dense>
 #include <functional>
+#include <vector>
 
 #include "identification/method_support.h"
 
@@ -33,6 +34,13 @@ struct LmOptions {
   /// For residuals whose Jacobian costs many expensive evaluations (the full-model fit: one
   /// simulation per column and data set).
   bool broyden = false;
+  /// Hold active bounds: a variable at a bound whose steepest-descent direction −(Jᵀr)_k points
+  /// out of the box gets Δx_k = 0, and the damped Gauss–Newton step is solved for the others
+  /// (the reduced system of a projected Gauss–Newton method, e.g. Kelley 1999, "Iterative
+  /// methods for optimization", §5.5). Without it the full step is computed as if unbounded and
+  /// then clamped, which along a valley ending on a bound moves little per iteration (seen as a
+  /// 200-iteration crawl of the Hammerstein static step on full-model data).
+  bool hold_active_bounds = false;
 };
 
 /// Why a Levenberg–Marquardt run stopped. The first three are convergence; the others are not.
@@ -61,7 +69,11 @@ struct LmResult {
   int evaluations = 0;           ///< residual evaluations (including the Jacobian's).
   int jacobian_evaluations = 0;  ///< evaluated (not secant-updated) Jacobians.
   Eigen::MatrixXd jtj;           ///< Jᵀ J at x (for confidence intervals).
-  bool converged = false;        ///< LmConverged(stop_reason).
+  /// Cost at the start and after every accepted step, with the residual evaluations used so far
+  /// (evaluations_history[k] when cost_history[k] was reached): the convergence trace.
+  std::vector<double> cost_history;
+  std::vector<int> evaluations_history;
+  bool converged = false;  ///< LmConverged(stop_reason).
   LmStopReason stop_reason = LmStopReason::kIterationLimit;
 };
 
@@ -73,12 +85,19 @@ using JacobianFn = std::function<Eigen::MatrixXd(const Eigen::VectorXd&, const E
                                                  int* evaluations)>;
 /// Maps a point onto the feasible set after clamping to the bounds (identity if empty).
 using ProjectionFn = std::function<void(Eigen::VectorXd*)>;
+/// (x, r(x)) → JᵀJ (p×p) and Jᵀr (p) at x without forming J, for residuals whose Jacobian has a
+/// structure the caller exploits (e.g. block-sparse columns); it should add the residual
+/// evaluations it makes to *evaluations. Replaces `jacobian`; not with LmOptions::broyden.
+using NormalEquationsFn =
+    std::function<void(const Eigen::VectorXd& x, const Eigen::VectorXd& r, Eigen::MatrixXd* jtj,
+                       Eigen::VectorXd* jtr, int* evaluations)>;
 
 /// Minimises ‖r(x)‖² subject to lower ≤ x ≤ upper (entries may be ±inf).
 LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
                             const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
                             const LmOptions& options = {}, const ProjectionFn& project = {},
-                            const JacobianFn& jacobian = {});
+                            const JacobianFn& jacobian = {},
+                            const NormalEquationsFn& normal_equations = {});
 
 /// 95 % half-widths 1.96 √diag(σ² (JᵀJ)⁺), σ² = cost / (N − p); NaN for parameters in a
 /// singular direction of JᵀJ (not estimable, e.g. held at a bound where the cost is flat).
