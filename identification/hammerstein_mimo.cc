@@ -162,6 +162,45 @@ void SimulatePair(const FilterLanes& c, const double* z0, const double* z1, cons
   }
 }
 
+/// Sums of the forward-difference normal equations of one joint over one trial.
+struct DifferenceSums {
+  double dd0 = 0, dd1 = 0;  ///< Σ d_l², lane l = 0, 1.
+  double d01 = 0;           ///< Σ d_0 d_1.
+  double db0 = 0, db1 = 0;  ///< Σ d_l r.
+};
+
+/// SimulatePair with both lanes on one joint's z and ỹ (two perturbed parameter sets), fused with
+/// the normal-equation sums of the differences d_l(k) = out_l(k) − r(k) from the unperturbed
+/// residual r: nothing is stored, and the sums fill the recursion's latency-bound loop.
+DifferenceSums SimulatePairDifferences(const FilterLanes& c, const double* z, const double* yt,
+                                       const double* r, Eigen::Index N) {
+  DifferenceSums out;
+  if (N <= 0) return out;
+  Lanes2 x1 = {z[0], z[0]}, x2 = x1, x3 = x1;
+  Lanes2 dd = {0.0, 0.0}, db = {0.0, 0.0};
+  double d01 = 0.0;
+  for (Eigen::Index k = 0; k < N; ++k) {
+    const Lanes2 zk = {z[k], z[k]};
+    const Lanes2 rk = {r[k], r[k]};
+    const Lanes2 d = (Lanes2{yt[k], yt[k]} - (c.c2 * x2 + c.c3 * x3)) - rk;
+    dd += d * d;
+    db += d * rk;
+    d01 += d[0] * d[1];
+    const Lanes2 n1 = c.a11 * x1 + c.b1 * zk;
+    const Lanes2 n2 = c.a22 * x2 + (c.a21 * x1 + c.b2 * zk);
+    const Lanes2 n3 = c.a33 * x3 + (c.a31 * x1 + c.a32 * x2 + c.b3 * zk);
+    x1 = n1;
+    x2 = n2;
+    x3 = n3;
+  }
+  out.dd0 = dd[0];
+  out.dd1 = dd[1];
+  out.d01 = d01;
+  out.db0 = db[0];
+  out.db1 = db[1];
+  return out;
+}
+
 }  // namespace
 
 Eigen::VectorXd MuscleActivations(const std::vector<SigmoidParams>& phi,
@@ -362,22 +401,34 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
   }
   // Residual rows are grouped by joint: joint i's block depends on Ω and μ_i only.
   const Eigen::Index rows_per_joint = n_res / std::max<Eigen::Index>(q, 1);
-  // Joints in pairs, one per SIMD lane (the last one alone in both lanes when q is odd).
-  const auto residual_of = [&](double omega, const Eigen::VectorXd& mu) -> Eigen::VectorXd {
-    Eigen::VectorXd r(n_res);
+  // One chain per (trial, joint), residual rows grouped by joint; consecutive chains of equal
+  // length run in pairs, one per SIMD lane (a chain without a partner fills both lanes).
+  struct Chain {
+    std::size_t trial;
+    Eigen::Index joint, offset;
+  };
+  std::vector<Chain> chains;
+  {
     Eigen::Index offset = 0;
     for (std::size_t t = 0; t < trials.size(); ++t) {
-      const Eigen::Index N = Z[t].rows();
-      const double T = trials[t].sample_period_s;
-      for (Eigen::Index i = 0; i < q; i += 2) {
-        const Eigen::Index j = std::min(i + 1, q - 1);
-        SimulatePair(PairFilters(DiscretiseJointDynamics(omega, mu(i), T),
-                                 DiscretiseJointDynamics(omega, mu(j), T)),
-                     Z[t].col(i).data(), Z[t].col(j).data(), Yt[t].col(i).data(),
-                     Yt[t].col(j).data(), N, r.data() + i * rows_per_joint + offset,
-                     r.data() + j * rows_per_joint + offset);
-      }
-      offset += N;
+      for (Eigen::Index i = 0; i < q; ++i) chains.push_back({t, i, i * rows_per_joint + offset});
+      offset += Z[t].rows();
+    }
+  }
+  const auto residual_of = [&](double omega, const Eigen::VectorXd& mu) -> Eigen::VectorXd {
+    Eigen::VectorXd r(n_res);
+    for (std::size_t c = 0; c < chains.size();) {
+      const Chain& a = chains[c];
+      const Eigen::Index N = Z[a.trial].rows();
+      const bool pair = c + 1 < chains.size() && Z[chains[c + 1].trial].rows() == N;
+      const Chain& b = pair ? chains[c + 1] : a;
+      SimulatePair(
+          PairFilters(DiscretiseJointDynamics(omega, mu(a.joint), trials[a.trial].sample_period_s),
+                      DiscretiseJointDynamics(omega, mu(b.joint), trials[b.trial].sample_period_s)),
+          Z[a.trial].col(a.joint).data(), Z[b.trial].col(b.joint).data(),
+          Yt[a.trial].col(a.joint).data(), Yt[b.trial].col(b.joint).data(), N, r.data() + a.offset,
+          r.data() + b.offset);
+      c += pair ? 2 : 1;
     }
     return r;
   };
@@ -390,7 +441,6 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
   // and Jᵀr are accumulated block by block, without forming (and zeroing) the N·q × (q + 1)
   // Jacobian.
   constexpr double kFdStep = 1e-7;
-  Eigen::VectorXd d_omega, d_mu;  // scratch: one joint-trial block of r(θ + h e_k) − r(θ)
   const auto normal_equations = [&](const Eigen::VectorXd& theta, const Eigen::VectorXd& r0,
                                     Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr, int* evals) {
     const double h0 = -kFdStep * std::max(std::abs(theta(0)), 1e-3);  // inward of Ω ≤ Ω_max
@@ -401,23 +451,17 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
     Eigen::Index offset = 0;
     for (std::size_t t = 0; t < trials.size(); ++t) {
       const Eigen::Index N = Z[t].rows();
-      d_omega.resize(N);
-      d_mu.resize(N);
       const double T = trials[t].sample_period_s;
       for (Eigen::Index i = 0; i < q; ++i) {
-        const double* z = Z[t].col(i).data();
-        const double* yt = Yt[t].col(i).data();
-        SimulatePair(PairFilters(DiscretiseJointDynamics(theta(0) + h0, theta(1 + i), T),
-                                 DiscretiseJointDynamics(theta(0), theta(1 + i) + h(i), T)),
-                     z, z, yt, yt, N, d_omega.data(), d_mu.data());
-        const auto base = r0.segment(i * rows_per_joint + offset, N);
-        d_omega -= base;
-        d_mu -= base;
-        (*jtj)(0, 0) += d_omega.squaredNorm() / (h0 * h0);
-        (*jtj)(0, 1 + i) += d_omega.dot(d_mu) / (h0 * h(i));
-        (*jtj)(1 + i, 1 + i) += d_mu.squaredNorm() / (h(i) * h(i));
-        (*jtr)(0) += d_omega.dot(base) / h0;
-        (*jtr)(1 + i) += d_mu.dot(base) / h(i);
+        const DifferenceSums d = SimulatePairDifferences(
+            PairFilters(DiscretiseJointDynamics(theta(0) + h0, theta(1 + i), T),
+                        DiscretiseJointDynamics(theta(0), theta(1 + i) + h(i), T)),
+            Z[t].col(i).data(), Yt[t].col(i).data(), r0.data() + i * rows_per_joint + offset, N);
+        (*jtj)(0, 0) += d.dd0 / (h0 * h0);
+        (*jtj)(0, 1 + i) += d.d01 / (h0 * h(i));
+        (*jtj)(1 + i, 1 + i) += d.dd1 / (h(i) * h(i));
+        (*jtr)(0) += d.db0 / h0;
+        (*jtr)(1 + i) += d.db1 / h(i);
       }
       offset += N;
     }
