@@ -110,7 +110,9 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
   refresh();
   res.cost_history.push_back(res.cost);
   res.evaluations_history.push_back(res.evaluations);
-  double lambda = options.initial_damping * std::max(jtj.diagonal().maxCoeff(), 1e-300);
+  double lambda = options.scale_free_damping
+                      ? options.initial_damping
+                      : options.initial_damping * std::max(jtj.diagonal().maxCoeff(), 1e-300);
   double nu = 2.0;
   int rejected = 0;  // trial steps rejected since the last accepted one
   int cycle = 0;     // next coordinate of the secant column refresh

@@ -20,8 +20,13 @@ Convergence ToConvergence(const LmResult& result);
 struct LmOptions {
   int max_iterations = 200;           ///< accepted steps at most.
   double relative_tolerance = 1e-12;  ///< stop when the cost decreases by less than this fraction.
-  double step_tolerance = 1e-12;   ///< stop when ‖Δx‖ ≤ this · (‖x‖ + step_tolerance).
-  double initial_damping = 1e-3;   ///< λ₀ relative to max diag(JᵀJ).
+  double step_tolerance = 1e-12;  ///< stop when ‖Δx‖ ≤ this · (‖x‖ + step_tolerance).
+  double initial_damping = 1e-3;  ///< λ₀ relative to max diag(JᵀJ) (see scale_free_damping).
+  /// λ₀ = initial_damping itself. The damping term is λ·diag(JᵀJ) (Marquardt's scaling), so λ is
+  /// already dimensionless; the default λ₀ = initial_damping · max diag(JᵀJ) makes the first
+  /// steps short gradient steps whenever max diag(JᵀJ) ≫ 1 (the full-model fit: ≈ 6 accepted
+  /// steps at λ/3 each before the cost starts to fall).
+  bool scale_free_damping = false;
   double fd_relative_step = 1e-7;  ///< forward-difference step, relative to max(|x_k|, 1e-3).
   /// Secant Jacobian (Madsen, Nielsen & Tingleff 2004, "Methods for non-linear least squares
   /// problems", §3.4): after every trial step Δx, accepted or rejected, Broyden's rank-one update

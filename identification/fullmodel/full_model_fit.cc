@@ -643,6 +643,8 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
   lm.step_tolerance = 1e-9;
   lm.fd_relative_step = options.fd_relative_step;
   lm.broyden = options.broyden;
+  lm.hold_active_bounds = true;  // bounded A, k, β, γ, R: no crawl along a bound (LmOptions)
+  lm.scale_free_damping = true;  // no run of short gradient steps at the start (LmOptions)
   double best_cost = std::numeric_limits<double>::infinity();
   LmResult best;
   for (int sidx = 0; sidx < options.starts; ++sidx) {
@@ -677,6 +679,8 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     run.jacobians = res.jacobian_evaluations;
     run.converged = res.converged;
     run.stop_reason = LmStopReasonName(res.stop_reason);
+    run.cost_history = res.cost_history;
+    run.evaluations_history = res.evaluations_history;
     fit.runs.push_back(run);
     if (res.cost < best_cost) {
       fit.best_run = fit.runs.size() - 1;
