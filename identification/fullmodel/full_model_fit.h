@@ -29,9 +29,9 @@
 //   of MATLAB's interior point; Jacobians by forward differences evaluated in parallel threads
 //   (one model build + simulation per perturbed parameter and distinct trial), not CVODES
 //   sensitivities; optionally Broyden secant updates between them (FullModelFitOptions::
-//   broyden). Trials with identical stimulation and sample times share one simulation. LM holds
-//   active bounds and starts from a dimensionless damping (LmOptions::hold_active_bounds,
-//   scale_free_damping).
+//   broyden). Trials with identical stimulation and sample times share one simulation. Without
+//   secant updates LM holds active bounds and starts from a dimensionless damping
+//   (LmOptions::hold_active_bounds, scale_free_damping).
 // * Sensitivity measure (the paper does not give one): S_j = ‖∂ŷ/∂θ_j‖ · s_j / √N with s_j the
 //   nominal |θ_j| (half the bound range when θ_j = 0), one forward difference per parameter at
 //   the start point — a local, one-at-a-time ranking.
