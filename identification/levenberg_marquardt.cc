@@ -73,9 +73,12 @@ Convergence ToConvergence(const LmResult& result) {
 LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
                             const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
                             const LmOptions& options, const ProjectionFn& project,
-                            const JacobianFn& jacobian) {
+                            const JacobianFn& jacobian, const NormalEquationsFn& normal_equations) {
   if (lower.size() != x0.size() || upper.size() != x0.size()) {
     throw std::invalid_argument("LevenbergMarquardt: bounds and x0 sizes differ");
+  }
+  if (normal_equations && options.broyden) {
+    throw std::invalid_argument("LevenbergMarquardt: normal equations need broyden = false");
   }
   LmResult res;
   Clamp(lower, upper, project, &x0);
@@ -89,17 +92,27 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
     return jacobian ? jacobian(x, r, &res.evaluations)
                     : Jacobian(residual, x, r, upper, options.fd_relative_step, &res.evaluations);
   };
-  Eigen::MatrixXd J = jac(res.x, res.residual);
-  Eigen::MatrixXd jtj = Gram(J);
-  Eigen::VectorXd g = J.transpose() * res.residual;
+  Eigen::MatrixXd J;  // unused with normal_equations
+  Eigen::MatrixXd jtj;
+  Eigen::VectorXd g;
   bool fresh = true;  // J was evaluated at res.x (not a secant update)
   const auto refresh = [&] {
-    J = jac(res.x, res.residual);
-    jtj = Gram(J);
-    g = J.transpose() * res.residual;
+    if (normal_equations) {
+      ++res.jacobian_evaluations;
+      normal_equations(res.x, res.residual, &jtj, &g, &res.evaluations);
+    } else {
+      J = jac(res.x, res.residual);
+      jtj = Gram(J);
+      g = J.transpose() * res.residual;
+    }
     fresh = true;
   };
-  double lambda = options.initial_damping * std::max(jtj.diagonal().maxCoeff(), 1e-300);
+  refresh();
+  res.cost_history.push_back(res.cost);
+  res.evaluations_history.push_back(res.evaluations);
+  double lambda = options.scale_free_damping
+                      ? options.initial_damping
+                      : options.initial_damping * std::max(jtj.diagonal().maxCoeff(), 1e-300);
   double nu = 2.0;
   int rejected = 0;  // trial steps rejected since the last accepted one
   int cycle = 0;     // next coordinate of the secant column refresh
@@ -108,7 +121,19 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
   while (res.cost != 0.0 && res.iterations < options.max_iterations) {
     Eigen::MatrixXd A = jtj;
     for (int k = 0; k < p; ++k) A(k, k) += lambda * std::max(jtj(k, k), 1e-12);
-    Eigen::VectorXd step = A.ldlt().solve(-g);
+    Eigen::VectorXd rhs = -g;
+    if (options.hold_active_bounds) {
+      for (int k = 0; k < p; ++k) {
+        const bool held = (res.x(k) <= lower(k) && g(k) > 0.0) ||  // −g_k points below lower
+                          (res.x(k) >= upper(k) && g(k) < 0.0);    // −g_k points above upper
+        if (!held) continue;
+        A.row(k).setZero();  // decouple k: Δx_k = 0, the others solve the reduced system
+        A.col(k).setZero();
+        A(k, k) = 1.0;
+        rhs(k) = 0.0;
+      }
+    }
+    Eigen::VectorXd step = A.ldlt().solve(rhs);
     Eigen::VectorXd x_new = res.x + step;
     Clamp(lower, upper, project, &x_new);
     const Eigen::VectorXd dx = x_new - res.x;
@@ -155,6 +180,8 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
       const double old_cost = res.cost;
       res.cost = cost_new;
       ++res.iterations;
+      res.cost_history.push_back(res.cost);
+      res.evaluations_history.push_back(res.evaluations);
       lambda = std::max(lambda / 3.0, 1e-300);
       nu = 2.0;
       rejected = 0;

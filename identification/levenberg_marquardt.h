@@ -7,6 +7,7 @@
 
 #include <Eigen/Dense>
 #include <functional>
+#include <vector>
 
 #include "identification/method_support.h"
 
@@ -19,8 +20,13 @@ Convergence ToConvergence(const LmResult& result);
 struct LmOptions {
   int max_iterations = 200;           ///< accepted steps at most.
   double relative_tolerance = 1e-12;  ///< stop when the cost decreases by less than this fraction.
-  double step_tolerance = 1e-12;   ///< stop when ‖Δx‖ ≤ this · (‖x‖ + step_tolerance).
-  double initial_damping = 1e-3;   ///< λ₀ relative to max diag(JᵀJ).
+  double step_tolerance = 1e-12;  ///< stop when ‖Δx‖ ≤ this · (‖x‖ + step_tolerance).
+  double initial_damping = 1e-3;  ///< λ₀ relative to max diag(JᵀJ) (see scale_free_damping).
+  /// λ₀ = initial_damping itself. The damping term is λ·diag(JᵀJ) (Marquardt's scaling), so λ is
+  /// already dimensionless; the default λ₀ = initial_damping · max diag(JᵀJ) makes the first
+  /// steps short gradient steps whenever max diag(JᵀJ) ≫ 1 (the full-model fit: ≈ 6 accepted
+  /// steps at λ/3 each before the cost starts to fall).
+  bool scale_free_damping = false;
   double fd_relative_step = 1e-7;  ///< forward-difference step, relative to max(|x_k|, 1e-3).
   /// Secant Jacobian (Madsen, Nielsen & Tingleff 2004, "Methods for non-linear least squares
   /// problems", §3.4): after every trial step Δx, accepted or rejected, Broyden's rank-one update
@@ -33,6 +39,13 @@ struct LmOptions {
   /// For residuals whose Jacobian costs many expensive evaluations (the full-model fit: one
   /// simulation per column and data set).
   bool broyden = false;
+  /// Hold active bounds: a variable at a bound whose steepest-descent direction −(Jᵀr)_k points
+  /// out of the box gets Δx_k = 0, and the damped Gauss–Newton step is solved for the others
+  /// (the reduced system of a projected Gauss–Newton method, e.g. Kelley 1999, "Iterative
+  /// methods for optimization", §5.5). Without it the full step is computed as if unbounded and
+  /// then clamped, which along a valley ending on a bound moves little per iteration (seen as a
+  /// 200-iteration crawl of the Hammerstein static step on full-model data).
+  bool hold_active_bounds = false;
 };
 
 /// Why a Levenberg–Marquardt run stopped. The first three are convergence; the others are not.
@@ -61,7 +74,11 @@ struct LmResult {
   int evaluations = 0;           ///< residual evaluations (including the Jacobian's).
   int jacobian_evaluations = 0;  ///< evaluated (not secant-updated) Jacobians.
   Eigen::MatrixXd jtj;           ///< Jᵀ J at x (for confidence intervals).
-  bool converged = false;        ///< LmConverged(stop_reason).
+  /// Cost at the start and after every accepted step, with the residual evaluations used so far
+  /// (evaluations_history[k] when cost_history[k] was reached): the convergence trace.
+  std::vector<double> cost_history;
+  std::vector<int> evaluations_history;
+  bool converged = false;  ///< LmConverged(stop_reason).
   LmStopReason stop_reason = LmStopReason::kIterationLimit;
 };
 
@@ -73,12 +90,19 @@ using JacobianFn = std::function<Eigen::MatrixXd(const Eigen::VectorXd&, const E
                                                  int* evaluations)>;
 /// Maps a point onto the feasible set after clamping to the bounds (identity if empty).
 using ProjectionFn = std::function<void(Eigen::VectorXd*)>;
+/// (x, r(x)) → JᵀJ (p×p) and Jᵀr (p) at x without forming J, for residuals whose Jacobian has a
+/// structure the caller exploits (e.g. block-sparse columns); it should add the residual
+/// evaluations it makes to *evaluations. Replaces `jacobian`; not with LmOptions::broyden.
+using NormalEquationsFn =
+    std::function<void(const Eigen::VectorXd& x, const Eigen::VectorXd& r, Eigen::MatrixXd* jtj,
+                       Eigen::VectorXd* jtr, int* evaluations)>;
 
 /// Minimises ‖r(x)‖² subject to lower ≤ x ≤ upper (entries may be ±inf).
 LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
                             const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
                             const LmOptions& options = {}, const ProjectionFn& project = {},
-                            const JacobianFn& jacobian = {});
+                            const JacobianFn& jacobian = {},
+                            const NormalEquationsFn& normal_equations = {});
 
 /// 95 % half-widths 1.96 √diag(σ² (JᵀJ)⁺), σ² = cost / (N − p); NaN for parameters in a
 /// singular direction of JᵀJ (not estimable, e.g. held at a bound where the cost is flat).

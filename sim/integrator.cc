@@ -72,12 +72,18 @@ std::string DescribeState(const UpperLimbModel& model, const SimTK::State& s) {
 
 /// CVODES integrates y = the Simbody state Y without the muscle activation states: between
 /// breakpoints the stimulation, hence w, is constant and eq. (6) is solved in closed form
-/// (muscles::ActivationFreeResponse), exactly and at no cost to the implicit solver.
+/// (muscles::ActivationFreeResponse), exactly and at no cost to the implicit solver. The q and u
+/// of locked coordinates are left out too: they are constant (zero derivative, zero local error),
+/// yet each costs one right-hand side per difference-quotient Jacobian column (the hand rig locks
+/// 5 of 10 coordinates: 20 → 10 components). Because CVODES' error norm is a root mean square
+/// over the components, the tolerance is scaled by √(n_with_locked / n) so that every error and
+/// Newton test sees the same norm as with the locked components included.
 struct CvodesContext {
   const UpperLimbModel* model;
   SimTK::State* state;
   bool prescribe;
   long rhs = 0;
+  double tolerance_scale = 1.0;              // √(components with locked ones / without)
   std::vector<int> y_index;                  // Y index of each CVODES component
   int activation_index = 0;                  // Y index of muscle 0's a
   std::vector<double> omega;                 // Ω_j, rad/s
@@ -90,8 +96,17 @@ struct CvodesContext {
     const int ny = s->getNY();
     const int nm = m->num_muscles();
     activation_index = m->ActivationYIndex(*s);
+    const std::vector<int> locked = m->LockedYIndices(*s);
+    std::vector<int> all;
     for (int i = 0; i < ny; ++i) {
-      if (i < activation_index || i >= activation_index + 2 * nm) y_index.push_back(i);
+      if (i >= activation_index && i < activation_index + 2 * nm) continue;
+      all.push_back(i);
+      if (!std::binary_search(locked.begin(), locked.end(), i)) y_index.push_back(i);
+    }
+    if (y_index.empty()) {
+      y_index = all;  // everything locked: CVODES needs at least one component
+    } else {
+      tolerance_scale = std::sqrt(static_cast<double>(all.size()) / y_index.size());
     }
     for (const auto& mu : m->params().muscles) omega.push_back(mu.activation_omega_rad_s);
   }
@@ -271,7 +286,7 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
   IntegrationStats stats;
   if (params.method != IntegratorParams::Method::kSimbodyRkMerson) {
     CvodesContext ctx(&model, state, HasPrescribed(model.params()));
-    Cvodes cv(static_cast<int>(ctx.y_index.size()), params.tolerance,
+    Cvodes cv(static_cast<int>(ctx.y_index.size()), params.tolerance * ctx.tolerance_scale,
               params.method == IntegratorParams::Method::kCvodesAdams, &ctx);
     Drive(
         model, schedule, report_times, state, observer, observe_stage,

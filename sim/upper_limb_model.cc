@@ -420,6 +420,17 @@ int UpperLimbModel::ActivationYIndex(const State& s) const {
          muscle_force_->ZStart();
 }
 
+std::vector<int> UpperLimbModel::LockedYIndices(const State& s) const {
+  std::vector<int> out;
+  for (int i = 0; i < kNumCoordinates; ++i) {
+    if (params_->coordinates[i].mode != CoordinateMode::kLocked) continue;
+    out.push_back(slots_->q[i]);
+    out.push_back(s.getNQ() + slots_->u[i]);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 MuscleSnapshot UpperLimbModel::ComputeMuscles(const State& s) const {
   return muscle_force_->Compute(s);
 }

@@ -74,6 +74,9 @@ class UpperLimbModel {
   /// Index in the state vector Y = [q, u, z] of muscle 0's activation a; muscle j's a and ȧ are
   /// at +2j and +2j+1. Integrators that solve eq. (6) in closed form use it.
   int ActivationYIndex(const SimTK::State& state) const;
+  /// Indices in Y of the q and u of every locked coordinate, sorted. They are constant in time
+  /// (q̇ = u = 0, u̇ = 0), so integrators may leave them out of the state they advance.
+  std::vector<int> LockedYIndices(const SimTK::State& state) const;
 
   /// Muscle quantities (state realised to Stage::Velocity at least).
   MuscleSnapshot ComputeMuscles(const SimTK::State& state) const;

@@ -643,6 +643,10 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
   lm.step_tolerance = 1e-9;
   lm.fd_relative_step = options.fd_relative_step;
   lm.broyden = options.broyden;
+  // Plain path only (measured in docs/performance.md): with secant updates the smaller start
+  // damping made `fesim benchmark --quick`'s capped fit cycle through rejected secant steps.
+  lm.hold_active_bounds = !options.broyden;  // bounded A, k, β, γ, R: no crawl along a bound
+  lm.scale_free_damping = !options.broyden;  // no run of short gradient steps at the start
   double best_cost = std::numeric_limits<double>::infinity();
   LmResult best;
   for (int sidx = 0; sidx < options.starts; ++sidx) {
@@ -677,6 +681,8 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     run.jacobians = res.jacobian_evaluations;
     run.converged = res.converged;
     run.stop_reason = LmStopReasonName(res.stop_reason);
+    run.cost_history = res.cost_history;
+    run.evaluations_history = res.evaluations_history;
     fit.runs.push_back(run);
     if (res.cost < best_cost) {
       fit.best_run = fit.runs.size() - 1;

@@ -29,7 +29,9 @@
 //   of MATLAB's interior point; Jacobians by forward differences evaluated in parallel threads
 //   (one model build + simulation per perturbed parameter and distinct trial), not CVODES
 //   sensitivities; optionally Broyden secant updates between them (FullModelFitOptions::
-//   broyden). Trials with identical stimulation and sample times share one simulation.
+//   broyden). Trials with identical stimulation and sample times share one simulation. Without
+//   secant updates LM holds active bounds and starts from a dimensionless damping
+//   (LmOptions::hold_active_bounds, scale_free_damping).
 // * Sensitivity measure (the paper does not give one): S_j = ‖∂ŷ/∂θ_j‖ · s_j / √N with s_j the
 //   nominal |θ_j| (half the bound range when θ_j = 0), one forward difference per parameter at
 //   the start point — a local, one-at-a-time ranking.
@@ -131,6 +133,9 @@ struct LocalRun {
   double cpu_s = 0.0;       ///< process CPU time (all threads) of this step, s.
   bool converged = false;   ///< LM met a tolerance (see LmStopReason).
   std::string stop_reason;  ///< LmStopReasonName, e.g. "iteration_limit".
+  /// Cost at the start and after each accepted step, and the residual evaluations used by then.
+  std::vector<double> cost_history;
+  std::vector<int> evaluations_history;
 };
 
 struct FullModelFit {

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 namespace fesim::identification {
@@ -101,6 +102,57 @@ TEST(LevenbergMarquardt, ExactFitStopsOnZeroCost) {
   EXPECT_TRUE(res.converged);
   EXPECT_EQ(res.stop_reason, LmStopReason::kZeroCost);
   EXPECT_DOUBLE_EQ(res.x(0), 2.0);
+}
+
+/// A valley x1 ≈ x0 whose unconstrained minimum (2, 2) lies beyond the bound x0 ≤ 1:
+/// r = [10 (x1 − x0), x0 + x1 − 4]. Constrained minimiser x0 = 1, x1 = 103/101 (from
+/// ∂/∂x1 = 0), where ∂cost/∂x0 < 0, so the bound is active (KKT).
+Eigen::VectorXd Valley(const Eigen::VectorXd& x) {
+  return Eigen::Vector2d(10.0 * (x(1) - x(0)), x(0) + x(1) - 4.0);
+}
+
+TEST(LevenbergMarquardt, HoldingActiveBoundsReachesTheConstrainedMinimiser) {
+  const Eigen::Vector2d lower(-10.0, -10.0), upper(1.0, 10.0), start(-5.0, 6.0);
+  LmOptions o;
+  o.relative_tolerance = 1e-14;
+  o.hold_active_bounds = true;
+  const LmResult held = LevenbergMarquardt(Valley, start, lower, upper, o);
+  EXPECT_TRUE(held.converged) << LmStopReasonName(held.stop_reason);
+  EXPECT_DOUBLE_EQ(held.x(0), 1.0);
+  EXPECT_NEAR(held.x(1), 103.0 / 101.0, 1e-7);
+  o.hold_active_bounds = false;
+  const LmResult clamped = LevenbergMarquardt(Valley, start, lower, upper, o);
+  EXPECT_LE(held.iterations, clamped.iterations);
+  std::printf("valley with an active bound: %d iterations holding it, %d clamping (x1 = %.9f)\n",
+              held.iterations, clamped.iterations, clamped.x(1));
+}
+
+TEST(LevenbergMarquardt, NormalEquationsCallbackMatchesTheJacobianPath) {
+  // The same exact Jacobian given as J or as (JᵀJ, Jᵀr): identical iterates.
+  const auto J = [](const Eigen::VectorXd&) {
+    Eigen::Matrix2d j;
+    j << -10.0, 10.0, 1.0, 1.0;
+    return Eigen::MatrixXd(j);
+  };
+  const JacobianFn jac = [&](const Eigen::VectorXd& x, const Eigen::VectorXd&, int*) {
+    return J(x);
+  };
+  const NormalEquationsFn normal = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& r,
+                                       Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr, int*) {
+    *jtj = J(x).transpose() * J(x);
+    *jtr = J(x).transpose() * r;
+  };
+  const Eigen::Vector2d lower(-10.0, -10.0), upper(1.0, 10.0), start(-5.0, 6.0);
+  LmOptions o;
+  o.hold_active_bounds = true;
+  const LmResult a = LevenbergMarquardt(Valley, start, lower, upper, o, {}, jac);
+  const LmResult b = LevenbergMarquardt(Valley, start, lower, upper, o, {}, {}, normal);
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_NEAR((a.x - b.x).norm(), 0.0, 1e-12);
+  EXPECT_EQ(a.cost_history.size(), static_cast<std::size_t>(a.iterations) + 1);
+  o.broyden = true;
+  EXPECT_THROW(LevenbergMarquardt(Valley, start, lower, upper, o, {}, {}, normal),
+               std::invalid_argument);
 }
 
 TEST(ConvergenceReport, JsonYamlAndWarningNameTheBestRun) {

@@ -75,6 +75,45 @@ TEST(Integrator, LockedActivationFollowsAnalyticStepResponse) {
                  });
 }
 
+TEST(Integrator, LockedCoordinatesLeftOutOfCvodesStillAgreeWithSimbody) {
+  // Hand rig: shoulder, elbow and pro/supination locked. CVODES advances only the free q, u (its
+  // tolerance scaled to keep the same error norm); Simbody's RKM integrates the whole state. The
+  // free joints must agree to the issue-2 tolerance and the locked ones stay exactly put.
+  ModelParams p = DefaultModelParams();
+  for (int c : {kShoulderElvPlane, kShoulderElevation, kShoulderRotation, kElbowFlexion, kProSup}) {
+    p.coordinates[c].mode = CoordinateMode::kLocked;
+  }
+  const UpperLimbModel model(p);
+  SimTK::State s0 = model.MakeInitialState();
+  EXPECT_EQ(model.LockedYIndices(s0).size(), 10u);
+  StimulationSchedule stim;
+  stim.times = {0.0, 0.5, 2.0};
+  stim.values = {{0, 0, 0, 0, 0, 0}, {200, 80, 0, 0, 0, 0}, {60, 250, 0, 0, 0, 0}};
+  const auto times = Times(3.0, 0.05);
+  std::vector<std::vector<double>> a, b;
+  SimTK::State s1 = s0;
+  IntegrateTrial(model, {IntegratorParams::Method::kCvodes, 1e-9}, stim, times, &s1,
+                 [&](const SimTK::State& s) { a.push_back(model.GetQs(s)); });
+  SimTK::State s2 = s0;
+  IntegrateTrial(model, {IntegratorParams::Method::kSimbodyRkMerson, 1e-9}, stim, times, &s2,
+                 [&](const SimTK::State& s) { b.push_back(model.GetQs(s)); });
+  ASSERT_EQ(a.size(), b.size());
+  double worst = 0.0, moved = 0.0;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    for (int i = 0; i < kNumCoordinates; ++i) {
+      if (p.coordinates[i].mode == CoordinateMode::kLocked) {
+        EXPECT_EQ(a[k][i], p.coordinates[i].initial_rad);
+        continue;
+      }
+      worst = std::max(worst, std::abs(a[k][i] - b[k][i]));
+      moved = std::max(moved, std::abs(a[k][i] - a[0][i]));
+    }
+  }
+  EXPECT_GT(moved, 0.1);
+  EXPECT_LT(worst, kAgreementTol);
+  std::printf("hand rig, CVODES (free q, u only) vs Simbody RKM: max |dq| = %.3g rad\n", worst);
+}
+
 TEST(Integrator, ScheduleHoldsValues) {
   StimulationSchedule s;
   s.times = {1.0, 2.0};
