@@ -106,7 +106,7 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
   // Rank 0 finds the items a previous run finished (same study text, seed and version); the
   // integration statistics of every item end up in `stats` on rank 0.
   std::vector<std::string> stats(st.items.size());
-  std::string todo_text;
+  std::string pending_text;
   if (job.is_root()) {
     for (std::size_t i = 0; i < st.items.size(); ++i) {
       bool finished = false;
@@ -124,22 +124,22 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
           finished = false;  // unreadable: simulated again
         }
       }
-      if (!finished) todo_text += std::to_string(i) + " ";
+      if (!finished) pending_text += std::to_string(i) + " ";
     }
   }
-  todo_text = job.Broadcast(todo_text);
-  std::vector<std::size_t> todo;
+  pending_text = job.Broadcast(pending_text);
+  std::vector<std::size_t> pending;
   {
-    std::istringstream in(todo_text);
-    for (std::size_t i; in >> i;) todo.push_back(i);
+    std::istringstream in(pending_text);
+    for (std::size_t i; in >> i;) pending.push_back(i);
   }
-  const std::size_t resumed = st.items.size() - todo.size();
+  const std::size_t resumed = st.items.size() - pending.size();
   std::mutex progress_mutex;
   const auto outcomes = job.Map(
-      todo.size(), [&](std::size_t k) { return item_files(todo[k]); }, threads,
+      pending.size(), [&](std::size_t k) { return item_files(pending[k]); }, threads,
       [&](std::size_t n, std::size_t k, const cluster::ItemOutcome& o) {
         // Rank 0, one item at a time: its files, then the progress line.
-        const std::size_t i = todo[k];
+        const std::size_t i = pending[k];
         if (o.ok) {
           const Json j = Json::Parse(o.payload, "study item " + st.items[i].file_stem);
           MakeDirs(out + "/p" + std::to_string(st.items[i].participant + 1));
@@ -150,9 +150,10 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
         std::lock_guard<std::mutex> lock(progress_mutex);
         const double elapsed =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        const double left = elapsed / static_cast<double>(n) * static_cast<double>(todo.size() - n);
-        cli::ShowProgress(static_cast<double>(n) / static_cast<double>(todo.size()),
-                          st.name + " " + std::to_string(n) + "/" + std::to_string(todo.size()) +
+        const double left =
+            elapsed / static_cast<double>(n) * static_cast<double>(pending.size() - n);
+        cli::ShowProgress(static_cast<double>(n) / static_cast<double>(pending.size()),
+                          st.name + " " + std::to_string(n) + "/" + std::to_string(pending.size()) +
                               ", ~" + std::to_string(static_cast<int>(left + 0.5)) + " s left");
       });
   // Failed items, as rank 0 saw them, on every rank: one message; the finished ones are written.
@@ -160,7 +161,7 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
   for (std::size_t k = 0; k < outcomes.size(); ++k) {
     if (!outcomes[k].ok) {
       failed += (failed.empty() ? "" : "; ") + std::string("study item ") +
-                st.items[todo[k]].file_stem +
+                st.items[pending[k]].file_stem +
                 (job.size() > 1 ? " (rank " + std::to_string(outcomes[k].rank) + ")" : "") + ": " +
                 outcomes[k].payload;
     }
@@ -216,7 +217,7 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
   std::fprintf(stderr,
                "fesim simulate: study %s, %zu trials (%zu simulated, %zu from an earlier run) on "
                "%s in %.1f s -> %s\n",
-               st.name.c_str(), st.items.size(), todo.size(), resumed, where.c_str(), wall,
+               st.name.c_str(), st.items.size(), pending.size(), resumed, where.c_str(), wall,
                out.c_str());
   return 0;
 }
