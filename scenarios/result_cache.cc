@@ -1,6 +1,7 @@
 #include "scenarios/result_cache.h"
 
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <charconv>
@@ -9,16 +10,22 @@
 
 namespace fesim {
 
-void MakeDirs(const std::string& path) {
+std::vector<std::string> MakeDirs(const std::string& path) {
+  std::vector<std::string> created;
   std::string cur;
   for (std::size_t i = 0; i <= path.size(); ++i) {
     if (i == path.size() || path[i] == '/') {
-      if (!cur.empty() && ::mkdir(cur.c_str(), 0755) != 0 && errno != EEXIST) {
-        throw std::runtime_error(cur + ": cannot create directory: " + std::strerror(errno));
+      if (!cur.empty()) {
+        if (::mkdir(cur.c_str(), 0755) == 0) {
+          created.push_back(cur);
+        } else if (errno != EEXIST) {
+          throw std::runtime_error(cur + ": cannot create directory: " + std::strerror(errno));
+        }
       }
     }
     if (i < path.size()) cur.push_back(path[i]);
   }
+  return created;
 }
 
 bool RegularFileExists(const std::string& path) {
@@ -49,8 +56,15 @@ bool ResultCache::Load(const std::vector<std::string>& parts, Json* out) const {
 void ResultCache::Store(const std::vector<std::string>& parts, const Json& value) {
   const std::string text = value.Dump(0);
   std::lock_guard<std::mutex> lock(mutex_);
-  MakeDirs(dir_);
-  WriteFileAtomic(Path(parts) + ".json", text);
+  const std::vector<std::string> created = MakeDirs(dir_);
+  try {
+    WriteFileAtomic(Path(parts) + ".json", text);
+  } catch (...) {
+    // The first write failed (e.g. disk full): leave no empty cache directory behind. rmdir
+    // removes only empty directories, innermost first.
+    for (auto it = created.rbegin(); it != created.rend(); ++it) ::rmdir(it->c_str());
+    throw;
+  }
 }
 
 Json TrialsToJson(const std::vector<Trial>& trials) {

@@ -15,8 +15,9 @@
 namespace fesim {
 
 /// Creates a directory and its parents; throws std::runtime_error naming the path and the
-/// system's reason on failure.
-void MakeDirs(const std::string& path);
+/// system's reason on failure. Returns the directories it created, outermost first (empty when
+/// `path` existed), so a caller whose first write then fails can remove them again.
+std::vector<std::string> MakeDirs(const std::string& path);
 
 /// True when `path` is a regular file.
 bool RegularFileExists(const std::string& path);

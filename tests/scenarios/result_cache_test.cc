@@ -2,8 +2,10 @@
 #include "scenarios/result_cache.h"
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <limits>
@@ -48,6 +50,45 @@ TEST(ResultCache, StoresAtomicallyAndReadsBackExactNumbers) {
     ++files;
   }
   EXPECT_EQ(files, 1);  // no temporary left
+}
+
+TEST(ResultCache, FailedFirstStoreLeavesNoEmptyDirectories) {
+  // A file-size limit makes the write fail the way a full disk does (EFBIG instead of ENOSPC;
+  // SIGXFSZ ignored so write() returns the error instead of killing the test).
+  const std::string base = ::testing::TempDir() + "result_cache_full";
+  std::filesystem::remove_all(base);
+  MakeDirs(base);
+  ResultCache cache(base + "/out/cache", "v", "test-1");
+  Json v = Json::Object();
+  v.Set("x", std::vector<double>(1000, 1.0 / 3.0));
+  rlimit old_limit{};
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old_limit), 0);
+  rlimit small = old_limit;
+  small.rlim_cur = 64;  // bytes
+  const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+  std::string message;
+  try {
+    cache.Store({"a"}, v);
+  } catch (const std::runtime_error& e) {
+    message = e.what();
+  }
+  ::setrlimit(RLIMIT_FSIZE, &old_limit);
+  std::signal(SIGXFSZ, old_handler);
+  EXPECT_NE(message.find(base + "/out/cache/"), std::string::npos) << message;
+  EXPECT_NE(message.find("write failed"), std::string::npos) << message;
+  EXPECT_FALSE(std::filesystem::exists(base + "/out")) << "empty directories left behind";
+  EXPECT_TRUE(std::filesystem::exists(base));  // what existed before is not touched
+  // Once the disk has room, the same cache works, and a later failure keeps what exists.
+  cache.Store({"a"}, v);
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+  std::signal(SIGXFSZ, SIG_IGN);
+  EXPECT_THROW(cache.Store({"b"}, v), std::runtime_error);
+  ::setrlimit(RLIMIT_FSIZE, &old_limit);
+  std::signal(SIGXFSZ, old_handler);
+  Json out;
+  EXPECT_TRUE(cache.Load({"a"}, &out));
+  EXPECT_FALSE(cache.Load({"b"}, &out));
 }
 
 TEST(ResultCache, MalformedEntryIsAnErrorNamingTheFile) {
