@@ -546,8 +546,17 @@ MimoTrialData ReadMimo(const Trial& trial, const MimoColumns& cols, const std::s
   return d;
 }
 
-MethodResult RunHammersteinMimo(const std::vector<Trial>& train, const std::vector<Trial>& test,
-                                const ProgressFn& progress) {
+/// The two-step fit on `train` and the identified model's YAML (shared by `fesim identify` and
+/// the diagnosis simulator).
+struct MimoFitted {
+  MimoColumns cols;
+  SteadyStateSet set;
+  HammersteinMimoFit fit;
+  std::string yaml;
+  std::vector<std::string> warnings;
+};
+
+MimoFitted FitMimoOnTrials(const std::vector<Trial>& train, const ProgressFn& progress) {
   if (train.empty()) throw std::runtime_error("--train: no trials");
   MimoColumns cols{train[0].NamesWithPrefix("u."), train[0].NamesWithPrefix("q.")};
   if (cols.inputs.empty()) throw std::runtime_error("train trial 0: no u.* input column");
@@ -617,8 +626,29 @@ MethodResult RunHammersteinMimo(const std::vector<Trial>& train, const std::vect
   y += "# how each local Levenberg-Marquardt run stopped (best_run: the one kept)\nconvergence:\n";
   y += ConvergenceYaml("static_step", fit.static_step_convergence, fit.static_best_run, 2);
   y += ConvergenceYaml("dynamic_step", fit.dynamic_step_convergence, fit.dynamic_best_run, 2);
+  std::vector<std::string> warnings;
+  for (const std::string& w :
+       {NotConvergedWarning("hammerstein-mimo static step", fit.static_step_convergence,
+                            fit.static_best_run),
+        NotConvergedWarning("hammerstein-mimo dynamic step", fit.dynamic_step_convergence,
+                            fit.dynamic_best_run)}) {
+    if (!w.empty()) warnings.push_back(w);
+  }
+  return {cols, set, fit, y, warnings};
+}
+
+MethodResult RunHammersteinMimo(const std::vector<Trial>& train, const std::vector<Trial>& test,
+                                const ProgressFn& progress) {
+  const MimoFitted fitted = FitMimoOnTrials(train, progress);
+  const MimoColumns& cols = fitted.cols;
+  const SteadyStateSet& set = fitted.set;
+  const HammersteinMimoFit& fit = fitted.fit;
+  const HammersteinMimoParams& p = fit.params;
+  const int n = static_cast<int>(cols.inputs.size());
+  const int q = static_cast<int>(cols.outputs.size());
   MethodResult result;
-  result.model_yaml = y;
+  result.model_yaml = fitted.yaml;
+  result.warnings = fitted.warnings;
 
   const bool has_test = !test.empty();
   const std::vector<Trial>& eval = has_test ? test : train;
@@ -685,15 +715,32 @@ MethodResult RunHammersteinMimo(const std::vector<Trial>& train, const std::vect
         ConvergenceJson(fit.dynamic_step_convergence, fit.dynamic_best_run));
   m.Set("total_wall_s", fit.total_wall_s);
   result.metrics = m;
-  for (const std::string& w :
-       {NotConvergedWarning("hammerstein-mimo static step", fit.static_step_convergence,
-                            fit.static_best_run),
-        NotConvergedWarning("hammerstein-mimo dynamic step", fit.dynamic_step_convergence,
-                            fit.dynamic_best_run)}) {
-    if (!w.empty()) result.warnings.push_back(w);
-  }
   if (progress) progress(1.0, "done");
   return result;
+}
+
+FittedSimulator FitHammersteinMimoSimulator(const std::vector<Trial>& train,
+                                            const ProgressFn& progress) {
+  MimoFitted fitted = FitMimoOnTrials(train, progress);
+  FittedSimulator out;
+  out.model_yaml = fitted.yaml;
+  out.inputs = fitted.cols.inputs;
+  out.outputs = fitted.cols.outputs;
+  out.warnings = fitted.warnings;
+  out.simulate = [cols = fitted.cols, p = fitted.fit.params](const Trial& trial) {
+    const std::string label = "simulated trial";
+    const Eigen::MatrixXd u = RequireColumns(trial, cols.inputs, label);
+    const Eigen::MatrixXd yhat = SimulateHammersteinMimo(p, u, UniformSamplePeriod(trial, label));
+    Trial pred;
+    pred.time = trial.time;
+    for (std::size_t i = 0; i < cols.outputs.size(); ++i) {
+      const auto col = yhat.col(static_cast<Eigen::Index>(i));
+      pred.AddColumn(cols.outputs[i], std::vector<double>(col.data(), col.data() + col.size()));
+    }
+    return pred;
+  };
+  if (progress) progress(1.0, "done");
+  return out;
 }
 
 }  // namespace
@@ -701,7 +748,7 @@ MethodResult RunHammersteinMimo(const std::vector<Trial>& train, const std::vect
 MethodEntry HammersteinMimoMethod() {
   return {"hammerstein-mimo",
           "MIMO Hammerstein hand model, two-step fit (static Psi/d, then Theta), paper 000",
-          RunHammersteinMimo};
+          RunHammersteinMimo, FitHammersteinMimoSimulator};
 }
 
 }  // namespace fesim::identification

@@ -34,10 +34,30 @@ using ProgressFn = std::function<void(double fraction, const std::string& stage)
 using MethodFn = std::function<MethodResult(const std::vector<Trial>& train,
                                             const std::vector<Trial>& test, const ProgressFn&)>;
 
+/// A model fitted once and then simulated on any inputs (`fesim diagnose --model NAME` calibrates
+/// a reduced model this way and simulates it many times under model extensions).
+struct FittedSimulator {
+  std::string model_yaml;            ///< as MethodResult::model_yaml.
+  std::vector<std::string> inputs;   ///< u.* columns read.
+  std::vector<std::string> outputs;  ///< columns predicted (e.g. q.*).
+  /// The predicted `outputs` (same time column) for the inputs of `trial`. Methods whose
+  /// simulation starts from the measured initial output (e.g. the spline methods' baseline) read
+  /// it from `trial` too; inputs outside the training range are allowed (no range check).
+  std::function<Trial(const Trial& trial)> simulate;
+  std::vector<std::string> warnings;  ///< as MethodResult::warnings.
+};
+
+/// Fits on `train` (same rules and metadata options as the method's MethodFn).
+using FitSimulatorFn =
+    std::function<FittedSimulator(const std::vector<Trial>& train, const ProgressFn&)>;
+
 struct MethodEntry {
   std::string name;     ///< CLI name, e.g. "spline-oe".
   std::string summary;  ///< one line for `fesim identify --help`.
   MethodFn run;
+  /// Set by the methods that map u.* inputs to outputs by simulation (the Hammerstein family);
+  /// empty for the others.
+  FitSimulatorFn fit_simulator = nullptr;
 };
 
 /// Every Eigen-only method compiled into identification/ (the full-model fit registers itself

@@ -396,6 +396,15 @@ SisoColumns PickColumns(const Trial& trial, const std::string& label) {
   return {us[0], ys[0]};
 }
 
+/// The output's mean over the samples before the input first leaves 0 (the rest level the model's
+/// zero initial conditions are relative to); 0 when the input starts non-zero.
+double InitialBaseline(const Eigen::VectorXd& u_us, const Eigen::VectorXd& y) {
+  double base = 0.0;
+  Eigen::Index n = 0;
+  while (n < u_us.size() && u_us(n) == 0.0) base += y(n++);
+  return n > 0 ? base / static_cast<double>(n) : 0.0;
+}
+
 struct Prepared {
   SisoData data;
   std::vector<double> baselines;
@@ -414,10 +423,7 @@ Prepared Prepare(const std::vector<Trial>& trials, const SisoColumns& cols, cons
       throw std::runtime_error(label + ": sample period differs from trial 0");
     }
     const Eigen::MatrixXd uy = RequireColumns(trials[t], {cols.input, cols.output}, label);
-    double base = 0.0;
-    int n = 0;
-    while (n < uy.rows() && uy(n, 0) == 0.0) base += uy(n++, 1);
-    base = n > 0 ? base / n : 0.0;
+    const double base = InitialBaseline(uy.col(0), uy.col(1));
     p.baselines.push_back(base);
     p.data.u_us.push_back(uy.col(0));
     p.data.y.push_back(uy.col(1).array() - base);
@@ -486,8 +492,19 @@ Json FitMetrics(const SplineFitReport& rep) {
   return j;
 }
 
-MethodResult RunSpline(bool oe, const std::vector<Trial>& train, const std::vector<Trial>& test,
-                       const ProgressFn& progress) {
+/// Algorithm 1 (and 2 for OE) on `train`: the model, its YAML and fit metrics (shared by
+/// `fesim identify` and the diagnosis simulator).
+struct SplineFitted {
+  SisoColumns cols;
+  int min_samples = 0;
+  Prepared tr;
+  SplineFitReport alg1, final_rep;
+  Json metrics;
+  MethodResult result;  ///< model_yaml and warnings filled.
+};
+
+SplineFitted FitSplineOnTrials(bool oe, const std::vector<Trial>& train,
+                               const ProgressFn& progress) {
   const std::string method = oe ? "spline-oe" : "spline-arx";
   if (train.empty()) throw std::runtime_error("--train: no trials");
   const SisoColumns cols = PickColumns(train[0], "train trial 0");
@@ -548,6 +565,20 @@ MethodResult RunSpline(bool oe, const std::vector<Trial>& train, const std::vect
       if (!w.empty()) result.warnings.push_back(w);
     }
   }
+  return {cols, min_samples, tr, alg1, final_rep, metrics, result};
+}
+
+MethodResult RunSpline(bool oe, const std::vector<Trial>& train, const std::vector<Trial>& test,
+                       const ProgressFn& progress) {
+  const std::string method = oe ? "spline-oe" : "spline-arx";
+  SplineFitted fitted = FitSplineOnTrials(oe, train, progress);
+  const SisoColumns& cols = fitted.cols;
+  const int min_samples = fitted.min_samples;
+  const Prepared& tr = fitted.tr;
+  const SplineFitReport& alg1 = fitted.alg1;
+  const SplineFitReport& final_rep = fitted.final_rep;
+  Json metrics = fitted.metrics;
+  MethodResult result = std::move(fitted.result);
   const bool has_test = !test.empty();
   const std::vector<Trial>& eval = has_test ? test : train;
   if (has_test) PickColumns(test[0], "test trial 0");
@@ -586,12 +617,36 @@ MethodResult RunSpline(bool oe, const std::vector<Trial>& train, const std::vect
   return result;
 }
 
+FittedSimulator FitSplineSimulator(bool oe, const std::vector<Trial>& train,
+                                   const ProgressFn& progress) {
+  SplineFitted fitted = FitSplineOnTrials(oe, train, progress);
+  FittedSimulator out;
+  out.model_yaml = fitted.result.model_yaml;
+  out.warnings = fitted.result.warnings;
+  out.inputs = {fitted.cols.input};
+  out.outputs = {fitted.cols.output};
+  out.simulate = [cols = fitted.cols, model = fitted.final_rep.model](const Trial& trial) {
+    const Eigen::MatrixXd uy = RequireColumns(trial, {cols.input, cols.output}, "simulated trial");
+    const Eigen::VectorXd yhat =
+        SimulateSplineHammerstein(model, uy.col(0)).array() + InitialBaseline(uy.col(0), uy.col(1));
+    Trial pred;
+    pred.time = trial.time;
+    pred.AddColumn(cols.output, std::vector<double>(yhat.data(), yhat.data() + yhat.size()));
+    return pred;
+  };
+  if (progress) progress(1.0, "done");
+  return out;
+}
+
 }  // namespace
 
 MethodEntry SplineArxMethod() {
   return {"spline-arx", "cubic-spline Hammerstein, Algorithm 1 (ARX, alternating LS), paper 002",
           [](const std::vector<Trial>& tr, const std::vector<Trial>& te, const ProgressFn& p) {
             return RunSpline(false, tr, te, p);
+          },
+          [](const std::vector<Trial>& tr, const ProgressFn& p) {
+            return FitSplineSimulator(false, tr, p);
           }};
 }
 
@@ -600,6 +655,9 @@ MethodEntry SplineOeMethod() {
           "cubic-spline Hammerstein, Algorithm 2 (OE, separable LS + LM) from Alg. 1, paper 002",
           [](const std::vector<Trial>& tr, const std::vector<Trial>& te, const ProgressFn& p) {
             return RunSpline(true, tr, te, p);
+          },
+          [](const std::vector<Trial>& tr, const ProgressFn& p) {
+            return FitSplineSimulator(true, tr, p);
           }};
 }
 
