@@ -1,4 +1,4 @@
-// `fesim diagnose MEASURED.csv[,MORE.csv…] --scenario RIG.yaml [--out DIR] [--model full]
+// `fesim diagnose MEASURED.csv[,MORE.csv…] --scenario RIG.yaml [--out DIR] [--model full|NAME]
 //  [--threads N]` (PRODUCT.md "Diagnosis", issue 7).
 #include <cstdio>
 #include <functional>
@@ -9,6 +9,7 @@
 #include "apps/cli.h"
 #include "apps/commands.h"
 #include "diagnosis/diagnose.h"
+#include "diagnosis/reduced_model.h"
 #include "diagnosis/report.h"
 #include "fesim/version.h"
 #include "scenarios/result_cache.h"
@@ -22,7 +23,7 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
   if (args.Has("help")) {
     std::printf(
         "usage: fesim diagnose MEASURED.csv[,MORE.csv...] --scenario RIG.yaml [--out DIR]\n"
-        "                      [--model full] [--threads N]\n\n"
+        "                      [--model full|NAME] [--threads N]\n\n"
         "Calibrates the full model (12) of the rig to the measured trials (subject parameters),\n"
         "shows what it gets wrong on held-out data (the last trial, or the last 30 %% of a single\n"
         "trial), names the cause among the candidate mechanisms (fatigue, potentiation, delay,\n"
@@ -36,6 +37,11 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
         "inputs and q.<joint> outputs (q.<joint>_deg accepted) of joints that are free in the\n"
         "scenario; a record with uneven time steps is resampled to its median step (outputs\n"
         "interpolated, inputs from the nearest row; said in the report); NaN gaps are skipped.\n"
+        "--model NAME: diagnose a reduced model instead (hammerstein-mimo, spline-arx,\n"
+        "spline-oe: identified on the training part as `fesim identify` does, options from the\n"
+        "trial's metadata); it can be extended only by the mechanisms acting on its input or\n"
+        "output (fatigue, potentiation, delay, tremor, crosstalk, sensor_drift), the others are\n"
+        "listed as not applicable.\n"
         "--threads: simulation threads (default: all cores; 1 per rank under mpirun).\n");
     return 0;
   }
@@ -44,9 +50,17 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
   }
   if (!args.Has("scenario")) throw std::runtime_error("--scenario is required (see --help)");
   const std::string model = args.Get("model", "full");
+  identification::FitSimulatorFn reduced_fit;
   if (model != "full") {
-    throw std::runtime_error("--model: '" + model +
-                             "' is not available for diagnosis (allowed: full)");
+    std::string allowed = "full";
+    for (const auto& m : diagnosis::ReducedModelMethods()) {
+      allowed += ", " + m.name;
+      if (m.name == model) reduced_fit = m.fit_simulator;
+    }
+    if (!reduced_fit) {
+      throw std::runtime_error("--model: '" + model + "' is not a model diagnose can calibrate " +
+                               "(allowed: " + allowed + ")");
+    }
   }
   // On an MPI job, one thread per rank unless asked (the ranks share the cores).
   const long threads = args.GetInt(
@@ -72,6 +86,8 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
   ResultCache cache(out + "/cache", FESIM_VERSION, "diagnose-cache-2");
   diagnosis::DiagnoseOptions options;
   options.fit.threads = static_cast<int>(threads);
+  options.model = model;
+  options.reduced_fit = reduced_fit;
   options.cache = &cache;
   options.cache_inputs = cache_inputs;
   if (job.size() > 1) {

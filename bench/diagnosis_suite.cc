@@ -6,6 +6,8 @@
 //   diagnosis_suite [--per N] [--clean N] [--pairs N] [--outside N] [--trials T]
 //                   [--duration S] [--mechanisms a,b,…] [--threads N] [--out FILE]
 //                   [--seed S]   (datasets get seeds S+1, S+2, … in order; default 1000)
+//                   [--model full|NAME] (diagnose a reduced model, diagnose --model)
+//                   [--protocol steps|grid] (every dataset; default: alternate)
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -18,6 +20,7 @@
 
 #include "diagnosis/diagnose.h"
 #include "diagnosis/planted.h"
+#include "diagnosis/reduced_model.h"
 #include "scenarios/scenario.h"
 #include "scenarios/trial.h"
 
@@ -59,6 +62,8 @@ int main(int argc, char** argv) {
   double duration = 60.0;
   std::uint64_t first_seed = 1000;
   std::string out_path = "docs/diagnosis.md";
+  std::string model = "full";  // or a reduced model (diagnose --model NAME)
+  std::string protocol;        // "steps" / "grid" for every dataset; empty: alternate
   std::vector<std::string> mechanisms;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
@@ -86,6 +91,10 @@ int main(int argc, char** argv) {
       mechanisms = Split(v);
     else if (k == "--out")
       out_path = v;
+    else if (k == "--model")
+      model = v;
+    else if (k == "--protocol")
+      protocol = v;
     else {
       std::fprintf(stderr, "diagnosis_suite: unknown option %s\n", k.c_str());
       return 2;
@@ -152,6 +161,19 @@ int main(int argc, char** argv) {
   }
   fesim::diagnosis::DiagnoseOptions options;
   options.fit.threads = threads;
+  options.model = model;
+  if (model != "full") {
+    for (const auto& m : fesim::diagnosis::ReducedModelMethods()) {
+      if (m.name == model) options.reduced_fit = m.fit_simulator;
+    }
+    if (!options.reduced_fit) {
+      std::fprintf(stderr, "diagnosis_suite: --model %s is not a reduced model\n", model.c_str());
+      return 2;
+    }
+  }
+  if (!protocol.empty()) {
+    for (auto& c : cases) c.spec.protocol = protocol;
+  }
   const auto t0 = std::chrono::steady_clock::now();
   double wall_sum = 0.0, wall_max = 0.0;
   for (std::size_t i = 0; i < cases.size(); ++i) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "diagnosis/reduced_model.h"
 #include "tendons/tendon_network.h"
 
 namespace fesim::diagnosis {
@@ -133,7 +134,7 @@ double JointTorqueScale(const sim::ModelParams& rig, int coordinate) {
 std::vector<ModelParameter> SubjectParameters(const sim::ModelParams& rig,
                                               const LibraryContext& ctx) {
   std::vector<ModelParameter> out;
-  for (const auto& o : ctx.outputs) {
+  for (const auto& o : ctx.reduced_model.empty() ? ctx.outputs : std::vector<std::string>{}) {
     const int c = sim::CoordinateIndex(o.substr(2));
     const double k = rig.coordinates[c].passive.stiffness_nm_per_rad;
     if (!(k > 0.0)) continue;
@@ -142,7 +143,7 @@ std::vector<ModelParameter> SubjectParameters(const sim::ModelParams& rig,
                           m->coordinates[c].passive.stiffness_nm_per_rad = v;
                         }));
   }
-  {  // muscle strength: F_max of every muscle × s (the cohort's strength_scale)
+  if (ctx.reduced_model.empty()) {  // muscle strength: F_max of every muscle × s
     std::vector<double> fmax;
     for (const auto& m : rig.muscles) fmax.push_back(m.hill.max_isometric_force_n);
     out.push_back(
@@ -163,8 +164,15 @@ std::vector<ModelParameter> SubjectParameters(const sim::ModelParams& rig,
 
 std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const LibraryContext& ctx) {
   std::vector<Candidate> out;
+  const std::vector<std::string>& reducible = ReducedModelMechanisms();
   auto add = [&](Candidate c) {
     if (c.label.empty()) c.label = c.joint.empty() ? c.id : c.id + "@" + c.joint;
+    if (!ctx.reduced_model.empty() && c.applicable &&
+        std::find(reducible.begin(), reducible.end(), c.id) == reducible.end()) {
+      c.applicable = false;
+      c.not_applicable_reason = "acts inside the musculoskeletal model, which the reduced model " +
+                                ctx.reduced_model + " does not have (diagnose with --model full)";
+    }
     if (c.applicable && !c.start_from_step) SetLinearStart(&c);
     out.push_back(std::move(c));
   };

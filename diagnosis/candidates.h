@@ -69,15 +69,19 @@ struct LibraryContext {
   std::vector<std::string> channels;  ///< stimulated channel names (u.<channel> without "u.").
   /// Residual spectrum peak frequency per output (Hz), for the tremor start; same order.
   std::vector<double> tremor_frequency_hz;
+  /// The reduced model diagnosed instead of the full model (`--model NAME`, reduced_model.h);
+  /// empty: the full model.
+  std::string reduced_model;
 };
 
-/// The candidate list for a rig (free joints, channels, array) and data.
+/// The candidate list for a rig (free joints, channels, array) and data. With a reduced model,
+/// the mechanisms outside ReducedModelMechanisms() are listed as not applicable.
 std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const LibraryContext& ctx);
 
 /// Subject parameters recalibrated by the baseline and every extension: k.<joint> of every free
 /// output joint (N·m/rad, [0.2, 5] × nominal), strength_scale (F_max of every muscle × s,
 /// dimensionless, [0.3, 3]) and u_scale.<channel> of every stimulated channel (dimensionless,
-/// [0.3, 3]).
+/// [0.3, 3]). A reduced model has no joints or muscles: u_scale.<channel> only.
 std::vector<ModelParameter> SubjectParameters(const sim::ModelParams& rig,
                                               const LibraryContext& ctx);
 

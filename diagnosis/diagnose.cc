@@ -5,11 +5,13 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <map>
 #include <numeric>
 #include <set>
 #include <stdexcept>
 
 #include "diagnosis/measured.h"
+#include "diagnosis/reduced_model.h"
 #include "diagnosis/signatures.h"
 #include "scenarios/parallel.h"
 
@@ -128,7 +130,7 @@ std::string OptionsText(const DiagnoseOptions& o) {
                       o.refit_iterations, o.fit.max_iterations}) {
     s += std::to_string(v) + ",";
   }
-  return s;
+  return s + o.model;
 }
 
 const Json& Member(const Json& j, const std::string& key) {
@@ -226,7 +228,33 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   const DataView& held = data.heldout;
   out.split = data.split;
   out.notes = data.notes;
-  const FitOptions& fo = options.fit;
+  FitOptions fo = options.fit;
+  out.model = options.model;
+  if (options.model != "full") {
+    // A reduced model: identified once on the training part, then simulated like the full model
+    // under the input- and output-side extensions (reduced_model.h).
+    if (!options.reduced_fit) {
+      throw std::invalid_argument("Diagnose: model '" + options.model + "' without reduced_fit");
+    }
+    report(0.0, "identifying the reduced model " + options.model);
+    ctx.reduced_model = options.model;
+    std::map<std::string, double> u_ref;
+    const std::vector<Trial> reduced_train = ReducedTrainingTrials(train, data.channels, &u_ref);
+    identification::FittedSimulator fitted;
+    try {
+      fitted = options.reduced_fit(reduced_train, nullptr);
+    } catch (const std::exception& e) {
+      throw std::runtime_error("--model " + options.model + ": " + e.what());
+    }
+    for (const auto& o : train.outputs) {
+      if (std::find(fitted.outputs.begin(), fitted.outputs.end(), o) == fitted.outputs.end()) {
+        throw std::runtime_error("--model " + options.model + ": does not predict " + o);
+      }
+    }
+    out.model_yaml = fitted.model_yaml;
+    for (const auto& w : fitted.warnings) out.notes.push_back(options.model + ": " + w);
+    fo.simulator = ReducedSimulator(fitted, u_ref);
+  }
 
   // 2. Baseline calibration of the subject parameters.
   report(0.0, "calibrating subject parameters");
@@ -237,9 +265,8 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   const Json base_stage = stages.Get({"baseline"}, [&] {
     const FitResult f = FitParameters(rig, subject, xs0, train, fo, 0, options.baseline_iterations);
     out.simulations += f.simulations;
-    const std::vector<Trial> train_pred =
-        Predict(rig, subject, f.x, train, fo.tolerance, fo.threads);
-    const std::vector<Trial> held_pred = Predict(rig, subject, f.x, held, fo.tolerance, fo.threads);
+    const std::vector<Trial> train_pred = Predict(rig, subject, f.x, train, fo);
+    const std::vector<Trial> held_pred = Predict(rig, subject, f.x, held, fo);
     out.simulations += static_cast<int>(train.trials.size() + held.trials.size());
     Eigen::MatrixXd jacobian = f.jacobian;
     const Eigen::VectorXd r = StackResiduals(train, train_pred);
@@ -345,7 +372,7 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
       one.use = {train.use[jobs[j].trial]};
       one.outputs = train.outputs;
       try {
-        sims[j] = Predict(rig, params, x, one, fo.tolerance, 1)[0];
+        sims[j] = Predict(rig, params, x, one, fo, 1)[0];
       } catch (const std::exception&) {
         ok[j] = 0;
       }
@@ -529,8 +556,7 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
       Json j = Json::Object();
       j.Set("fit", FitJson(fit));
       try {
-        j.Set("heldout_predictions",
-              TrialsToJson(Predict(rig, params, fit.x, held, fo.tolerance, fo.threads)));
+        j.Set("heldout_predictions", TrialsToJson(Predict(rig, params, fit.x, held, fo)));
       } catch (const std::runtime_error&) {
         // The extended model fails to simulate the held-out data (e.g. driven past a joint's
         // range): it predicts nothing there, so its held-out gain is −∞ and it is not accepted.

@@ -50,6 +50,7 @@
 #include "diagnosis/candidates.h"
 #include "diagnosis/extended_model.h"
 #include "diagnosis/measured.h"
+#include "identification/method.h"
 #include "scenarios/result_cache.h"
 #include "scenarios/trial.h"
 #include "sim/model_params.h"
@@ -68,6 +69,10 @@ struct DiagnoseOptions {
   int screen_iterations = 5;       ///< LM steps of a candidate's own parameters.
   int refit_iterations = 3;        ///< LM steps of the accepted extension with the subject.
   FitOptions fit = DefaultFitOptions();  ///< integrator, threads, finite differences.
+  /// The simulation calibrated and extended: "full" (the full model (12)), or the name of a
+  /// reduced model (reduced_model.h), which `reduced_fit` identifies on the training part first.
+  std::string model = "full";
+  identification::FitSimulatorFn reduced_fit;  ///< required unless model == "full".
   /// Resume cache (null: none). The baseline calibration, the score tests and every extension
   /// fit (screening, refits) are stored as they finish, keyed by `cache_inputs` (the caller's
   /// identity of the rig and the measured data, e.g. hashes of the files), these options (not
@@ -128,7 +133,9 @@ struct OutputSignature {
 };
 
 struct Diagnosis {
-  std::string cause;  ///< a MechanismIds() entry, "none" or "unexplained".
+  std::string model = "full";  ///< DiagnoseOptions::model.
+  std::string model_yaml;      ///< a reduced model as identified on the training part.
+  std::string cause;           ///< a MechanismIds() entry, "none" or "unexplained".
   double confidence = 0.0;
   double baseline_heldout_nrmse = 0.0, extended_heldout_nrmse = 0.0, gain = 0.0;
   std::vector<std::string> mechanisms;  ///< accepted candidate labels, in acceptance order.

@@ -49,7 +49,7 @@ namespace {
 
 /// One trial's prediction for an already-applied model.
 Trial PredictOne(const sim::ModelParams& model, const std::vector<ModelParameter>& params,
-                 const Eigen::VectorXd& x, const Trial& trial, double tolerance) {
+                 const Eigen::VectorXd& x, const Trial& trial, const FitOptions& options) {
   const Trial* input = &trial;
   Trial scaled;
   bool any_scale = false;
@@ -63,7 +63,9 @@ Trial PredictOne(const sim::ModelParams& model, const std::vector<ModelParameter
     }
     input = &scaled;
   }
-  Trial out = identification::fullmodel::SimulateLike(model, *input, tolerance);
+  Trial out = options.simulator
+                  ? options.simulator(model, *input, options.tolerance)
+                  : identification::fullmodel::SimulateLike(model, *input, options.tolerance);
   for (std::size_t k = 0; k < params.size(); ++k) {
     if (params[k].target != ModelParameter::Target::kOutputDrift) continue;
     if (!out.Has(params[k].column)) continue;
@@ -77,12 +79,12 @@ Trial PredictOne(const sim::ModelParams& model, const std::vector<ModelParameter
 }  // namespace
 
 std::vector<Trial> Predict(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
-                           const Eigen::VectorXd& x, const DataView& view, double tolerance,
-                           int threads) {
+                           const Eigen::VectorXd& x, const DataView& view,
+                           const FitOptions& options, int threads) {
   const sim::ModelParams model = ApplyModelParameters(base, params, x);
   std::vector<Trial> out(view.trials.size());
-  ParallelFor(static_cast<int>(view.trials.size()), threads,
-              [&](int t) { out[t] = PredictOne(model, params, x, view.trials[t], tolerance); });
+  ParallelFor(static_cast<int>(view.trials.size()), threads > 0 ? threads : options.threads,
+              [&](int t) { out[t] = PredictOne(model, params, x, view.trials[t], options); });
   return out;
 }
 
@@ -144,7 +146,7 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
   ParallelFor(sims.size(), options.threads, [&](int task) {
     const int c = task / nt, t = task % nt;
     try {
-      sims[task] = PredictOne(models[c], params, xs[c], view.trials[t], options.tolerance);
+      sims[task] = PredictOne(models[c], params, xs[c], view.trials[t], options);
     } catch (const std::exception&) {
       ok[task] = 0;
     }
@@ -207,8 +209,7 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
     out.simulations += static_cast<int>(view.trials.size());
     Eigen::VectorXd r;
     try {
-      r = StackResiduals(
-          view, Predict(base, params, full(free), view, options.tolerance, options.threads));
+      r = StackResiduals(view, Predict(base, params, full(free), view, options));
     } catch (const std::exception&) {
       r = Eigen::VectorXd::Constant(n, kFailedResidualRad);
     }

@@ -46,16 +46,25 @@ struct DataView {
   long Count() const;
 };
 
+/// Simulates one trial: the q.* outputs (same time column) of model `m` for the u.* inputs of
+/// `inputs` (already scaled by the kInputScale parameters), from t = 0, at relative/absolute
+/// accuracy `tolerance`. Throws std::runtime_error when the simulation fails.
+using TrialSimulator =
+    std::function<Trial(const sim::ModelParams& m, const Trial& inputs, double tolerance)>;
+
 /// `base` with the kModel parameters applied (values x, sizes checked).
 sim::ModelParams ApplyModelParameters(const sim::ModelParams& base,
                                       const std::vector<ModelParameter>& params,
                                       const Eigen::VectorXd& x);
 
+struct FitOptions;
+
 /// Simulated outputs (the q.* columns of `view.outputs`, same times) of every trial of `view`
-/// for parameters x, on `threads` workers. A failed simulation throws std::runtime_error.
+/// for parameters x, by options.simulator at options.tolerance on `threads` workers (0:
+/// options.threads). A failed simulation throws std::runtime_error.
 std::vector<Trial> Predict(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
-                           const Eigen::VectorXd& x, const DataView& view, double tolerance,
-                           int threads);
+                           const Eigen::VectorXd& x, const DataView& view,
+                           const FitOptions& options, int threads = 0);
 
 /// Stacked residuals y − ŷ over the counted samples (trial-major, then output, then time).
 Eigen::VectorXd StackResiduals(const DataView& view, const std::vector<Trial>& predictions);
@@ -70,6 +79,9 @@ struct FitOptions {
   double fd_step = 1e-2;             ///< forward-difference step, × ModelParameter::scale.
   double tolerance = 1e-6;           ///< CVODES relative/absolute accuracy.
   int threads = 2;                   ///< simulation workers, ≥ 1.
+  /// The simulation. Empty: the full model (12) by identification/fullmodel's SimulateLike;
+  /// `fesim diagnose --model NAME` sets a reduced model (reduced_model.h).
+  TrialSimulator simulator;
 };
 
 struct FitResult {

@@ -86,14 +86,21 @@ Json DiagnosisJson(const Diagnosis& d) {
     cands.Push(e);
   }
   j.Set("candidates", cands);
+  j.Set("model", d.model);
   return j;
 }
 
 std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs) {
   std::string notes;
   for (const auto& line : d.notes) notes += "Input: " + line + ".\n\n";
-  std::string md = "# fesim diagnose\n\n" + inputs + "\n\nSplit: " + d.split + ".\n\n" + notes +
-                   "## Verdict\n\n";
+  const std::string model =
+      d.model == "full"
+          ? std::string("the full model (12) of the rig, subject parameters calibrated")
+          : "the reduced model " + d.model +
+                " identified on the training part (below); only mechanisms acting on its input or "
+                "output can extend it";
+  std::string md = "# fesim diagnose\n\n" + inputs + "\n\nModel: " + model +
+                   ".\n\nSplit: " + d.split + ".\n\n" + notes + "## Verdict\n\n";
   if (d.cause == "none") {
     md +=
         "The calibrated simulation reproduces the held-out data to within the measurement "
@@ -170,6 +177,12 @@ std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs) {
     md += "| " + p.name + " | " + F("%.4g", p.value) + " | " +
           (std::isfinite(p.ci95) ? F("%.2g", p.ci95) : std::string("n/a")) + " | " + p.unit +
           " |\n";
+  }
+  if (!d.model_yaml.empty()) {
+    md += "\nThe reduced model " + d.model +
+          " as identified on the training part (the extensions act on its input and output):"
+          "\n\n```yaml\n" +
+          d.model_yaml + (d.model_yaml.back() == '\n' ? "" : "\n") + "```\n";
   }
   md += "\n" + std::to_string(d.simulations) + " trial simulations, " +
         std::to_string(d.cached_results) + " results read from the resume cache, " +

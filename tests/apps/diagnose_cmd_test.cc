@@ -208,6 +208,31 @@ TEST(DiagnoseCmd, InterruptedRunResumesFromTheCacheWithTheSameFigures) {
   EXPECT_EQ(ReadFile(dir + "/ref/diagnosis.json"), ref_json);
 }
 
+TEST(DiagnoseCmd, ReducedModelIsIdentifiedOnTheTrainingPartAndDiagnosed) {
+  // Paper 000's step grid (2 s steps): steady states for the static step of hammerstein-mimo.
+  const std::string dir = ::testing::TempDir() + "diag_reduced";
+  std::filesystem::remove_all(dir);
+  const std::string scenario = dir + "_grid.yaml";
+  WriteFileAtomic(scenario,
+                  RigWith("stimulation:\n  type: protocol\n  protocol: {name: step_grid, "
+                          "channels: [ext, flex], u_max_us: 300, spacing_us: 50, "
+                          "step_duration_s: 2}\nsensors:\n  angles: {rate_hz: 60, noise_std_deg: "
+                          "1.0, coordinates: [wrist_flexion, mcp_flexion]}\n"));
+  ASSERT_EQ(RunFesim("simulate " + scenario + " --out " + dir + "/sim --seed 5").exit_code, 0);
+  const Result r = RunFesim("diagnose " + dir + "/sim/hand_rig.csv --scenario " + scenario +
+                            " --out " + dir + "/out --threads 2 --model hammerstein-mimo");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string json = ReadFile(dir + "/out/diagnosis.json");
+  EXPECT_NE(json.find("\"model\": \"hammerstein-mimo\""), std::string::npos) << json;
+  const std::string md = ReadFile(dir + "/out/diagnosis.md");
+  EXPECT_NE(md.find("Model: the reduced model hammerstein-mimo identified on the training part"),
+            std::string::npos);
+  EXPECT_NE(md.find("method: hammerstein-mimo"), std::string::npos);  // the identified model
+  EXPECT_NE(md.find("not tested: acts inside the musculoskeletal model, which the reduced model "
+                    "hammerstein-mimo does not have"),
+            std::string::npos);
+}
+
 TEST(DiagnoseCmd, BadInputIsAOneLineErrorAndWritesNothing) {
   const std::string dir = ::testing::TempDir() + "diag_bad";
   const std::string csv = ::testing::TempDir() + "diag_bad_locked.csv";
@@ -222,7 +247,29 @@ TEST(DiagnoseCmd, BadInputIsAOneLineErrorAndWritesNothing) {
   r = RunFesim("diagnose " + csv + " --out " + dir);
   EXPECT_NE(r.err.find("--scenario is required"), std::string::npos) << r.err;
   r = RunFesim("diagnose " + csv + " --scenario " + kRig + " --model hammerstein");
-  EXPECT_NE(r.err.find("--model: 'hammerstein' is not available"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--model: 'hammerstein' is not a model diagnose can calibrate (allowed: "
+                       "full, "),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("hammerstein-mimo"), std::string::npos) << r.err;
+  // A reduced model that cannot take the data: the method's own one-line reason.
+  const std::string two = ::testing::TempDir() + "diag_bad_two_inputs.csv";
+  std::string rows2 = "time,u.ext,u.flex,q.wrist_flexion\n";
+  for (int i = 0; i < 400; ++i) {
+    rows2 += std::to_string(i / 50.0) + "," + std::to_string((i / 40) % 3 * 100) + "," +
+             std::to_string((i / 60) % 2 * 120) + "," + std::to_string(0.001 * (i % 37)) + "\n";
+  }
+  WriteFileAtomic(two, rows2);
+  r = RunFesim("diagnose " + two + " --scenario " + kRig + " --model spline-oe --out " + dir);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--model spline-oe: train trial 0: spline methods are single-input"),
+            std::string::npos)
+      << r.err;
+  // One line (after the progress line), the last.
+  const std::size_t start = r.err.rfind('\n', r.err.size() - 2) + 1;
+  EXPECT_EQ(r.err.substr(start).rfind("fesim diagnose: error: --model spline-oe: ", 0), 0u)
+      << r.err;
+  EXPECT_FALSE(Exists(dir));
   EXPECT_EQ(RunFesim("diagnose --help").exit_code, 0);
 }
 

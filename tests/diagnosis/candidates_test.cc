@@ -10,6 +10,13 @@
 namespace fesim::diagnosis {
 namespace {
 
+/// Integrator accuracy of these tests (CVODES relative/absolute tolerance).
+FitOptions Accurate() {
+  FitOptions o;
+  o.tolerance = 1e-7;
+  return o;
+}
+
 LibraryContext HandContext() {
   LibraryContext ctx;
   ctx.outputs = {"q.wrist_flexion", "q.mcp_flexion", "q.pip_flexion"};
@@ -60,12 +67,12 @@ TEST(Candidates, StartValuesLeaveTheModelAsItIs) {
   v.trials = {t};
   v.use = {std::vector<char>(t.size(), 1)};
   v.outputs = HandContext().outputs;
-  const auto base = Predict(rig, {}, Eigen::VectorXd(0), v, 1e-7, 1);
+  const auto base = Predict(rig, {}, Eigen::VectorXd(0), v, Accurate(), 1);
   for (const auto& c : CandidateLibrary(rig, HandContext())) {
     if (!c.applicable) continue;
     Eigen::VectorXd x(c.params.size());
     for (std::size_t k = 0; k < c.params.size(); ++k) x(k) = c.params[k].start;
-    const auto pred = Predict(rig, c.params, x, v, 1e-7, 1);
+    const auto pred = Predict(rig, c.params, x, v, Accurate(), 1);
     for (const auto& o : {"q.wrist_flexion", "q.mcp_flexion"}) {
       const auto& a = pred[0].Column(o);
       const auto& b = base[0].Column(o);
@@ -138,13 +145,13 @@ TEST(Candidates, ArmSupportLiftsTheForearmByItsStaticTorqueOnTheElbowRig) {
   v.use = {std::vector<char>(t.size(), 1)};
   v.outputs = ctx.outputs;
   const double q0 =
-      Predict(rig, {}, Eigen::VectorXd(0), v, 1e-7, 1)[0].Column("q.elbow_flexion").back();
+      Predict(rig, {}, Eigen::VectorXd(0), v, Accurate(), 1)[0].Column("q.elbow_flexion").back();
   const double q1 =
-      Predict(rig, support->params, x, v, 1e-7, 1)[0].Column("q.elbow_flexion").back();
+      Predict(rig, support->params, x, v, Accurate(), 1)[0].Column("q.elbow_flexion").back();
   Eigen::VectorXd x_small(1);
   x_small << 0.5;
   const double q_small =
-      Predict(rig, support->params, x_small, v, 1e-7, 1)[0].Column("q.elbow_flexion").back();
+      Predict(rig, support->params, x_small, v, Accurate(), 1)[0].Column("q.elbow_flexion").back();
   EXPECT_GT(q1, q0 + 0.01);  // lifted (flexion positive)
   // Small forces: the shift is linear in F_w (static equilibrium, smooth torques).
   EXPECT_NEAR((q1 - q0) / (q_small - q0), 4.0, 0.4);

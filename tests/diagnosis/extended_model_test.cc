@@ -10,6 +10,13 @@
 namespace fesim::diagnosis {
 namespace {
 
+/// Integrator accuracy of these tests (CVODES relative/absolute tolerance).
+FitOptions Accurate() {
+  FitOptions o;
+  o.tolerance = 1e-7;
+  return o;
+}
+
 /// A 6 s hand-rig trial (wrist only) with an extensor step, noise-free, from `model`.
 Trial StepTrial(const sim::ModelParams& model) {
   Trial t;
@@ -58,18 +65,18 @@ TEST(ExtendedModel, DriftAddsValueTimesTimeAndInputScaleZeroSilencesTheInput) {
   scale.column = "u.ext";
   Eigen::VectorXd x(2);
   x << 0.01, 1.0;
-  const auto with = Predict(rig, {drift, scale}, x, v, 1e-7, 1);
+  const auto with = Predict(rig, {drift, scale}, x, v, Accurate(), 1);
   x << 0.0, 1.0;
-  const auto without = Predict(rig, {drift, scale}, x, v, 1e-7, 1);
+  const auto without = Predict(rig, {drift, scale}, x, v, Accurate(), 1);
   const auto& a = with[0].Column("q.wrist_flexion");
   const auto& b = without[0].Column("q.wrist_flexion");
   for (std::size_t i = 0; i < a.size(); i += 50)
     EXPECT_NEAR(a[i] - b[i], 0.01 * v.trials[0].time[i], 1e-12);
   x << 0.0, 0.0;
-  const auto silent = Predict(rig, {drift, scale}, x, v, 1e-7, 1);
+  const auto silent = Predict(rig, {drift, scale}, x, v, Accurate(), 1);
   DataView unstimulated = v;
   for (double& u : unstimulated.trials[0].MutableColumn("u.ext")) u = 0.0;
-  const auto rest = Predict(rig, {}, Eigen::VectorXd(0), unstimulated, 1e-7, 1);
+  const auto rest = Predict(rig, {}, Eigen::VectorXd(0), unstimulated, Accurate(), 1);
   const auto& s = silent[0].Column("q.wrist_flexion");
   const auto& r = rest[0].Column("q.wrist_flexion");
   for (std::size_t i = 0; i < s.size(); ++i) EXPECT_NEAR(s[i], r[i], 1e-9);
