@@ -18,7 +18,8 @@
 //   unequal_muscle_dynamics     omega.ext_flex_ratio s: Ω_i × s for wrist extensors, × 1/s for
 //                               wrist flexors (eq. 6; Assumption 6 of paper 000 broken)
 //   passive_stiffness_nonlinear@<joint>  passive.limit_scale (K_L × s), passive.sharpness_per_rad
-//                               κ (eq. 14 range limits, passive_joint.h)
+//                               κ (eq. 14 range limits, passive_joint.h); probes: a broad
+//                               nonlinearity (K_L × 5, κ = 5/rad) and the nominal κ × 0.7
 //   arm_support                 support.weight_compensation_n F_w, N: the vertical
 //                               weight-compensation force on the forearm cuff (sim/arm_support.h;
 //                               the rig's forearm entry, or a cuff at the forearm's centre of mass
@@ -27,7 +28,8 @@
 //                               Applicable only when an output is the elbow or a shoulder
 //                               coordinate (the support moves nothing distal to the forearm).
 //   stiction@<joint>            friction.coulomb_nm F_c, friction.static_excess_nm F_s − F_c
-//   spasticity@<joint>          reflex.gain_nms_per_rad G, reflex.threshold_rad_s v_th
+//   spasticity@<joint>          reflex.gain_nms_per_rad G, reflex.threshold_rad_s v_th; probes:
+//                               G at the rig's v_th and at v_th = 0.1 rad/s
 //   sensor_drift                drift.<output>, rad/s (one per output: value · t added)
 // Joint-level mechanisms get one candidate per free output joint; their torque parameters scale
 // with the joint's nominal stiffness T_j = k_j · 1 rad (N·m), so fingers and wrist share one

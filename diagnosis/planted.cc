@@ -147,14 +147,14 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
     } else if (id == "unequal_muscle_dynamics") {
       SetViaLibrary(id, "omega.ext_flex_ratio", 1.0 + 0.4 * s, ctx, &truth, &out.planted);
     } else if (id == "passive_stiffness_nonlinear") {
-      SetViaLibrary(id, "passive.limit_scale", 1.0 + 30.0 * s, ctx, &truth, &out.planted);
-      SetViaLibrary(id, "passive.sharpness_per_rad", 8.0, ctx, &truth, &out.planted);
+      SetViaLibrary(id, "passive.limit_scale", 1.0 + 20.0 * s, ctx, &truth, &out.planted);
+      SetViaLibrary(id, "passive.sharpness_per_rad", 5.0, ctx, &truth, &out.planted);
     } else if (id == "stiction") {
       SetViaLibrary(id, "friction.coulomb_nm", 0.04 * s * tj, ctx, &truth, &out.planted);
       SetViaLibrary(id, "friction.static_excess_nm", 0.04 * s * tj, ctx, &truth, &out.planted);
     } else if (id == "spasticity") {
-      SetViaLibrary(id, "reflex.gain_nms_per_rad", 0.4 * s * tj, ctx, &truth, &out.planted);
-      SetViaLibrary(id, "reflex.threshold_rad_s", 0.5, ctx, &truth, &out.planted);
+      SetViaLibrary(id, "reflex.gain_nms_per_rad", 0.8 * s * tj, ctx, &truth, &out.planted);
+      SetViaLibrary(id, "reflex.threshold_rad_s", 0.05, ctx, &truth, &out.planted);
     } else if (id == "sensor_drift") {
       sensors.angles.offset_drift_per_s = 0.0005 * s;
       for (const auto& o : ctx.outputs) {
