@@ -68,12 +68,6 @@ std::vector<int> WristGroup(const sim::ModelParams& m, bool extensors) {
 /// κ of the broad passive-nonlinearity probe, 1/rad.
 constexpr double kBroadSharpness = 5.0;
 
-/// Threshold of the low-threshold stretch-reflex probe, rad/s (≈ 6 °/s).
-constexpr double kLowReflexThreshold = 0.1;
-/// Gain of that probe × T_j (a secant over the gains where the reflex damping dominates the
-/// joint's own: the direction of a small gain misses how a strong reflex caps the velocities).
-constexpr double kLowReflexProbeGain = 0.5;
-
 std::vector<double> RestPosture(const sim::ModelParams& m) {
   std::vector<double> rest(sim::kNumCoordinates);
   for (int c = 0; c < sim::kNumCoordinates; ++c) rest[c] = m.coordinates[c].passive.rest_angle_rad;
@@ -429,7 +423,7 @@ std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const Libra
     c.id = "spasticity";
     c.joint = sim::CoordinateNames()[j];
     const double tj = JointTorqueScale(rig, j);
-    c.params.push_back(Param("reflex.gain_nms_per_rad", "N*m*s/rad", 0.0, 0.0, 4.0 * tj, 0.05 * tj,
+    c.params.push_back(Param("reflex.gain_nms_per_rad", "N*m*s/rad", 0.0, 0.0, 2.0 * tj, 0.05 * tj,
                              [j](double v, sim::ModelParams* m) {
                                m->coordinates[j].passive.reflex_gain_nms_per_rad = v;
                              }));
@@ -438,24 +432,8 @@ std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const Libra
                              [j](double v, sim::ModelParams* m) {
                                m->coordinates[j].passive.reflex_threshold_rad_s = v;
                              }));
-    // Probe 1: the reflex at the rig's threshold; probe 2: at a low one (kLowReflexThreshold),
-    // where it acts as extra damping in every movement — a slow protocol (paper 000's step
-    // grid: |q̇| > 0.5 rad/s in 1–2 % of the samples) shows little of the first. The start
-    // takes the gain of both and the threshold weighted by their coefficients (both ≥ 0).
-    Eigen::VectorXd low = ProbeAt(c.params, 0, kLowReflexProbeGain * tj);
-    low(1) = std::min(vth, kLowReflexThreshold);
-    c.probes = {ProbeAt(c.params, 0, 0.05 * tj), low};
-    c.one_sided = {true, true};
-    const std::vector<ModelParameter> params = c.params;
-    const double v_low = low(1);
-    c.start_from_step = [params, tj, vth, v_low](const Eigen::VectorXd& theta) {
-      const double a = std::max(theta(0), 0.0), b = std::max(theta(1), 0.0);
-      Eigen::VectorXd x(2);
-      const double ga = 0.05 * tj * a, gb = kLowReflexProbeGain * tj * b;
-      x << ga + gb, ga + gb > 0.0 ? (ga * vth + gb * v_low) / (ga + gb) : vth;
-      for (int k = 0; k < 2; ++k) x(k) = std::clamp(x(k), params[k].lower, params[k].upper);
-      return x;
-    };
+    c.probes = {ProbeAt(c.params, 0, 0.05 * tj)};
+    c.one_sided = {true};
     add(c);
   }
   {

@@ -28,8 +28,7 @@
 //                               Applicable only when an output is the elbow or a shoulder
 //                               coordinate (the support moves nothing distal to the forearm).
 //   stiction@<joint>            friction.coulomb_nm F_c, friction.static_excess_nm F_s − F_c
-//   spasticity@<joint>          reflex.gain_nms_per_rad G, reflex.threshold_rad_s v_th; probes:
-//                               G at the rig's v_th and at v_th = 0.1 rad/s
+//   spasticity@<joint>          reflex.gain_nms_per_rad G, reflex.threshold_rad_s v_th
 //   sensor_drift                drift.<output>, rad/s (one per output: value · t added)
 // Joint-level mechanisms get one candidate per free output joint; their torque parameters scale
 // with the joint's nominal stiffness T_j = k_j · 1 rad (N·m), so fingers and wrist share one

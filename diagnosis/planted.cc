@@ -153,8 +153,8 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
       SetViaLibrary(id, "friction.coulomb_nm", 0.04 * s * tj, ctx, &truth, &out.planted);
       SetViaLibrary(id, "friction.static_excess_nm", 0.04 * s * tj, ctx, &truth, &out.planted);
     } else if (id == "spasticity") {
-      SetViaLibrary(id, "reflex.gain_nms_per_rad", 0.8 * s * tj, ctx, &truth, &out.planted);
-      SetViaLibrary(id, "reflex.threshold_rad_s", 0.05, ctx, &truth, &out.planted);
+      SetViaLibrary(id, "reflex.gain_nms_per_rad", 0.4 * s * tj, ctx, &truth, &out.planted);
+      SetViaLibrary(id, "reflex.threshold_rad_s", 0.5, ctx, &truth, &out.planted);
     } else if (id == "sensor_drift") {
       sensors.angles.offset_drift_per_s = 0.0005 * s;
       for (const auto& o : ctx.outputs) {

@@ -23,10 +23,10 @@
 //                  on steps — the wrist stays below ~50°, far from the 80° limit — and nothing in
 //                  the training part of a one-trial grid, whose first 70 % stays within ±27°)
 //   stiction (wrist)  F_c = F_s − F_c = 0.04 s T_j
-//   spasticity (wrist)  G = 0.8 s T_j, v_th = 0.05 rad/s (effect ≥ 1 × noise at s = 1 on both
-//                  protocols: the step grid moves the wrist slowly, |q̇| > 0.5 rad/s in 1–2 % of
-//                  the samples, so at the earlier v_th = 0.5 rad/s the effect stayed at 0.2–0.25
-//                  × noise on the grid whatever the gain — the reflex caps the velocity at v_th)
+//   spasticity (wrist)  G = 0.4 s T_j, v_th 0.5 rad/s (steps: 1.2–1.6 × noise at s = 1–2; the
+//                  grid moves the wrist slowly, |q̇| > 0.5 rad/s in 1–2 % of the samples, and
+//                  stays at 0.2–0.25 × noise whatever G: below the floor, see
+//                  docs/diagnosis.md)
 //   sensor_drift   0.0005 s rad/s on every angle channel
 //   arm_support    (rigs with an elbow / shoulder output, e.g. scenarios/elbow_support_rig.yaml
 //                  with channels bic, tri) the forearm weight-compensation force raised by
