@@ -23,7 +23,7 @@
 //                  on steps — the wrist stays below ~50°, far from the 80° limit — and nothing in
 //                  the training part of a one-trial grid, whose first 70 % stays within ±27°)
 //   stiction (wrist)  F_c = F_s − F_c = 0.04 s T_j
-//   spasticity (wrist)  G = 0.4 s T_j, v_th 0.5 rad/s (steps: 1.2–1.6 × noise at s = 1–2; the
+//   spasticity (wrist)  G = 0.4 s T_j, v_th 0.5 rad/s (steps: 0.95–2.1 × noise at s = 1–2; the
 //                  grid moves the wrist slowly, |q̇| > 0.5 rad/s in 1–2 % of the samples, and
 //                  stays at 0.2–0.25 × noise whatever G: below the floor, see
 //                  docs/diagnosis.md)
