@@ -83,7 +83,8 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
   inputs += "; rig `" + args.Get("scenario") + "`.";
   const std::string out = args.Get("out", "out/diagnose");
   // Expensive stages are cached under DIR/cache as they finish: a killed run resumes.
-  ResultCache cache(out + "/cache", FESIM_VERSION, "diagnose-cache-2");
+  // Layout 3: a candidate's probe changed (score-test θ of layout 2 do not fit the library).
+  ResultCache cache(out + "/cache", FESIM_VERSION, "diagnose-cache-3");
   diagnosis::DiagnoseOptions options;
   options.fit.threads = static_cast<int>(threads);
   options.model = model;

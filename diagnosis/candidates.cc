@@ -67,7 +67,7 @@ std::vector<int> WristGroup(const sim::ModelParams& m, bool extensors) {
 }
 
 /// κ of the broad passive-nonlinearity probe, 1/rad.
-constexpr double kBroadSharpness = 8.0;
+constexpr double kBroadSharpness = 5.0;
 
 std::vector<double> RestPosture(const sim::ModelParams& m) {
   std::vector<double> rest(sim::kNumCoordinates);
@@ -351,8 +351,10 @@ std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const Libra
                              [j](double v, sim::ModelParams* m) {
                                m->coordinates[j].passive.limit_sharpness_per_rad = v;
                              }));
-    // Probe 1: a broad extra nonlinearity (κ = 8/rad, K_L × 5), felt across the range of
-    // motion rather than only at its ends; probe 2: the nominal shape made broader. The start
+    // Probe 1: a broad extra nonlinearity (κ = 5/rad, K_L × 5), felt across the range of
+    // motion rather than only at its ends (κ = 8/rad was not: with the wrist within ±25° its
+    // torque is e^{−8·0.95} ≈ 5e-4 of K_L/κ, and a protocol that keeps the training data
+    // there saw nothing); probe 2: the nominal shape made broader. The start
     // takes probe 1's shape when its coefficient is positive (the torque is linear in K_L at a
     // fixed κ), else the linear map.
     Eigen::VectorXd broad = Starts(c.params);

@@ -18,7 +18,8 @@
 //   unequal_muscle_dynamics     omega.ext_flex_ratio s: Ω_i × s for wrist extensors, × 1/s for
 //                               wrist flexors (eq. 6; Assumption 6 of paper 000 broken)
 //   passive_stiffness_nonlinear@<joint>  passive.limit_scale (K_L × s), passive.sharpness_per_rad
-//                               κ (eq. 14 range limits, passive_joint.h)
+//                               κ (eq. 14 range limits, passive_joint.h); probes: a broad
+//                               nonlinearity (K_L × 5, κ = 5/rad) and the nominal κ × 0.7
 //   arm_support                 support.weight_compensation_n F_w, N: the vertical
 //                               weight-compensation force on the forearm cuff (sim/arm_support.h;
 //                               the rig's forearm entry, or a cuff at the forearm's centre of mass

@@ -147,8 +147,8 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
     } else if (id == "unequal_muscle_dynamics") {
       SetViaLibrary(id, "omega.ext_flex_ratio", 1.0 + 0.4 * s, ctx, &truth, &out.planted);
     } else if (id == "passive_stiffness_nonlinear") {
-      SetViaLibrary(id, "passive.limit_scale", 1.0 + 30.0 * s, ctx, &truth, &out.planted);
-      SetViaLibrary(id, "passive.sharpness_per_rad", 8.0, ctx, &truth, &out.planted);
+      SetViaLibrary(id, "passive.limit_scale", 1.0 + 20.0 * s, ctx, &truth, &out.planted);
+      SetViaLibrary(id, "passive.sharpness_per_rad", 5.0, ctx, &truth, &out.planted);
     } else if (id == "stiction") {
       SetViaLibrary(id, "friction.coulomb_nm", 0.04 * s * tj, ctx, &truth, &out.planted);
       SetViaLibrary(id, "friction.static_excess_nm", 0.04 * s * tj, ctx, &truth, &out.planted);

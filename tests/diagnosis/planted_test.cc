@@ -45,5 +45,27 @@ TEST(Planted, CleanDataHaveNoEffectAndAPlantedOneIsOfTheNoiseOrder) {
   EXPECT_THROW(MakePlantedDataset(rig, spec), std::invalid_argument);
 }
 
+TEST(Planted, PostureAndVelocityEffectsAtScaleOneReachTheNoiseOnBothProtocols) {
+  // Issue 7 asks for effect sizes from "effect RMS = noise RMS" upward, so effect scale 1 (the
+  // suite's smallest) must reach it whatever the participant and protocol. The range-limit
+  // stiffening at κ = 8/rad gave 0.14–0.57 × noise on steps (the wrist stays below ~50°, far
+  // from the 80° limit). (spasticity is not here: 0.2–0.25 × noise on the grid, docs/diagnosis.md.)
+  const Scenario rig = Rig();
+  for (const std::string mechanism : {"passive_stiffness_nonlinear"}) {
+    for (const std::string protocol : {"steps", "grid"}) {
+      for (std::uint64_t seed : {1001u, 1002u, 1003u}) {
+        PlantedSpec spec;
+        spec.mechanisms = {mechanism};
+        spec.protocol = protocol;
+        spec.trials = 1;
+        spec.duration_s = 40.0;
+        spec.seed = seed;
+        const PlantedDataset d = MakePlantedDataset(rig, spec);
+        EXPECT_GE(d.effect_rms_rad, d.noise_rms_rad) << mechanism << " " << protocol << " " << seed;
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace fesim::diagnosis
