@@ -3,7 +3,10 @@
 // is built from, one SimulateLike of a 60 s trial. Figures go to docs/performance.md.
 #include <benchmark/benchmark.h>
 
+#include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <string>
 
 #include "diagnosis/diagnose.h"
@@ -44,8 +47,17 @@ void Diagnose(benchmark::State& state, const std::string& mechanism) {
   fesim::diagnosis::DiagnoseOptions o;
   o.fit.threads = 2;
   int simulations = 0;
+  // FESIM_BENCH_STAGES=1: the diagnosis' stages with their start times on stderr (breakdown).
+  const bool stages = std::getenv("FESIM_BENCH_STAGES") != nullptr;
   for (auto _ : state) {
-    const auto d = fesim::diagnosis::Diagnose(Rig().model, data.trials, o);
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto d = fesim::diagnosis::Diagnose(
+        Rig().model, data.trials, o, [&](double f, const std::string& stage) {
+          if (!stages) return;
+          std::fprintf(stderr, "  %7.1f s %3.0f %% %s\n",
+                       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                       100 * f, stage.c_str());
+        });
     simulations = d.simulations;
     state.SetLabel("cause " + d.cause);
   }

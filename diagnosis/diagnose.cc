@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <functional>
 #include <map>
+#include <mutex>
 #include <numeric>
 #include <set>
 #include <stdexcept>
@@ -197,6 +198,7 @@ class StageCache {
     parts.insert(parts.end(), stage.begin(), stage.end());
     Json value;
     if (cache_ != nullptr && cache_->Load(parts, &value)) {
+      const std::lock_guard<std::mutex> lock(mutex_);  // stages may run on several threads
       ++*cached_;
       return value;
     }
@@ -209,6 +211,7 @@ class StageCache {
   ResultCache* cache_;
   std::vector<std::string> prefix_;
   int* cached_;
+  mutable std::mutex mutex_;
 };
 
 }  // namespace
@@ -265,9 +268,14 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   const Json base_stage = stages.Get({"baseline"}, [&] {
     const FitResult f = FitParameters(rig, subject, xs0, train, fo, 0, options.baseline_iterations);
     out.simulations += f.simulations;
-    const std::vector<Trial> train_pred = Predict(rig, subject, f.x, train, fo);
+    // The training predictions at the fitted point were simulated by the fit.
+    std::vector<Trial> train_pred = f.predictions;
+    if (train_pred.size() != train.trials.size()) {
+      train_pred = Predict(rig, subject, f.x, train, fo);
+      out.simulations += static_cast<int>(train.trials.size());
+    }
     const std::vector<Trial> held_pred = Predict(rig, subject, f.x, held, fo);
-    out.simulations += static_cast<int>(train.trials.size() + held.trials.size());
+    out.simulations += static_cast<int>(held.trials.size());
     Eigen::MatrixXd jacobian = f.jacobian;
     const Eigen::VectorXd r = StackResiduals(train, train_pred);
     if (jacobian.rows() != r.size()) {
@@ -363,6 +371,23 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     }
     std::vector<Trial> sims(jobs.size());
     std::vector<char> ok(jobs.size(), 1);
+    // A candidate made of output drifts only (sensor_drift) leaves the simulation as it is: its
+    // probes are the baseline's predictions plus the drifts, without simulating.
+    const auto drift_only = [&](const Candidate& c) {
+      return std::all_of(c.params.begin(), c.params.end(), [](const ModelParameter& p) {
+        return p.target == ModelParameter::Target::kOutputDrift;
+      });
+    };
+    std::vector<std::size_t> simulated;
+    for (std::size_t j = 0; j < jobs.size(); ++j) {
+      const Candidate& c = library[jobs[j].cand];
+      if (!drift_only(c)) {
+        simulated.push_back(j);
+        continue;
+      }
+      sims[j] = train_base[jobs[j].trial];
+      AddOutputDrift(c.params, c.probes[jobs[j].probe], &sims[j]);
+    }
     const auto probe = [&](std::size_t j) {
       const Candidate& c = library[jobs[j].cand];
       const std::vector<ModelParameter> params = Join(subject, c.params);
@@ -379,18 +404,20 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     };
     if (options.map) {
       // Elsewhere (MPI ranks): each probe's simulation comes back as JSON; "" = it failed.
-      const std::vector<std::string> texts = options.map(jobs.size(), [&](std::size_t j) {
+      const std::vector<std::string> texts = options.map(simulated.size(), [&](std::size_t i) {
+        const std::size_t j = simulated[i];
         probe(j);
         return ok[j] ? TrialsToJson({sims[j]}).Dump(0) : std::string();
       });
-      for (std::size_t j = 0; j < jobs.size(); ++j) {
-        ok[j] = texts[j].empty() ? 0 : 1;
-        if (ok[j]) sims[j] = TrialsFromJson(Json::Parse(texts[j], "probe"), "probe")[0];
+      for (std::size_t i = 0; i < simulated.size(); ++i) {
+        const std::size_t j = simulated[i];
+        ok[j] = texts[i].empty() ? 0 : 1;
+        if (ok[j]) sims[j] = TrialsFromJson(Json::Parse(texts[i], "probe"), "probe")[0];
       }
     } else {
-      ParallelFor(jobs.size(), fo.threads, probe);
+      ParallelFor(simulated.size(), fo.threads, [&](std::size_t i) { probe(simulated[i]); });
     }
-    out.simulations += static_cast<int>(jobs.size());
+    out.simulations += static_cast<int>(simulated.size());
     Json all = Json::Object();
     std::size_t j = 0;
     for (std::size_t c = 0; c < library.size(); ++c) {
@@ -519,6 +546,39 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   // their linearised step (within bounds) before the held-out prediction. The result is the
   // fit's cache stage {fit, held-out predictions (null when the extended model cannot simulate
   // the held-out data)}; `sims` counts the simulations it ran (none when cached).
+  //
+  // Fits computed in this run leave their end point's residual (and, when every parameter was
+  // free, Jacobian) in `ends`, keyed by candidates and point: a later fit from that point (the
+  // refit of an accepted extension from its screening fit) starts from them instead of
+  // simulating them again (FitStart; the same numbers as simulating).
+  std::map<std::string, FitStart> ends;
+  std::mutex ends_mutex;
+  const auto point_key = [&](const std::vector<int>& cands, const Eigen::VectorXd& x) {
+    std::string key;
+    for (int c : cands) key += std::to_string(c) + ";";
+    for (Eigen::Index k = 0; k < x.size(); ++k) key += ExactNumberText(x(k)) + ",";
+    return key;
+  };
+  const auto remember_end = [&](const std::vector<int>& cands, const FitResult& fit,
+                                bool all_free) {
+    if (fit.residual.size() == 0) return;
+    FitStart s;
+    s.residual = fit.residual;
+    if (all_free) s.jacobian = fit.jacobian;
+    s.predictions = fit.predictions;
+    const std::lock_guard<std::mutex> lock(ends_mutex);
+    ends[point_key(cands, fit.x)] = std::move(s);
+  };
+  const auto known_start = [&](const std::vector<int>& cands, const Eigen::VectorXd& x0,
+                               int first_free) {
+    FitStart s;
+    const std::lock_guard<std::mutex> lock(ends_mutex);
+    const auto it = ends.find(point_key(cands, x0));
+    if (it == ends.end()) return s;
+    s = it->second;
+    if (first_free != 0) s.jacobian.resize(0, 0);  // the Jacobian of all parameters only
+    return s;
+  };
   auto extension_stage = [&](const std::vector<int>& cands, const Eigen::VectorXd& x0,
                              int first_free, int iterations, const Eigen::MatrixXd* held_jacobian,
                              double rss_held, int* sims) {
@@ -536,8 +596,10 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     const bool profiled = first_free > 0 && held_jacobian && held_jacobian->cols() == first_free;
     stage.push_back(profiled ? "profiled, rss_held=" + ExactNumberText(rss_held) : "held");
     return stages.Get(stage, [&] {
+      const FitStart start = known_start(cands, x0, first_free);
       FitResult fit = FitParameters(rig, params, x0, train, fo, first_free, iterations,
-                                    profiled ? held_jacobian : nullptr);
+                                    profiled ? held_jacobian : nullptr, &start);
+      bool all_free = !profiled && first_free == 0;
       // Polish only a profiled fit that explains something (its training LR test against the
       // fit without it, RSS `rss_held`, passes on the profiled cost); the others keep their
       // profiled fit, which fails the LR test anyway.
@@ -551,7 +613,9 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
         // The linearised step is poor when the held parameters must move far (a strong
         // mechanism the baseline absorbed): polish everything together from there.
         fit = FitParameters(rig, params, x1, train, fo, 0, options.refit_iterations);
+        all_free = true;
       }
+      remember_end(cands, fit, all_free);
       *sims += fit.simulations + static_cast<int>(held.trials.size());
       Json j = Json::Object();
       j.Set("fit", FitJson(fit));
@@ -591,18 +655,29 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   const auto screen_start = [&](int c) {
     return Concat(base_fit.x, library[c].start_from_step(tests[c].theta));
   };
+  // The candidates' fits are independent: one item each, on the MPI ranks (options.map) or on
+  // fit.threads threads here, each fit's simulations on fit.threads threads again (the two
+  // levels keep both cores busy through the fits' serial parts: single-trial residuals, the
+  // held-out prediction, the linear algebra). The stage and its simulation count return.
+  const auto local_map = [&](std::size_t n_items,
+                             const std::function<std::string(std::size_t)>& fn) {
+    std::vector<std::string> texts(n_items);
+    ParallelFor(n_items, fo.threads, [&](std::size_t k) { texts[k] = fn(k); });
+    return texts;
+  };
+  const std::function<std::string(std::size_t)> screen_item = [&](std::size_t k) {
+    int sims = 0;
+    Json j = Json::Object();
+    j.Set("stage", extension_stage({order[k]}, screen_start(order[k]), ns,
+                                   options.screen_iterations, &Js, rss0, &sims));
+    j.Set("simulations", sims);
+    return j.Dump(0);
+  };
   std::vector<Json> screened(order.size());
-  if (options.map) {
-    // Elsewhere (MPI ranks): one candidate per item; the stage and its simulation count return.
+  {
     report(0.35, "fitting " + std::to_string(order.size()) + " extensions");
-    const std::vector<std::string> texts = options.map(order.size(), [&](std::size_t k) {
-      int sims = 0;
-      Json j = Json::Object();
-      j.Set("stage", extension_stage({order[k]}, screen_start(order[k]), ns,
-                                     options.screen_iterations, &Js, rss0, &sims));
-      j.Set("simulations", sims);
-      return j.Dump(0);
-    });
+    const std::vector<std::string> texts =
+        options.map ? options.map(order.size(), screen_item) : local_map(order.size(), screen_item);
     for (std::size_t k = 0; k < order.size(); ++k) {
       const Json j = Json::Parse(texts[k], "screening fit");
       screened[k] = Member(j, "stage");
@@ -613,9 +688,7 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   for (std::size_t k = 0; k < order.size(); ++k) {
     const int c = order[k];
     report(0.35 + 0.4 * k / order.size(), "fitting extension " + library[c].label);
-    Fitted f = options.map
-                   ? fitted_from({c}, screened[k])
-                   : fit_extension({c}, screen_start(c), ns, options.screen_iterations, &Js, rss0);
+    Fitted f = fitted_from({c}, screened[k]);
     CandidateResult& cr = out.candidates[c];
     cr.fitted = true;
     cr.lr_p_adjusted = lr_p_adj(rss0, f.fit.cost, static_cast<int>(library[c].params.size()));

@@ -33,6 +33,12 @@
 //    them lost crosstalk: the baseline had taken its gain on the reached muscles into
 //    strength_scale, so any crosstalk fraction made the frozen fit worse.) The second-round fit
 //    treats the first extension's parameters the same way.
+//    Simulations are not repeated: a fit that starts where another ended (the refit of an
+//    accepted extension from its polished screening fit) takes that fit's residual and
+//    Jacobian (FitStart), the baseline's training predictions are its fit's, and output drifts
+//    (sensor_drift) are added to the baseline's simulations (probes) and differentiated
+//    analytically (Jacobian column −t) instead of simulated. The screening fits of the
+//    candidates run side by side.
 // 5. Verdict. Nothing accepted: `none`, unless the held-out residual of the baseline keeps
 //    structure (StructuredVarianceFraction > max_structure on some output): `unexplained`.
 //    Otherwise the accepted mechanism with the larger gain, confidence
@@ -84,8 +90,9 @@ struct DiagnoseOptions {
   /// and the screening fit of each candidate. Called with n and an item function that returns
   /// the item's result as text; returns the n results in index order (on every process that
   /// calls Diagnose) or throws naming the failed items. Empty: on fit.threads threads here
-  /// (probes) or one after another (screening fits, parallel inside). apps/diagnose_cmd.cc
-  /// sets it to spread the items over the ranks of an MPI job (cluster::Cluster::MapAll).
+  /// (probes; screening fits, each with its simulations on fit.threads threads again).
+  /// apps/diagnose_cmd.cc sets it to spread the items over the ranks of an MPI job
+  /// (cluster::Cluster::MapAll).
   std::function<std::vector<std::string>(std::size_t,
                                          const std::function<std::string(std::size_t)>&)>
       map;

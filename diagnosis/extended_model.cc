@@ -66,17 +66,23 @@ Trial PredictOne(const sim::ModelParams& model, const std::vector<ModelParameter
   Trial out = options.simulator
                   ? options.simulator(model, *input, options.tolerance)
                   : identification::fullmodel::SimulateLike(model, *input, options.tolerance);
-  for (std::size_t k = 0; k < params.size(); ++k) {
-    if (params[k].target != ModelParameter::Target::kOutputDrift) continue;
-    if (!out.Has(params[k].column)) continue;
-    auto& y = out.MutableColumn(params[k].column);
-    for (std::size_t i = 0; i < y.size(); ++i)
-      y[i] += x(static_cast<Eigen::Index>(k)) * out.time[i];
-  }
+  AddOutputDrift(params, x, &out);
   return out;
 }
 
 }  // namespace
+
+void AddOutputDrift(const std::vector<ModelParameter>& params, const Eigen::VectorXd& x,
+                    Trial* prediction) {
+  for (std::size_t k = 0; k < params.size(); ++k) {
+    if (params[k].target != ModelParameter::Target::kOutputDrift) continue;
+    if (!prediction->Has(params[k].column)) continue;
+    auto& y = prediction->MutableColumn(params[k].column);
+    for (std::size_t i = 0; i < y.size(); ++i) {
+      y[i] += x(static_cast<Eigen::Index>(k)) * prediction->time[i];
+    }
+  }
+}
 
 std::vector<Trial> Predict(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
                            const Eigen::VectorXd& x, const DataView& view,
@@ -131,6 +137,7 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
   std::vector<double> h(p);
   std::vector<sim::ModelParams> models;
   std::vector<Eigen::VectorXd> xs;
+  std::vector<int> simulated;  // columns that need simulations (not output drifts)
   for (int c = 0; c < p; ++c) {
     const int k = first_free + c;
     double step = options.fd_step * params[k].scale;
@@ -140,20 +147,39 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
     xp(k) += step;
     xs.push_back(xp);
     models.push_back(ApplyModelParameters(base, params, xp));
+    if (params[k].target != ModelParameter::Target::kOutputDrift) simulated.push_back(c);
   }
   std::vector<Trial> sims(static_cast<std::size_t>(p) * nt);
   std::vector<char> ok(sims.size(), 1);
-  ParallelFor(sims.size(), options.threads, [&](int task) {
-    const int c = task / nt, t = task % nt;
+  ParallelFor(simulated.size() * nt, options.threads, [&](int item) {
+    const int c = simulated[item / nt], t = item % nt;
+    const int task = c * nt + t;
     try {
       sims[task] = PredictOne(models[c], params, xs[c], view.trials[t], options);
     } catch (const std::exception&) {
       ok[task] = 0;
     }
   });
-  if (simulations) *simulations += p * nt;
+  if (simulations) *simulations += static_cast<int>(simulated.size()) * nt;
   Eigen::MatrixXd J = Eigen::MatrixXd::Zero(r0.size(), p);
   for (int c = 0; c < p; ++c) {
+    const ModelParameter& param = params[first_free + c];
+    if (param.target == ModelParameter::Target::kOutputDrift) {
+      // ∂(y − ŷ)/∂drift = −t on the drift's output, 0 elsewhere (StackResiduals' order).
+      Eigen::Index row = 0;
+      for (int t = 0; t < nt; ++t) {
+        const Trial& trial = view.trials[t];
+        for (const auto& name : view.outputs) {
+          const auto& y = trial.Column(name);
+          for (std::size_t i = 0; i < y.size(); ++i) {
+            if (!(view.use[t][i] && std::isfinite(y[i]))) continue;
+            if (name == param.column) J(row, c) = -trial.time[i];
+            ++row;
+          }
+        }
+      }
+      continue;
+    }
     bool column_ok = true;
     for (int t = 0; t < nt; ++t) column_ok = column_ok && ok[c * nt + t];
     if (!column_ok) continue;
@@ -166,7 +192,8 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
 
 FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
                         const Eigen::VectorXd& x0, const DataView& view, const FitOptions& options,
-                        int first_free, int max_iterations, const Eigen::MatrixXd* nuisance) {
+                        int first_free, int max_iterations, const Eigen::MatrixXd* nuisance,
+                        const FitStart* start) {
   const int np = static_cast<int>(params.size());
   if (x0.size() != np || first_free < 0 || first_free >= np) {
     throw std::invalid_argument("FitParameters: x0 size or first_free out of range");
@@ -202,27 +229,35 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
     return m - q_basis * (q_basis.transpose() * m);
   };
   constexpr double kFailedResidualRad = 10.0;  // a failed simulation: make LM reject the step
-  // The raw residual of the best (smallest projected cost) point evaluated, for nuisance_step.
+  // The raw residual (and predictions) of the best (smallest, projected when profiled, cost)
+  // point evaluated: LM's end point, for nuisance_step and FitResult::residual.
   Eigen::VectorXd best_free, best_raw, last_free, last_raw;
+  std::vector<Trial> best_pred;
   double best_cost = INFINITY;
+  const auto remember = [&](const Eigen::VectorXd& free, const Eigen::VectorXd& r,
+                            std::vector<Trial>* pred) {
+    last_free = free;
+    last_raw = r;
+    const double cost = project(r).squaredNorm();
+    if (cost < best_cost) {
+      best_cost = cost;
+      best_free = free;
+      best_raw = r;
+      best_pred = pred ? std::move(*pred) : std::vector<Trial>{};
+    }
+  };
   const auto raw_residual = [&](const Eigen::VectorXd& free) {
     out.simulations += static_cast<int>(view.trials.size());
     Eigen::VectorXd r;
+    std::vector<Trial> pred;
     try {
-      r = StackResiduals(view, Predict(base, params, full(free), view, options));
+      pred = Predict(base, params, full(free), view, options);
+      r = StackResiduals(view, pred);
     } catch (const std::exception&) {
       r = Eigen::VectorXd::Constant(n, kFailedResidualRad);
+      pred.clear();
     }
-    last_free = free;
-    last_raw = r;
-    if (nuisance) {
-      const double cost = project(r).squaredNorm();
-      if (cost < best_cost) {
-        best_cost = cost;
-        best_free = free;
-        best_raw = r;
-      }
-    }
+    remember(free, r, &pred);
     return r;
   };
   // identification::LevenbergMarquardt starts its damping at 1e-3 · max diag(JᵀJ) and adds it
@@ -230,9 +265,18 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   // c = 1/√max diag(J₀ᵀJ₀) so that the start is the usual relative damping 1e-3 whatever the
   // units of the parameters. J₀ and r₀ are computed once and handed to LM's first calls.
   const Eigen::VectorXd x0_free = x0.tail(p);
-  const Eigen::VectorXd r0 = raw_residual(x0_free);
+  Eigen::VectorXd r0;
+  if (start && start->residual.size() == n) {
+    r0 = start->residual;
+    std::vector<Trial> pred = start->predictions;
+    remember(x0_free, r0, pred.size() == view.trials.size() ? &pred : nullptr);
+  } else {
+    r0 = raw_residual(x0_free);
+  }
   const Eigen::MatrixXd j0 =
-      ResidualJacobian(base, params, x0, r0, view, options, &out.simulations, first_free);
+      start && start->jacobian.rows() == n && start->jacobian.cols() == p
+          ? start->jacobian
+          : ResidualJacobian(base, params, x0, r0, view, options, &out.simulations, first_free);
   const double max_diag = project(j0).colwise().squaredNorm().maxCoeff();
   const double c = max_diag > 0.0 ? 1.0 / std::sqrt(max_diag) : 1.0;
   bool first_residual = true, first_jacobian = true;
@@ -253,10 +297,12 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
       return (c * project(j0)).eval();
     }
     first_jacobian = false;
-    // A profiled residual r is projected; the finite differences need the raw one at `free`.
+    // The finite differences need the raw residual at `free` (LM's r is scaled, and projected
+    // when profiled): the one simulated there (LM asks at the point it just evaluated).
     const Eigen::VectorXd raw =
-        !nuisance ? (r / c).eval()
-                  : (last_free.size() == p && last_free == free ? last_raw : raw_residual(free));
+        last_free.size() == p && last_free == free
+            ? last_raw
+            : (best_free.size() == p && best_free == free ? best_raw : raw_residual(free));
     out.jacobian = ResidualJacobian(base, params, full(free), raw, view, options, &out.simulations,
                                     first_free);
     return (c * project(out.jacobian)).eval();
@@ -275,8 +321,17 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   out.ci95 = Eigen::VectorXd::Constant(np, NAN);
   out.ci95.tail(p) = identification::ConfidenceHalfWidths95(res.jtj, res.cost, n);
   if (nuisance) {
-    if (!(best_free.size() == p && best_free == res.x)) best_raw = raw_residual(res.x);
+    if (!(best_free.size() == p && best_free == res.x)) {
+      raw_residual(res.x);
+      best_free = res.x;
+      best_raw = last_raw;
+      best_pred.clear();
+    }
     out.nuisance_step = -nuisance_qr.solve(best_raw);
+  }
+  if (best_free.size() == p && best_free == res.x) {
+    out.residual = best_raw;
+    out.predictions = std::move(best_pred);
   }
   return out;
 }

@@ -66,6 +66,11 @@ std::vector<Trial> Predict(const sim::ModelParams& base, const std::vector<Model
                            const Eigen::VectorXd& x, const DataView& view,
                            const FitOptions& options, int threads = 0);
 
+/// Adds value · t to the simulated q.<joint> column of every kOutputDrift parameter (values x)
+/// of `prediction` (a simulation of the model without the drifts).
+void AddOutputDrift(const std::vector<ModelParameter>& params, const Eigen::VectorXd& x,
+                    Trial* prediction);
+
 /// Stacked residuals y − ŷ over the counted samples (trial-major, then output, then time).
 Eigen::VectorXd StackResiduals(const DataView& view, const std::vector<Trial>& predictions);
 
@@ -94,6 +99,20 @@ struct FitResult {
   long residuals = 0;        ///< N.
   int simulations = 0;       ///< trial simulations spent.
   Eigen::MatrixXd jacobian;  ///< ∂r/∂x of the free parameters at the last linearisation point.
+  /// The raw residual y − ŷ at x and the simulated trials it came from (empty when x was not
+  /// simulated in this fit). With `jacobian` (at x when the fit ends on an accepted or the start
+  /// point, the last LM linearisation) they let a following fit from x start without simulating.
+  Eigen::VectorXd residual;
+  std::vector<Trial> predictions;
+};
+
+/// What a fit from x0 would compute first, already known (e.g. from the fit that ended at x0):
+/// the raw residual y − ŷ(x0) and, when non-empty, the Jacobian of the free parameters at x0
+/// (N × (p − first_free), as ResidualJacobian computes it from that residual).
+struct FitStart {
+  Eigen::VectorXd residual;
+  Eigen::MatrixXd jacobian;
+  std::vector<Trial> predictions;  ///< ŷ(x0), optional.
 };
 
 /// Bounded LM of the parameters from x0 on the counted samples of `view`. Parameters with index
@@ -108,14 +127,17 @@ struct FitResult {
 /// cannot produce); freezing them instead loses every mechanism that they partly absorb (e.g.
 /// crosstalk, whose gain on the reached muscles the baseline took into strength_scale).
 /// FitResult::nuisance_step is then the held parameters' linearised adjustment at x.
+/// `start` (optional): the residual (and Jacobian) at x0, not simulated again; the result is the
+/// same as without it when they are what this fit would compute.
 FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
                         const Eigen::VectorXd& x0, const DataView& view, const FitOptions& options,
                         int first_free = 0, int max_iterations = 0,
-                        const Eigen::MatrixXd* nuisance = nullptr);
+                        const Eigen::MatrixXd* nuisance = nullptr, const FitStart* start = nullptr);
 
 /// Forward-difference Jacobian ∂r/∂x_k (N × (p − first_free)) for the columns k ≥ first_free
-/// at x with residual r0; one simulation per column and trial, in parallel. Adds the simulations
-/// to *simulations when given.
+/// at x with residual r0; one simulation per column and trial, in parallel, except kOutputDrift
+/// columns, which are −t on their output (exact: the drift enters ŷ linearly and leaves the
+/// simulation unchanged). Adds the simulations to *simulations when given.
 Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
                                  const std::vector<ModelParameter>& params,
                                  const Eigen::VectorXd& x, const Eigen::VectorXd& r0,

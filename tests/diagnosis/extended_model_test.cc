@@ -115,6 +115,67 @@ TEST(ExtendedModel, FitRecoversAStiffnessAndHeldParametersStay) {
   EXPECT_GT(g.cost, 10 * f.cost);  // a drift cannot stand in for the stiffness
 }
 
+TEST(ExtendedModel, AFitFromAKnownStartIsTheFitThatSimulatesIt) {
+  // A fit continued from where another ended, given that fit's end residual, Jacobian and
+  // predictions (FitStart), returns the same numbers and skips the 1 + p start simulations.
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  const double k_nominal = rig.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad;
+  sim::ModelParams truth = rig;
+  truth.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad = 1.3 * k_nominal;
+  const DataView v = ViewOf(StepTrial(truth));
+  FitOptions o;
+  o.threads = 2;
+  o.tolerance = 1e-7;
+  o.relative_tolerance = 0.0;  // no early stop: both continuations take the same steps
+  const std::vector<ModelParameter> params = {Stiffness(k_nominal)};
+  const FitResult first =
+      FitParameters(rig, params, Eigen::VectorXd::Constant(1, k_nominal), v, o, 0, 1);
+  ASSERT_EQ(first.residual.size(), v.Count());
+  ASSERT_EQ(first.predictions.size(), 1u);
+  EXPECT_EQ(first.residual, StackResiduals(v, Predict(rig, params, first.x, v, o)));
+  const FitResult cold = FitParameters(rig, params, first.x, v, o, 0, 2);
+  FitStart start;
+  start.residual = first.residual;
+  start.jacobian = first.jacobian;
+  start.predictions = first.predictions;
+  const FitResult warm = FitParameters(rig, params, first.x, v, o, 0, 2, nullptr, &start);
+  EXPECT_EQ(warm.x, cold.x);
+  EXPECT_EQ(warm.cost, cold.cost);
+  EXPECT_EQ(warm.residual, cold.residual);
+  EXPECT_EQ(warm.simulations, cold.simulations - 2);  // r(x0) and one Jacobian column, 1 trial
+}
+
+TEST(ExtendedModel, DriftJacobianColumnIsMinusTimeWithoutSimulating) {
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  const double k_nominal = rig.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad;
+  DataView v = ViewOf(StepTrial(rig));
+  for (std::size_t i = 0; i < 20; ++i) v.use[0][i] = 0;  // unused samples are skipped
+  ModelParameter drift;
+  drift.name = "drift";
+  drift.target = ModelParameter::Target::kOutputDrift;
+  drift.column = "q.wrist_flexion";
+  drift.lower = -1;
+  drift.upper = 1;
+  drift.scale = 1e-3;
+  const std::vector<ModelParameter> params = {Stiffness(k_nominal), drift};
+  Eigen::VectorXd x(2);
+  x << 1.1 * k_nominal, 2e-3;
+  const FitOptions o = Accurate();
+  const Eigen::VectorXd r0 = StackResiduals(v, Predict(rig, params, x, v, o));
+  int sims = 0;
+  const Eigen::MatrixXd J = ResidualJacobian(rig, params, x, r0, v, o, &sims);
+  EXPECT_EQ(sims, 1);  // the stiffness column only
+  // The forward difference of the simulated drift, as before.
+  Eigen::VectorXd xh = x;
+  const double h = o.fd_step * drift.scale;
+  xh(1) += h;
+  const Eigen::VectorXd fd = (StackResiduals(v, Predict(rig, params, xh, v, o)) - r0) / h;
+  ASSERT_EQ(J.rows(), fd.size());
+  EXPECT_NEAR((J.col(1) - fd).cwiseAbs().maxCoeff(), 0.0, 1e-8);
+  EXPECT_DOUBLE_EQ(J(0, 1), -v.trials[0].time[20]);
+  EXPECT_GT(J.col(0).norm(), 0.0);
+}
+
 TEST(ExtendedModel, NrmseIsZeroForAPerfectPredictionAndSkipsUnusedSamples) {
   const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
   DataView v = ViewOf(StepTrial(rig));
