@@ -261,7 +261,7 @@ TEST(ArmSceneSupportTest, BandsGoFromCuffToAnchorAndGhostAddsTranslucentSegments
 Trial MakeTrial(const std::vector<std::string>& names) {
   Trial t;
   t.time = {0.0, 1.0};
-  for (auto& n : names) t.AddColumn(n, {0.1, 0.2});
+  for (const auto& n : names) t.AddColumn(n, {0.1, 0.2});
   return t;
 }
 
