@@ -189,7 +189,7 @@ render::Polyline CuffRing(const sim::UpperLimbModel& model, const SimTK::State& 
   return ring;
 }
 
-Vec3 ToVec3(const std::array<double, 3>& a) { return Vec3(a[0], a[1], a[2]); }
+Vec3 ToVec3(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
 
 }  // namespace
 

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <mutex>
@@ -154,7 +155,7 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
             elapsed / static_cast<double>(n) * static_cast<double>(pending.size() - n);
         cli::ShowProgress(static_cast<double>(n) / static_cast<double>(pending.size()),
                           st.name + " " + std::to_string(n) + "/" + std::to_string(pending.size()) +
-                              ", ~" + std::to_string(static_cast<int>(left + 0.5)) + " s left");
+                              ", ~" + std::to_string(std::lround(left)) + " s left");
       });
   // Failed items, as rank 0 saw them, on every rank: one message; the finished ones are written.
   std::string failed;

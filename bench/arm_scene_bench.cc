@@ -43,7 +43,7 @@ struct Fixture {
   }
   /// Poses row i and returns its scene.
   render::Scene Scene(int i) {
-    const std::size_t row = static_cast<std::size_t>(i % kRows);
+    const auto row = static_cast<std::size_t>(i % kRows);
     SetPoseFromTrialRow(model, trial, pose, row, &state);
     ArmSceneInputs in;
     in.time_s = trial.time[row];

@@ -49,8 +49,9 @@ ReachingData ReachingSet54() {
   const Eigen::Vector4d homes[2] = {{0.3, 0.6, 0.2, 1.6}, {0.6, 0.4, 0.1, 0.9}};
   for (int h = 0; h < 2; ++h) {
     for (int target = 0; target < 9; ++target) {
-      const Eigen::Vector4d goal(0.1 + 0.3 * (target % 3), 0.3 + 0.25 * (target / 3), 0.3,
-                                 0.8 + 0.1 * target);
+      const int row = target / 3;  // 3 × 3 grid of targets
+      const int col = target % 3;
+      const Eigen::Vector4d goal(0.1 + 0.3 * col, 0.3 + 0.25 * row, 0.3, 0.8 + 0.1 * target);
       for (int r = 0; r < 3; ++r) {
         Trial t;
         t.metadata["trajectory"] = std::to_string(h) + "-" + std::to_string(target);

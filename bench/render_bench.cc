@@ -3,7 +3,7 @@
 // Wall-clock rates (UseRealTime): llvmpipe renders on its own threads and ffmpeg encodes in a
 // separate process, so CPU time of the calling thread would flatter both.
 #include <benchmark/benchmark.h>
-#include <stdlib.h>
+#include <stdlib.h>  // NOLINT(modernize-deprecated-headers): POSIX mkdtemp(), not in <cstdlib>
 #include <unistd.h>
 
 #include <cmath>

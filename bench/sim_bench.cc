@@ -22,6 +22,7 @@ fesim::Scenario DefaultScenario() {
   for (int k = 0; k < 30; ++k) {
     stim.times.push_back(2.0 * k);
     std::vector<double> u;
+    u.reserve(6);
     for (int c = 0; c < 6; ++c) u.push_back(levels[(k + 3 * c) % 8]);
     stim.values.push_back(u);
   }

@@ -185,6 +185,7 @@ MethodResult RunShoulderEkfMethod(const std::vector<Trial>& train, const std::ve
                                   const ProgressFn& progress) {
   if (train.empty()) throw std::runtime_error("shoulder-ekf: no training trials");
   std::vector<ShoulderData> data;
+  data.reserve(train.size());
   for (const auto& t : train) data.push_back(ExtractShoulderData(t));
   ShoulderEkfConfig config;
   ThetaMaxFromMetadata(train[0], &config.theta_max_ant, &config.theta_max_post);

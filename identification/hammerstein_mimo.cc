@@ -1,6 +1,6 @@
 #include "identification/hammerstein_mimo.h"
 
-#include <time.h>
+#include <time.h>  // NOLINT(modernize-deprecated-headers): POSIX clock_gettime(), not in <ctime>
 
 #include <algorithm>
 #include <chrono>
@@ -40,7 +40,7 @@ constexpr double kRelativeTolerance = 1e-8;  // LM stops when the cost falls by 
 
 /// min ‖E x − f‖ subject to |x_k| ≤ bound (a tiny ridge keeps E full rank).
 Eigen::VectorXd BoundedLs(const Eigen::MatrixXd& E, const Eigen::VectorXd& f, double bound) {
-  const int p = static_cast<int>(E.cols());
+  const Eigen::Index p = E.cols();
   Eigen::MatrixXd Er(E.rows() + p, p);
   const double ridge = std::sqrt(kRidge * std::max(E.squaredNorm(), 1e-300));
   Er.topRows(E.rows()) = E;
@@ -56,7 +56,7 @@ Eigen::VectorXd BoundedLs(const Eigen::MatrixXd& E, const Eigen::VectorXd& f, do
 
 /// H (N×l) of activations h̃(u(k), φ_j) (eq. 22) for every row u(k) of `u`, vectorised.
 Eigen::MatrixXd ActivationMatrix(const std::vector<SigmoidParams>& phi, const Eigen::MatrixXd& u) {
-  const Eigen::Index l = static_cast<Eigen::Index>(phi.size());
+  const auto l = static_cast<Eigen::Index>(phi.size());
   Eigen::MatrixXd delta(u.cols(), l);
   for (Eigen::Index j = 0; j < l; ++j) {
     if (phi[j].delta.size() != u.cols()) {
@@ -75,8 +75,8 @@ Eigen::MatrixXd ActivationMatrix(const std::vector<SigmoidParams>& phi, const Ei
 }
 
 void ProjectCutoffs(int n, Eigen::VectorXd* x) {
-  const int l = static_cast<int>(x->size()) / (n + 1);
-  for (int j = 0; j < l; ++j) {
+  const Eigen::Index l = x->size() / (n + 1);
+  for (Eigen::Index j = 0; j < l; ++j) {
     double& sat = (*x)(j * (n + 1) + n);
     const double db1 = (*x)(j * (n + 1));
     sat = std::max(sat, db1 * (1.0 + kSatMargin));
@@ -269,8 +269,8 @@ SteadyStateSet ExtractSteadyState(const std::vector<MimoTrialData>& trials, doub
       const Eigen::Index len = k - start;
       if (len >= min_len) {
         const Eigen::Index w = std::min<Eigen::Index>(win, len);
-        us.push_back(t.u_us.row(start).transpose());
-        ys.push_back(t.y_rad.middleRows(k - w, w).colwise().mean().transpose());
+        us.emplace_back(t.u_us.row(start).transpose());
+        ys.emplace_back(t.y_rad.middleRows(k - w, w).colwise().mean().transpose());
       }
       start = k;
     }
@@ -324,7 +324,7 @@ HammersteinMimoFit FitHammersteinStatic(const SteadyStateSet& set, const Eigen::
   prob.d_bound = b.d_abs_max_rad;
   const int p = l * (n + 1);
   Eigen::VectorXd lower(p), upper(p);
-  for (int j = 0; j < l; ++j) {
+  for (Eigen::Index j = 0; j < l; ++j) {
     lower.segment(j * (n + 1), n).setConstant(b.u_db_min_us);
     upper.segment(j * (n + 1), n).setConstant(b.u_db_max_us);
     lower(j * (n + 1) + n) = b.u_sat_min_us;
@@ -367,7 +367,8 @@ HammersteinMimoFit FitHammersteinStatic(const SteadyStateSet& set, const Eigen::
   Eigen::VectorXd ci_sorted(p);
   for (int j = 0; j < l; ++j) {
     sorted.push_back(psi[order[j]]);
-    ci_sorted.segment(j * (n + 1), n + 1) = ci.segment(order[j] * (n + 1), n + 1);
+    ci_sorted.segment(static_cast<Eigen::Index>(j) * (n + 1), n + 1) =
+        ci.segment(static_cast<Eigen::Index>(order[j]) * (n + 1), n + 1);
   }
   const Eigen::MatrixXd H = ActivationMatrix(SigmoidsFromCutoffs(sorted), set.u_us);
   fit.params.psi = sorted;
@@ -395,8 +396,8 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
   std::vector<Eigen::MatrixXd> Z, Yt;
   Eigen::Index n_res = 0;
   for (const auto& t : trials) {
-    Z.push_back(ActivationMatrix(phi, t.u_us) * fit->params.d_rad.transpose());
-    Yt.push_back((-t.y_rad).rowwise() + fit->params.rest_rad.transpose());
+    Z.emplace_back(ActivationMatrix(phi, t.u_us) * fit->params.d_rad.transpose());
+    Yt.emplace_back((-t.y_rad).rowwise() + fit->params.rest_rad.transpose());
     n_res += t.u_us.rows() * q;
   }
   // Residual rows are grouped by joint: joint i's block depends on Ω and μ_i only.

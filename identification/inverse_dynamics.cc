@@ -127,9 +127,7 @@ ReachingData ExtractReachingData(const std::vector<Trial>& trials, std::size_t m
   return d;
 }
 
-Eigen::Vector3d JointBasis(double theta, double theta_dot) {
-  return Eigen::Vector3d(1.0, theta, theta_dot);
-}
+Eigen::Vector3d JointBasis(double theta, double theta_dot) { return {1.0, theta, theta_dot}; }
 
 JointStiffnessDamping ParametricJointModel::Params() const {
   JointStiffnessDamping p;
@@ -159,7 +157,7 @@ ParametricJointModel FitParametricJoint(const Eigen::VectorXd& theta,
   const Eigen::Matrix3d G = Phi.transpose() * Phi;
   const Eigen::LDLT<Eigen::Matrix3d> ldlt(G);
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(Phi);
-  const auto sv = svd.singularValues();
+  const auto& sv = svd.singularValues();
   if (sv(2) <= 1e-10 * sv(0)) {
     throw std::runtime_error("parametric joint fit: q/qd columns give a rank-deficient basis");
   }

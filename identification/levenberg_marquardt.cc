@@ -234,7 +234,7 @@ Eigen::VectorXd ConfidenceHalfWidths95(const Eigen::MatrixXd& jtj, double cost, 
   // Pseudo-inverse; parameters that take part in an unidentifiable direction (e.g. one held at a
   // bound where the cost is flat) get NaN, the others their interval.
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(jtj);
-  const Eigen::VectorXd s = eig.eigenvalues();
+  const Eigen::VectorXd& s = eig.eigenvalues();
   const Eigen::MatrixXd& V = eig.eigenvectors();
   const double smax = s.cwiseAbs().maxCoeff();
   if (!(smax > 0.0)) return half;

@@ -97,7 +97,7 @@ Eigen::VectorXd EquationErrorStart(ShoulderModel model, double tm_ant, double tm
   const int nfree = known_c >= 0.0 ? np - 1 : np;
   Eigen::VectorXd p = Eigen::VectorXd::Zero(np);
   if (known_c >= 0.0) p(np - 1) = known_c;
-  if (rows.size() < static_cast<std::size_t>(2 * np)) return p;
+  if (rows.size() < 2 * static_cast<std::size_t>(np)) return p;
   Eigen::MatrixXd A(rows.size(), nfree);
   Eigen::VectorXd y(rows.size());
   for (std::size_t i = 0; i < rows.size(); ++i) {
@@ -413,6 +413,7 @@ MethodResult RunShoulderModelMethod(ShoulderModel model, const std::vector<Trial
                                     const std::vector<Trial>& test, const ProgressFn& progress) {
   if (train.empty()) throw std::runtime_error("shoulder model: no training trials");
   std::vector<ShoulderData> data;
+  data.reserve(train.size());
   for (const auto& t : train) data.push_back(ExtractShoulderData(t));
   double tm_ant, tm_post;
   ThetaMaxFromMetadata(train[0], &tm_ant, &tm_post);

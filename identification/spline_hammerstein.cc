@@ -82,7 +82,7 @@ LinearLsResult ArxNonlinearStep(const SisoData& data, const Eigen::VectorXd& kno
     const Eigen::MatrixXd phi = LaggedSum(BasisMatrix(knots, data.u_us[t]), lin.b, o.delay_d);
     Eigen::VectorXd Yn = y.tail(N);
     for (int i = 1; i <= o.poles_l; ++i) Yn += lin.a(i - 1) * y.segment(k0 - i, N);
-    phis.push_back(phi.bottomRows(N));
+    phis.emplace_back(phi.bottomRows(N));
     ys.push_back(Yn);
     rows += N;
   }
@@ -425,8 +425,8 @@ Prepared Prepare(const std::vector<Trial>& trials, const SisoColumns& cols, cons
     const Eigen::MatrixXd uy = RequireColumns(trials[t], {cols.input, cols.output}, label);
     const double base = InitialBaseline(uy.col(0), uy.col(1));
     p.baselines.push_back(base);
-    p.data.u_us.push_back(uy.col(0));
-    p.data.y.push_back(uy.col(1).array() - base);
+    p.data.u_us.emplace_back(uy.col(0));
+    p.data.y.emplace_back(uy.col(1).array() - base);
   }
   return p;
 }

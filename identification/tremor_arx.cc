@@ -117,6 +117,7 @@ LinearLsResult NonlinearStep(const Problem& P, const Eigen::VectorXd& a, const E
     }
   }
   std::vector<double> pts;
+  pts.reserve(static_cast<std::size_t>(P.constraint_points));
   for (int g = 0; g < P.constraint_points; ++g) {
     pts.push_back(P.s_min + (P.s_max - P.s_min) * g / std::max(1, P.constraint_points - 1));
   }
@@ -286,7 +287,7 @@ Problem MakeProblem(const TremorData& data, const TremorOptions& opt, double u_s
   P.s_min = INFINITY;
   P.s_max = -INFINITY;
   for (const auto& u : data.u_us) {
-    P.s.push_back(u / u_scale);
+    P.s.emplace_back(u / u_scale);
     P.s_min = std::min(P.s_min, P.s.back().minCoeff());
     P.s_max = std::max(P.s_max, P.s.back().maxCoeff());
   }
@@ -438,7 +439,7 @@ std::vector<TremorSweepEntry> SweepTremorOrders(const TremorData& data, const Tr
                                                 const std::vector<int>& delays, double u_scale_us,
                                                 const ProgressFn& progress) {
   std::vector<TremorSweepEntry> out;
-  const double total = static_cast<double>(poles.size() * zeros.size() * delays.size());
+  const auto total = static_cast<double>(poles.size() * zeros.size() * delays.size());
   const std::size_t T = data.y.size();
   for (int l : poles) {
     for (int n : zeros) {
@@ -538,7 +539,7 @@ MethodResult RunTremor(const std::vector<Trial>& train, const std::vector<Trial>
       Eigen::VectorXd u(x.rows());
       for (Eigen::Index k = 0; k < x.rows(); ++k) u(k) = CoactivationCombine(c, x(k, 0), x(k, 1));
       d.u_us.push_back(u);
-      d.y.push_back(x.col(2));
+      d.y.emplace_back(x.col(2));
     }
     return d;
   };

@@ -33,10 +33,11 @@ struct FibreKinematics {
   bool clamped = false;        ///< true when l_MT − l_ts was below its minimum (see below).
 };
 
-/// Hill curves, dimensionless.
-double ActiveForceLength(double norm_fibre_length);
-double PassiveForceLength(double norm_fibre_length);
-double ForceVelocity(double norm_fibre_velocity);
+/// Hill curves, dimensionless, of the normalised fibre length l = l_f / l_opt and the normalised
+/// fibre velocity v = v_f / v_max.
+double ActiveForceLength(double l);
+double PassiveForceLength(double l);
+double ForceVelocity(double v);
 
 /// Fibre length, velocity and pennation from musculotendon length l_mt_m (m) and its rate
 /// v_mt_m_s (m/s). The along-tendon fibre projection l_MT − l_ts is kept ≥ 0.05 l_opt (flagged

@@ -116,8 +116,8 @@ constexpr Glyph kFont[] = {
 };
 
 const Glyph& FindGlyph(char32_t code) {
-  const auto it = std::lower_bound(std::begin(kFont), std::end(kFont), code,
-                                   [](const Glyph& g, char32_t c) { return g.code < c; });
+  const auto* const it = std::lower_bound(std::begin(kFont), std::end(kFont), code,
+                                          [](const Glyph& g, char32_t c) { return g.code < c; });
   if (it != std::end(kFont) && it->code == code) return *it;
   return FindGlyph(U'?');
 }
@@ -249,7 +249,7 @@ void DrawOverlay(Image* image, const Overlay& overlay, double time_s) {
   std::vector<std::string> head;
   if (!overlay.title.empty()) head.push_back(overlay.title);
   head.push_back(std::isfinite(time_s) ? Format("t = %.3f s", time_s) : "t = ? s");
-  if (!overlay.channels.empty()) head.push_back("stimulation (µs)");
+  if (!overlay.channels.empty()) head.emplace_back("stimulation (µs)");
   std::size_t label_chars = 0;
   for (const ChannelBar& c : overlay.channels) label_chars = std::max(label_chars, c.label.size());
   const int label_w = static_cast<int>(label_chars) * kGlyphAdvance * scale;

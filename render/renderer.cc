@@ -138,7 +138,9 @@ struct OffscreenRenderer::Impl {
                    capsule_indices.data());
   }
 
-  void SetUpCamera(const CameraPose& pose) {
+  // Not const although it touches no member: it changes the state of the GL context this object
+  // owns.
+  void SetUpCamera(const CameraPose& pose) {  // NOLINT(readability-make-member-function-const)
     const double aspect = static_cast<double>(width) / height;
     const double distance = Norm(Sub(pose.target, pose.eye));
     const double z_near = std::max(0.01, 0.02 * distance);
@@ -428,8 +430,8 @@ ImagePoint ProjectToImage(const CameraPose& pose, int width_px, int height_px, c
 OffscreenRenderer::OffscreenRenderer(int width_px, int height_px)
     : impl_(std::make_unique<Impl>(width_px, height_px)) {}
 OffscreenRenderer::~OffscreenRenderer() = default;
-OffscreenRenderer::OffscreenRenderer(OffscreenRenderer&&) noexcept = default;
-OffscreenRenderer& OffscreenRenderer::operator=(OffscreenRenderer&&) noexcept = default;
+OffscreenRenderer::OffscreenRenderer(OffscreenRenderer&& other) noexcept = default;
+OffscreenRenderer& OffscreenRenderer::operator=(OffscreenRenderer&& other) noexcept = default;
 
 int OffscreenRenderer::width() const { return impl_->width; }
 int OffscreenRenderer::height() const { return impl_->height; }

@@ -40,8 +40,8 @@ class OffscreenRenderer {
   OffscreenRenderer(int width_px, int height_px);
   ~OffscreenRenderer();
   /// Movable; a moved-from renderer may only be destroyed or assigned to.
-  OffscreenRenderer(OffscreenRenderer&&) noexcept;
-  OffscreenRenderer& operator=(OffscreenRenderer&&) noexcept;
+  OffscreenRenderer(OffscreenRenderer&& other) noexcept;
+  OffscreenRenderer& operator=(OffscreenRenderer&& other) noexcept;
   OffscreenRenderer(const OffscreenRenderer&) = delete;
   OffscreenRenderer& operator=(const OffscreenRenderer&) = delete;
 

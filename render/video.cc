@@ -1,7 +1,7 @@
 #include "render/video.h"
 
 #include <fcntl.h>
-#include <signal.h>
+#include <signal.h>  // NOLINT(modernize-deprecated-headers): POSIX kill(), not in <csignal>
 #include <spawn.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -20,7 +20,8 @@
 #include "render/renderer.h"
 #include "scenarios/trial.h"
 
-extern char** environ;
+// POSIX: the application declares environ (glibc declares it only under _GNU_SOURCE).
+extern char** environ;  // NOLINT(readability-redundant-declaration): see above
 
 namespace fesim::render {
 namespace {
@@ -276,6 +277,7 @@ Mp4Writer::Mp4Writer(const std::string& path, int width, int height, double fps,
   }
   args.insert(args.end(), {"-pix_fmt", "yuv420p", "-f", "mp4", tmp_path_});
   std::vector<char*> argv;
+  argv.reserve(args.size() + 1);
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
 
@@ -334,7 +336,7 @@ void Mp4Writer::Abort() noexcept {
   }
 }
 
-std::string Mp4Writer::FfmpegError() {
+std::string Mp4Writer::FfmpegError() const {
   if (log_fd_ < 0) return "";
   std::string text;
   char buffer[4096];

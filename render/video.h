@@ -89,7 +89,7 @@ class Mp4Writer {
 
  private:
   void Abort() noexcept;
-  std::string FfmpegError();  ///< last lines of ffmpeg's stderr, one line.
+  std::string FfmpegError() const;  ///< last lines of ffmpeg's stderr, one line.
 
   std::string path_;
   std::string tmp_path_;

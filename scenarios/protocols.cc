@@ -461,7 +461,7 @@ StimulationProgram FilteredRandomNoise(const FilteredRandomNoiseParams& params) 
   CheckRange("FilteredRandomNoiseParams.warm_up_s", params.warm_up_s, 0.0, kMaxDurationS);
   const double dt = 1.0 / rate;
   const std::size_t K = CountStarts(ActiveWindow(params.timing), dt);
-  const std::size_t W = static_cast<std::size_t>(std::lround(params.warm_up_s * rate));
+  const auto W = static_cast<std::size_t>(std::lround(params.warm_up_s * rate));
   std::mt19937_64 rng(params.seed);
   std::vector<double> noise(W + K);
   for (double& x : noise) x = StandardNormal(rng);
@@ -483,7 +483,7 @@ StimulationProgram FilteredRandomNoise(const FilteredRandomNoiseParams& params) 
 std::vector<int> PrmsSymbols(const PrmsParams& params, std::size_t length) {
   CheckPrms(params);
   const int q = params.num_levels;
-  const std::size_t n = static_cast<std::size_t>(params.register_length);
+  const auto n = static_cast<std::size_t>(params.register_length);
   long long period = 1;
   for (std::size_t i = 0; i < n; ++i) period *= q;
   period -= 1;

@@ -160,7 +160,7 @@ void LoadElectrodes(const Node& n, sim::ModelParams* m) {
         for (const auto& name : mw.MapKeys()) {
           if (MuscleIndex(*m, name) < 0)
             mw.FailKey(name, "unknown muscle (allowed: " + MuscleList(*m) + ")");
-          p.muscle_weights.push_back({name, mw.Number(name, 0, 10)});
+          p.muscle_weights.emplace_back(name, mw.Number(name, 0, 10));
         }
       }
       if (p.pads.empty() && p.muscle_weights.empty()) c.Fail("a channel needs pads or muscles");
@@ -453,7 +453,7 @@ void LoadStimulation(const Node& n, const std::string& path, const sim::ModelPar
     if (sched.times.empty()) n.FailKey("steps", "needs at least one step");
   } else {
     const std::string file = n.Text("file");
-    const std::string full = file.size() && file[0] == '/' ? file : Directory(path) + file;
+    const std::string full = !file.empty() && file[0] == '/' ? file : Directory(path) + file;
     Trial input;
     try {
       input = ReadTrialCsv(full);

@@ -37,8 +37,9 @@ auto WithYamlErrorsNamed(const std::string& path, Parse&& parse) -> decltype(par
 /// A YAML mapping with its key path, which checks types, ranges and unknown keys.
 class YamlNode {
  public:
-  YamlNode(YAML::Node node, std::string path, const std::string* file)
-      : node_(std::move(node)), path_(std::move(path)), file_(file) {}
+  // YAML::Node has no move constructor (a copy shares the underlying node), hence const&.
+  YamlNode(const YAML::Node& node, std::string path, const std::string* file)
+      : node_(node), path_(std::move(path)), file_(file) {}
 
   [[noreturn]] void Fail(const std::string& what) const {
     throw std::runtime_error(*file_ + ": " + (path_.empty() ? "" : path_ + ": ") + what);
@@ -52,7 +53,7 @@ class YamlNode {
   void Keys(const std::set<std::string>& allowed) const {
     if (!node_.IsMap()) Fail("expected a mapping");
     for (const auto& kv : node_) {
-      const std::string k = kv.first.as<std::string>();
+      const auto k = kv.first.as<std::string>();
       if (!allowed.count(k)) {
         std::string list;
         for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
@@ -63,10 +64,10 @@ class YamlNode {
   bool Has(const std::string& key) const { return node_.IsMap() && node_[key]; }
   YamlNode Child(const std::string& key) const {
     if (!Has(key)) FailKey(key, "missing required key");
-    return YamlNode(node_[key], Join(key), file_);
+    return {node_[key], Join(key), file_};
   }
   YamlNode Item(std::size_t i) const {
-    return YamlNode(node_[i], path_ + "[" + std::to_string(i) + "]", file_);
+    return {node_[i], path_ + "[" + std::to_string(i) + "]", file_};
   }
   std::size_t Size() const {
     if (!node_.IsSequence()) Fail("expected a list");
@@ -104,7 +105,7 @@ class YamlNode {
     return c.node_.as<std::string>();
   }
   std::string Choice(const std::string& key, const std::set<std::string>& allowed) const {
-    const std::string v = Text(key);
+    std::string v = Text(key);
     if (!allowed.count(v)) {
       std::string list;
       for (const auto& a : allowed) list += (list.empty() ? "" : "|") + a;

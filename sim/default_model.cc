@@ -205,7 +205,7 @@ std::vector<JointRow> JointTable() {
 const std::vector<std::string>& DefaultMuscleNames() {
   static const std::vector<std::string> names = [] {
     std::vector<std::string> n;
-    for (const auto& row : MuscleTable()) n.push_back(row.name);
+    for (const auto& row : MuscleTable()) n.emplace_back(row.name);
     return n;
   }();
   return names;

@@ -18,6 +18,8 @@ namespace fesim::sim {
 
 std::vector<double> StimulationSchedule::At(double t, int channels) const {
   const auto it = std::upper_bound(times.begin(), times.end(), t);
+  // Not `return {channels, 0.0};`: braces pick the initializer_list constructor (2 elements).
+  // NOLINTNEXTLINE(modernize-return-braced-init-list): see above.
   if (it == times.begin()) return std::vector<double>(channels, 0.0);
   return values[static_cast<std::size_t>(it - times.begin()) - 1];
 }
@@ -37,6 +39,10 @@ std::vector<double> Breakpoints(const StimulationSchedule& schedule, double t0) 
   }
   return b;
 }
+
+/// Ends every integration failure message, whichever the integrator.
+constexpr const char* kFailureHint =
+    ". Hint: check stimulation, stiffness and range limits, or tighten integrator.tolerance";
 
 /// A multi-line library message joined on one line.
 std::string OneLine(std::string s) {
@@ -205,9 +211,7 @@ class Cvodes {
       LoadState(ctx_, t_reached, N_VGetArrayPointer(y_));
       throw std::runtime_error("integration failed at t = " + std::to_string(t_reached) +
                                " s (CVODES " + CVodeGetReturnFlagName(flag) + "); " +
-                               DescribeState(*ctx_->model, *ctx_->state) +
-                               ". Hint: check stimulation, stiffness and range limits, or "
-                               "tighten integrator.tolerance");
+                               DescribeState(*ctx_->model, *ctx_->state) + kFailureHint);
     }
     // Only Stage::Time here: Drive realises the stage its observer asked for right after, so an
     // observer that reads q alone (the full-model fit) does not pay for kinematics at every
@@ -240,10 +244,9 @@ class Cvodes {
 };
 
 bool HasPrescribed(const ModelParams& p) {
-  for (const auto& c : p.coordinates) {
-    if (c.mode == CoordinateMode::kPrescribed) return true;
-  }
-  return false;
+  return std::any_of(p.coordinates.begin(), p.coordinates.end(), [](const CoordinateParams& c) {
+    return c.mode == CoordinateMode::kPrescribed;
+  });
 }
 
 /// Walks the report times: advance(t, stop) integrates to t without passing the next
@@ -302,18 +305,22 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
   }
   // Simbody's Runge–Kutta–Merson, restarted at each breakpoint like CVODES.
   std::unique_ptr<SimTK::RungeKuttaMersonIntegrator> integ;
+  // Simbody's exception text (multi-line, no coordinate) becomes one line with the time, the
+  // coordinate furthest out of range at the last accepted step and the hint of the CVODES path.
+  const auto failure = [&](const std::exception& e, const SimTK::State& at) {
+    if (&at != state) *state = at;
+    return std::runtime_error("integration failed at t = " + std::to_string(at.getTime()) +
+                              " s (Simbody RKM: " + OneLine(e.what()) + "); " +
+                              DescribeState(model, *state) + kFailureHint +
+                              " (or integrator.method cvodes for a stiff rig)");
+  };
   Drive(
       model, schedule, report_times, state, observer, observe_stage,
       [&](double t, double stop) {
         try {
           while (integ->getTime() < t) integ->stepTo(t, stop);
         } catch (const std::exception& e) {
-          *state = integ->getState();
-          throw std::runtime_error("integration failed at t = " + std::to_string(integ->getTime()) +
-                                   " s (Simbody RKM: " + OneLine(e.what()) + "); " +
-                                   DescribeState(model, *state) +
-                                   ". Hint: use integrator.method cvodes for stiff rigs, or "
-                                   "tighten integrator.tolerance");
+          throw failure(e, integ->getState());
         }
         *state = integ->getState();
         if (std::abs(state->getTime() - t) > 1e-9) {
@@ -328,7 +335,11 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
         integ = std::make_unique<SimTK::RungeKuttaMersonIntegrator>(model.system());
         integ->setAccuracy(params.tolerance);
         integ->setReturnEveryInternalStep(false);
-        integ->initialize(*state);
+        try {
+          integ->initialize(*state);
+        } catch (const std::exception& e) {
+          throw failure(e, *state);
+        }
       },
       &stats);
   if (integ) stats.steps += integ->getNumStepsTaken();

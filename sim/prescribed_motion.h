@@ -53,16 +53,18 @@ class QuinticHermiteSpline {
 class TableMotion : public SimTK::Motion::Custom::Implementation {
  public:
   explicit TableMotion(const TablePrescription& table) : spline_(table) {}
-  SimTK::Motion::Level getLevel(const SimTK::State&) const override {
+  SimTK::Motion::Level getLevel(const SimTK::State& /*s*/) const override {
     return SimTK::Motion::Position;
   }
-  void calcPrescribedPosition(const SimTK::State& s, int, SimTK::Real* q) const override {
+  void calcPrescribedPosition(const SimTK::State& s, int /*nq*/, SimTK::Real* q) const override {
     *q = spline_.Evaluate(s.getTime()).q;
   }
-  void calcPrescribedPositionDot(const SimTK::State& s, int, SimTK::Real* qd) const override {
+  void calcPrescribedPositionDot(const SimTK::State& s, int /*nq*/,
+                                 SimTK::Real* qd) const override {
     *qd = spline_.Evaluate(s.getTime()).qd;
   }
-  void calcPrescribedPositionDotDot(const SimTK::State& s, int, SimTK::Real* qdd) const override {
+  void calcPrescribedPositionDotDot(const SimTK::State& s, int /*nq*/,
+                                    SimTK::Real* qdd) const override {
     *qdd = spline_.Evaluate(s.getTime()).qdd;
   }
 

@@ -31,11 +31,11 @@ namespace {
 
 constexpr double kMaxPulseWidthUs = 300.0;
 
-Vec3 ToVec3(const std::array<double, 3>& a) { return Vec3(a[0], a[1], a[2]); }
+Vec3 ToVec3(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
 
 /// Frame at `p` whose Z axis is `axis` (a Pin rotates about its frames' common Z).
 SimTK::Transform PinFrame(const Vec3& axis, const Vec3& p) {
-  return SimTK::Transform(SimTK::Rotation(SimTK::UnitVec3(axis), SimTK::ZAxis), p);
+  return {SimTK::Rotation(SimTK::UnitVec3(axis), SimTK::ZAxis), p};
 }
 
 SimTK::Body::Rigid RigidBody(const SegmentParams& s) {
@@ -67,7 +67,8 @@ class PassiveJointForce : public SimTK::Force::Custom::Implementation {
                     std::shared_ptr<const ModelParams> params)
       : slots_(std::move(slots)), params_(std::move(params)) {}
 
-  void calcForce(const State& s, SimTK::Vector_<SimTK::SpatialVec>&, SimTK::Vector_<Vec3>&,
+  void calcForce(const State& s, SimTK::Vector_<SimTK::SpatialVec>& /*body_forces*/,
+                 SimTK::Vector_<Vec3>& /*particle_forces*/,
                  Vector& mobility_forces) const override {
     const Vector& q = s.getQ();
     const Vector& u = s.getU();
@@ -106,7 +107,8 @@ class ArmSupportForce : public SimTK::Force::Custom::Implementation {
   }
 
   void calcForce(const State& s, SimTK::Vector_<SimTK::SpatialVec>& body_forces,
-                 SimTK::Vector_<Vec3>&, Vector&) const override {
+                 SimTK::Vector_<Vec3>& /*particle_forces*/,
+                 Vector& /*mobility_forces*/) const override {
     for (const auto& band : params_->bands) {
       const auto& mobod = matter_.getMobilizedBody(segments_[band.segment]);
       const Vec3 p_B = ToVec3(band.cuff_in_segment_m);
@@ -145,14 +147,16 @@ class ArmSupportForce : public SimTK::Force::Custom::Implementation {
 class SineMotion : public SimTK::Motion::Custom::Implementation {
  public:
   explicit SineMotion(const SinePrescription& p) : p_(p) {}
-  SimTK::Motion::Level getLevel(const State&) const override { return SimTK::Motion::Position; }
-  void calcPrescribedPosition(const State& s, int, Real* q) const override {
+  SimTK::Motion::Level getLevel(const State& /*s*/) const override {
+    return SimTK::Motion::Position;
+  }
+  void calcPrescribedPosition(const State& s, int /*nq*/, Real* q) const override {
     *q = p_.offset_rad + p_.amplitude_rad * std::sin(w() * s.getTime() + p_.phase_rad);
   }
-  void calcPrescribedPositionDot(const State& s, int, Real* qd) const override {
+  void calcPrescribedPositionDot(const State& s, int /*nq*/, Real* qd) const override {
     *qd = p_.amplitude_rad * w() * std::cos(w() * s.getTime() + p_.phase_rad);
   }
-  void calcPrescribedPositionDotDot(const State& s, int, Real* qdd) const override {
+  void calcPrescribedPositionDotDot(const State& s, int /*nq*/, Real* qdd) const override {
     *qdd = -p_.amplitude_rad * w() * w() * std::sin(w() * s.getTime() + p_.phase_rad);
   }
 
@@ -230,14 +234,15 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
     }
   }
 
-  void calcForce(const State& s, SimTK::Vector_<SimTK::SpatialVec>&, SimTK::Vector_<Vec3>&,
+  void calcForce(const State& s, SimTK::Vector_<SimTK::SpatialVec>& /*body_forces*/,
+                 SimTK::Vector_<Vec3>& /*particle_forces*/,
                  Vector& mobility_forces) const override {
     const MuscleSnapshot snap = Compute(s);
     for (int i = 0; i < kNumCoordinates; ++i) {
       mobility_forces[slots_->u[i]] += snap.joint_torque_nm[i];
     }
   }
-  Real calcPotentialEnergy(const State&) const override { return 0.0; }
+  Real calcPotentialEnergy(const State& /*s*/) const override { return 0.0; }
 
   MuscleSnapshot Compute(const State& s) const {
     const std::vector<double> q = QsOf(*slots_, s);
@@ -351,8 +356,12 @@ UpperLimbModel::UpperLimbModel(ModelParams params)
     }
   }
 
+  // Simbody handle idiom: constructing a Force handle adopts the force into *forces_, which owns
+  // it from then on; the temporary handle is meant to go (as in Simbody's own examples).
+  // NOLINTNEXTLINE(bugprone-unused-raii): Simbody handle idiom, see above.
   SimTK::Force::UniformGravity(*forces_, *matter_, ToVec3(p.gravity_m_s2));
   auto slots = std::make_shared<CoordinateSlots>();
+  // NOLINTNEXTLINE(bugprone-unused-raii): Simbody handle idiom, see above.
   SimTK::Force::Custom(*forces_, new PassiveJointForce(slots, params_));
   if (!p.bands.empty() || !p.weight_compensation.empty()) {
     SimTK::Force::Custom(*forces_, new ArmSupportForce(*matter_, segment_bodies_, params_));
@@ -403,8 +412,12 @@ std::vector<double> UpperLimbModel::GetStimulation(const State& state) const {
   return out;
 }
 
-double UpperLimbModel::GetQ(const State& s, int i) const { return CoordinateBody(i).getOneQ(s, 0); }
-double UpperLimbModel::GetU(const State& s, int i) const { return CoordinateBody(i).getOneU(s, 0); }
+double UpperLimbModel::GetQ(const State& state, int coordinate) const {
+  return CoordinateBody(coordinate).getOneQ(state, 0);
+}
+double UpperLimbModel::GetU(const State& state, int coordinate) const {
+  return CoordinateBody(coordinate).getOneU(state, 0);
+}
 std::vector<double> UpperLimbModel::GetQs(const State& s) const { return QsOf(*slots_, s); }
 std::vector<double> UpperLimbModel::GetUs(const State& s) const { return UsOf(*slots_, s); }
 
@@ -462,12 +475,12 @@ std::vector<double> UpperLimbModel::SensorTorques(const State& s) const {
   return tau;
 }
 
-const SimTK::MobilizedBody& UpperLimbModel::CoordinateBody(int i) const {
-  return matter_->getMobilizedBody(coordinate_bodies_.at(i));
+const SimTK::MobilizedBody& UpperLimbModel::CoordinateBody(int coordinate) const {
+  return matter_->getMobilizedBody(coordinate_bodies_.at(coordinate));
 }
 
-const SimTK::MobilizedBody& UpperLimbModel::SegmentBody(int i) const {
-  return matter_->getMobilizedBody(segment_bodies_.at(i));
+const SimTK::MobilizedBody& UpperLimbModel::SegmentBody(int segment) const {
+  return matter_->getMobilizedBody(segment_bodies_.at(segment));
 }
 
 double UpperLimbModel::MechanicalEnergy(const State& s) const { return system_->calcEnergy(s); }

@@ -1,6 +1,6 @@
 #include "identification/fullmodel/full_model_fit.h"
 
-#include <time.h>
+#include <time.h>  // NOLINT(modernize-deprecated-headers): POSIX clock_gettime(), not in <ctime>
 
 #include <algorithm>
 #include <atomic>
@@ -297,7 +297,7 @@ Eigen::MatrixXd ParallelJacobian(const sim::ModelParams& base,
   std::vector<char> ok(sims.size(), 1);
   std::mutex progress_mutex;
   int done = 0;
-  ParallelFor(p * nt, threads, [&](int task) {
+  ParallelFor(sims.size(), threads, [&](int task) {
     const int c = task / nt, t = task % nt;
     try {
       sims[task] = SimulatePlan(models[c], data.plans[t], tolerance);

@@ -258,10 +258,10 @@ TEST(ArmSceneSupportTest, BandsGoFromCuffToAnchorAndGhostAddsTranslucentSegments
   EXPECT_NE(scene.capsules[7 + sim::kHand].p1.x, scene.capsules[sim::kHand].p1.x);
 }
 
-Trial MakeTrial(std::vector<std::string> names) {
+Trial MakeTrial(const std::vector<std::string>& names) {
   Trial t;
   t.time = {0.0, 1.0};
-  for (auto& n : names) t.AddColumn(n, {0.1, 0.2});
+  for (const auto& n : names) t.AddColumn(n, {0.1, 0.2});
   return t;
 }
 

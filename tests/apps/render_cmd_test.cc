@@ -85,7 +85,7 @@ class RenderCmdTest : public ::testing::Test {
     t.AddColumn("u.ext", u);
     t.AddColumn("u.flex", std::vector<double>(n, 50.0));
     t.AddColumn("a.BIC", a);
-    const std::string path = (root_ / "in" / name).string();
+    std::string path = (root_ / "in" / name).string();
     WriteFileAtomic(path, FormatTrialCsv(t));
     return path;
   }

@@ -34,7 +34,7 @@ bool Exists(const std::string& p) {
 }
 
 std::string Scenario(const std::string& name, const std::string& body) {
-  const std::string path = ::testing::TempDir() + name + ".yaml";
+  std::string path = ::testing::TempDir() + name + ".yaml";
   WriteFileAtomic(path, "name: " + name + "\n" + body);
   return path;
 }

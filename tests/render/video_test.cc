@@ -1,7 +1,7 @@
 #include "render/video.h"
 
 #include <gtest/gtest.h>
-#include <stdlib.h>
+#include <stdlib.h>  // NOLINT(modernize-deprecated-headers): POSIX mkdtemp(), not in <cstdlib>
 #include <unistd.h>
 #include <zlib.h>
 

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
+#include <string>
 
 #include "muscles/activation.h"
 #include "sim/default_model.h"
@@ -112,6 +114,63 @@ TEST(Integrator, LockedCoordinatesLeftOutOfCvodesStillAgreeWithSimbody) {
   EXPECT_GT(moved, 0.1);
   EXPECT_LT(worst, kAgreementTol);
   std::printf("hand rig, CVODES (free q, u only) vs Simbody RKM: max |dq| = %.3g rad\n", worst);
+}
+
+/// Default model whose elbow stretch reflex has a NaN gain: its torque is exactly 0 while
+/// |q̇_elbow| ≤ threshold and NaN as soon as the elbow moves faster (mechanisms.cc, ReflexTorque).
+ModelParams ElbowReflexFault(double gain, double threshold_rad_s) {
+  ModelParams p = DefaultModelParams();
+  p.coordinates[kElbowFlexion].passive.reflex_gain_nms_per_rad = gain;
+  p.coordinates[kElbowFlexion].passive.reflex_threshold_rad_s = threshold_rad_s;
+  return p;
+}
+
+TEST(Integrator, SimbodyFailureNamesTimeCoordinateAndHint) {
+  // Planted fault: unstimulated, the flexed elbow (1.41 rad) extends under gravity and its speed
+  // crosses the reflex threshold at t_c (found on the healthy model, reflex off; ≈ 0.08 s). With a
+  // NaN reflex gain the RKM integration must fail there, and its message must say when, where
+  // and what to check.
+  constexpr double kThreshold = 2.0;  // rad/s
+  const StimulationSchedule stim;
+  const auto times = Times(0.5, 0.001);
+  const IntegratorParams rk{IntegratorParams::Method::kSimbodyRkMerson, 1e-6};
+
+  const UpperLimbModel healthy(ElbowReflexFault(0.0, kThreshold));
+  double t_cross = -1.0;
+  SimTK::State s0 = healthy.MakeInitialState();
+  IntegrateTrial(healthy, rk, stim, times, &s0, [&](const SimTK::State& s) {
+    if (t_cross < 0.0 && std::abs(healthy.GetUs(s)[kElbowFlexion]) > kThreshold) {
+      t_cross = s.getTime();
+    }
+  });
+  ASSERT_GT(t_cross, 0.02) << "the elbow must reach the threshold speed after a while";
+
+  const UpperLimbModel faulty(ElbowReflexFault(std::nan(""), kThreshold));
+  SimTK::State s1 = faulty.MakeInitialState();
+  std::string message;
+  try {
+    IntegrateTrial(faulty, rk, stim, times, &s1, [](const SimTK::State&) {});
+  } catch (const std::runtime_error& e) {
+    message = e.what();
+  }
+  std::printf("t_cross = %.4f s; message: %s\n", t_cross, message.c_str());
+  ASSERT_FALSE(message.empty()) << "a NaN torque must stop the integration";
+  EXPECT_EQ(message.find('\n'), std::string::npos) << "one line";
+  const std::string prefix = "integration failed at t = ";
+  ASSERT_EQ(message.rfind(prefix, 0), 0u) << message;
+  const double t_fail = std::stod(message.substr(prefix.size()));
+  // The crossing lies in (t_cross − 1 ms, t_cross]; the last accepted RKM step ends before it,
+  // at most one step earlier (steps of a few ms at this tolerance).
+  EXPECT_GT(t_fail, t_cross - 0.01);
+  EXPECT_LT(t_fail, t_cross + 0.001);
+  EXPECT_NE(message.find("Simbody RKM"), std::string::npos) << message;
+  bool names_coordinate = false;
+  for (const auto& name : CoordinateNames()) {
+    if (message.find("coordinate " + name + " at ") != std::string::npos) names_coordinate = true;
+  }
+  EXPECT_TRUE(names_coordinate) << message;
+  EXPECT_NE(message.find("Hint: check stimulation, stiffness and range limits"), std::string::npos)
+      << message;
 }
 
 TEST(Integrator, ScheduleHoldsValues) {

@@ -234,7 +234,7 @@ TEST(TrialRunner, SensorDriftDropoutsAndOutliers) {
       outliers += std::abs(m[i] - truth[i]) > 0.05;
     }
   }
-  const double n = static_cast<double>(m.size());
+  const auto n = static_cast<double>(m.size());
   EXPECT_NEAR(lost / n, 0.2, 0.03);
   EXPECT_NEAR(static_cast<double>(lost) / bursts, 5.0, 1.0);
   // P(outlier) · P(|N(0, 0.5²)| > 0.05) = 0.05 · 0.920

@@ -342,8 +342,8 @@ TEST(FullModelFitTest, MethodEntryRejectsUnusableData) {
     return std::string("no error");
   };
   Trial no_output = good;
-  for (std::size_t k = 0; k < no_output.names.size(); ++k) {
-    if (no_output.names[k].rfind("q.", 0) == 0) no_output.names[k] = "x" + no_output.names[k];
+  for (auto& name : no_output.names) {
+    if (name.rfind("q.", 0) == 0) name = "x" + name;
   }
   EXPECT_NE(message(no_output).find("no q.* output column"), std::string::npos);
   Trial short_trial = good;
