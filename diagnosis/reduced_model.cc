@@ -39,8 +39,9 @@ bool PadCentroid(const sim::ModelParams& m, const sim::ChannelParams& ch, double
   if (ch.pads.empty() || m.array.cols <= 0) return false;
   double sx = 0.0, sy = 0.0;
   for (int p : ch.pads) {
-    sx += (p % m.array.cols) * m.array.pitch_m;
-    sy += static_cast<double>(p / m.array.cols) * m.array.pitch_m;
+    const int row = p / m.array.cols, col = p % m.array.cols;  // pad index = row · cols + col
+    sx += col * m.array.pitch_m;
+    sy += row * m.array.pitch_m;
   }
   *x = sx / static_cast<double>(ch.pads.size());
   *y = sy / static_cast<double>(ch.pads.size());
@@ -92,6 +93,7 @@ Trial ApplyInputMechanisms(const sim::ModelParams& m, const Trial& trial,
     }
     const double s2 = 2.0 * mech.crosstalk.spread_m * mech.crosstalk.spread_m;
     std::vector<std::vector<double>> before;
+    before.reserve(inputs.size());
     for (const auto& c : inputs) before.push_back(out.Column(c));
     for (std::size_t a = 0; a < inputs.size(); ++a) {
       if (!placed[a]) continue;
