@@ -251,10 +251,10 @@ int main(int argc, char** argv) {
 
   // Confusion matrix of single-mechanism and clean cases: planted → named cause.
   std::vector<std::string> rows = mechanisms;
-  rows.push_back("none");
+  rows.emplace_back("none");
   std::vector<std::string> cols = rows;
-  cols.push_back("unexplained");
-  cols.push_back("other");
+  cols.emplace_back("unexplained");
+  cols.emplace_back("other");
   std::map<std::string, std::map<std::string, int>> confusion;
   std::map<std::string, int> totals, correct, gain_ok;
   std::map<std::string, std::vector<double>> perr;

@@ -114,7 +114,7 @@ std::vector<Trial> TrialsFromJson(const Json& all, const std::string& what) {
 std::string ExactNumberText(double v) {
   char buf[64];
   const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return std::string(buf, r.ptr);
+  return {buf, r.ptr};
 }
 
 }  // namespace fesim
