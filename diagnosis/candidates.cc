@@ -134,7 +134,10 @@ double JointTorqueScale(const sim::ModelParams& rig, int coordinate) {
 std::vector<ModelParameter> SubjectParameters(const sim::ModelParams& rig,
                                               const LibraryContext& ctx) {
   std::vector<ModelParameter> out;
-  for (const auto& o : ctx.reduced_model.empty() ? ctx.outputs : std::vector<std::string>{}) {
+  // A reduced model has no joints or muscles: only the input scales at the end apply.
+  const std::vector<std::string> none;
+  const std::vector<std::string>& joint_outputs = ctx.reduced_model.empty() ? ctx.outputs : none;
+  for (const auto& o : joint_outputs) {
     const int c = sim::CoordinateIndex(o.substr(2));
     const double k = rig.coordinates[c].passive.stiffness_nm_per_rad;
     if (!(k > 0.0)) continue;

@@ -1,6 +1,8 @@
 // `fesim diagnose` (PRODUCT.md "Diagnosis", issue 7): what the calibrated full model (12) of
 // papers/000_0a6c0de9fc69df7c.txt gets wrong on measured trials, which mechanism explains it, and
-// what extending the model with it gains on held-out data.
+// what extending the model with it gains on held-out data. With DiagnoseOptions::model set to a
+// reduced model (`--model NAME`), that model is identified on the training part first and takes
+// the full model's place below (reduced_model.h: which mechanisms can extend it, and how).
 //
 // 1. Split. Several trials: the last one is held out whole, the others train. One trial: blocked
 //    segments — the first (1 − holdout_fraction) of the record trains, the rest is held out, so
