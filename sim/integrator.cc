@@ -13,6 +13,7 @@
 #include <string>
 
 #include "muscles/activation.h"
+#include "sim/upper_limb_model.h"
 
 namespace fesim::sim {
 
@@ -76,6 +77,9 @@ std::string DescribeState(const UpperLimbModel& model, const SimTK::State& s) {
          ".." + std::to_string(model.params().coordinates[worst].passive.max_angle_rad) + ")";
 }
 
+struct SensitivityData;
+void BeginSensitivityInterval(SensitivityData* d, const SimTK::State& state, double t);
+
 /// CVODES integrates y = the Simbody state Y without the muscle activation states: between
 /// breakpoints the stimulation, hence w, is constant and eq. (6) is solved in closed form
 /// (muscles::ActivationFreeResponse), exactly and at no cost to the implicit solver. The q and u
@@ -96,6 +100,7 @@ struct CvodesContext {
   std::vector<double> w;                     // recruited fraction in the current interval
   std::vector<muscles::ActivationState> a0;  // activation state at the interval start
   double t0 = 0.0;                           // interval start, s
+  SensitivityData* sens = nullptr;           // forward sensitivities, when integrated
 
   CvodesContext(const UpperLimbModel* m, SimTK::State* s, bool p)
       : model(m), state(s), prescribe(p) {
@@ -118,6 +123,7 @@ struct CvodesContext {
   }
   /// Records the activation state and input at the start of an interval.
   void BeginInterval(double t) {
+    if (sens != nullptr) BeginSensitivityInterval(sens, *state, t);
     t0 = t;
     w = model->RecruitedFractions(*state);
     const SimTK::Vector& Y = state->getY();
@@ -143,19 +149,176 @@ void LoadState(CvodesContext* c, double t, const double* y,
   c->model->system().realize(*c->state, stage);
 }
 
-int Rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user) {
-  auto* c = static_cast<CvodesContext*>(user);
+/// ẏ at (t, y) into out; 0, or 1 (recoverable: CVODES retries with a smaller step) on failure.
+int EvaluateRhs(CvodesContext* c, double t, const double* y, double* out) {
   ++c->rhs;
   try {
-    LoadState(c, t, N_VGetArrayPointer(y));
+    LoadState(c, t, y);
   } catch (const std::exception&) {
-    return 1;  // recoverable: CVODES retries with a smaller step
+    return 1;
   }
   const SimTK::Vector& yd = c->state->getYDot();
-  double* out = N_VGetArrayPointer(ydot);
   for (std::size_t i = 0; i < c->y_index.size(); ++i) {
     out[i] = yd[c->y_index[i]];
     if (!std::isfinite(out[i])) return 1;
+  }
+  return 0;
+}
+
+int Rhs(sunrealtype t, N_Vector y, N_Vector ydot, void* user) {
+  return EvaluateRhs(static_cast<CvodesContext*>(user), t, N_VGetArrayPointer(y),
+                     N_VGetArrayPointer(ydot));
+}
+
+/// Forward-sensitivity state of IntegrateTrialSensitivities (see integrator.h).
+struct SensitivityData {
+  struct Parameter {
+    const ModelParams* params;
+    muscles::ArrayMatrix array;              // BuildElectrodeMatrix(*params)
+    std::vector<tendons::MusclePath> paths;  // params->muscles[j].path
+    double step;                             // θ_k change, its unit
+  };
+  CvodesContext* ctx = nullptr;
+  std::vector<Parameter> p;
+  std::vector<tendons::MusclePath> paths;  // the model's muscle paths
+  int n = 0;                               // CVODES components
+  std::vector<int> u_component;            // [free coordinate] component of its u
+  std::vector<int> free_coordinates;       // kFree coordinates, in order
+  std::vector<int> free_u_slot;            // [free coordinate] index in the Simbody u vector
+  std::vector<int> q_component;            // [coordinate] component of its q, −1 if none
+  // ∂a/∂θ_k, ∂ȧ/∂θ_k of every muscle at the interval start and ∂w/∂θ_k in it: [k][j].
+  std::vector<std::vector<muscles::ActivationState>> da0;
+  std::vector<std::vector<double>> dw;
+  double t0 = 0.0;
+  bool started = false;
+  // ∂f/∂y (n × n, column-major) and ∂f/∂θ (n × P, column-major) at (t_cache, y_cache).
+  bool cached = false;
+  double t_cache = 0.0;
+  std::vector<double> y_cache, jac, dfdp;
+  std::vector<double> f0, f1, y1;  // scratch
+};
+
+/// At a stimulation breakpoint (or the start): ∂a/∂θ carried over in closed form (eq. 6 is linear
+/// in w and the initial state, so the sensitivities obey it with input ∂w/∂θ), then ∂w/∂θ of the
+/// new interval by difference quotients of RecruitedFractions.
+void BeginSensitivityInterval(SensitivityData* d, const SimTK::State& state, double t) {
+  const CvodesContext& c = *d->ctx;
+  const std::size_t nm = c.omega.size();
+  for (std::size_t k = 0; k < d->p.size(); ++k) {
+    for (std::size_t j = 0; j < nm; ++j) {
+      d->da0[k][j] = d->started ? muscles::ActivationFreeResponse(c.omega[j], d->dw[k][j],
+                                                                  d->da0[k][j], t - d->t0)
+                                : muscles::ActivationState{};
+    }
+  }
+  const std::vector<double> u = c.model->GetStimulation(state);
+  const std::vector<double> w =
+      RecruitedFractions(c.model->params(), c.model->electrode_matrix(), u);
+  for (std::size_t k = 0; k < d->p.size(); ++k) {
+    const auto& pk = d->p[k];
+    const std::vector<double> wk = RecruitedFractions(*pk.params, pk.array, u);
+    for (std::size_t j = 0; j < nm; ++j) d->dw[k][j] = (wk[j] - w[j]) / pk.step;
+  }
+  d->t0 = t;
+  d->started = true;
+  d->cached = false;
+}
+
+/// ∂f/∂y and ∂f/∂θ at (t, y) into d's cache (see IntegrateTrialSensitivities). Returns 0, or 1
+/// (recoverable) when a right-hand side fails.
+int FormSensitivityMatrices(SensitivityData* d, double t, const double* y) {
+  CvodesContext* c = d->ctx;
+  const int n = d->n;
+  const int np = static_cast<int>(d->p.size());
+  // ∂f/∂y by forward differences of the full right-hand side.
+  std::copy(y, y + n, d->y1.begin());
+  int flag = EvaluateRhs(c, t, d->y1.data(), d->f0.data());
+  for (int i = 0; i < n && flag == 0; ++i) {
+    const double h = 1e-7 * std::max(std::abs(y[i]), 1.0);
+    d->y1[i] = y[i] + h;
+    flag = EvaluateRhs(c, t, d->y1.data(), d->f1.data());
+    d->y1[i] = y[i];
+    for (int r = 0; r < n; ++r)
+      d->jac[static_cast<std::size_t>(i) * n + r] = (d->f1[r] - d->f0[r]) / h;
+  }
+  if (flag != 0) return 1;
+  // ∂f/∂θ: the q rows are 0 (q̇ = u); the free u rows are M_ff⁻¹ ∂τ_f/∂θ.
+  try {
+    LoadState(c, t, y, SimTK::Stage::Position);
+  } catch (const std::exception&) {
+    return 1;
+  }
+  const SimTK::State& s = *c->state;
+  const std::vector<double> q = c->model->GetQs(s);
+  const std::vector<double> qd = c->model->GetUs(s);
+  const std::size_t nm = c->omega.size();
+  std::vector<double> a(nm);
+  const SimTK::Vector& Y = s.getY();
+  for (std::size_t j = 0; j < nm; ++j) a[j] = Y[c->activation_index + 2 * static_cast<int>(j)];
+  const ModelParams& base = c->model->params();
+  const std::vector<double> tau0 = MuscleAndPassiveTorques(base, d->paths, q, qd, a);
+  // ∂τ/∂a_j (τ is affine in a_j).
+  std::vector<std::vector<double>> dtau_da(nm);
+  for (std::size_t j = 0; j < nm; ++j) {
+    std::vector<double> aj = a;
+    aj[j] += 1e-6;
+    dtau_da[j] = MuscleAndPassiveTorques(base, d->paths, q, qd, aj);
+    for (int i = 0; i < kNumCoordinates; ++i) dtau_da[j][i] = (dtau_da[j][i] - tau0[i]) / 1e-6;
+  }
+  const int nf = static_cast<int>(d->free_coordinates.size());
+  SimTK::Matrix M;
+  c->model->matter().calcM(s, M);
+  SimTK::Matrix Mff(nf, nf);
+  for (int r = 0; r < nf; ++r) {
+    for (int col = 0; col < nf; ++col) Mff(r, col) = M(d->free_u_slot[r], d->free_u_slot[col]);
+  }
+  const SimTK::FactorLU lu(Mff);
+  SimTK::Vector rhs(nf), udot(nf);
+  std::fill(d->dfdp.begin(), d->dfdp.end(), 0.0);
+  for (int k = 0; k < np; ++k) {
+    const auto& pk = d->p[k];
+    const std::vector<double> tau_k = MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a);
+    for (int r = 0; r < nf; ++r) {
+      const int coord = d->free_coordinates[r];
+      double v = (tau_k[coord] - tau0[coord]) / pk.step;
+      for (std::size_t j = 0; j < nm; ++j) {
+        const double da =
+            muscles::ActivationFreeResponse(c->omega[j], d->dw[k][j], d->da0[k][j], t - d->t0).a;
+        v += dtau_da[j][coord] * da;
+      }
+      rhs[r] = v;
+    }
+    lu.solve(rhs, udot);
+    for (int r = 0; r < nf; ++r) {
+      d->dfdp[static_cast<std::size_t>(k) * n + d->u_component[r]] = udot[r];
+    }
+  }
+  d->t_cache = t;
+  d->y_cache.assign(y, y + n);
+  d->cached = true;
+  return 0;
+}
+
+/// CVODES' sensitivity right-hand side (CVSensRhsFn): ṡ_k = (∂f/∂y) s_k + ∂f/∂θ_k for all k.
+int SensitivityRhs(int ns, sunrealtype t, N_Vector y, N_Vector /*ydot*/, N_Vector* yS,
+                   N_Vector* ySdot, void* user, N_Vector /*tmp1*/, N_Vector /*tmp2*/) {
+  auto* c = static_cast<CvodesContext*>(user);
+  SensitivityData* d = c->sens;
+  const double* yp = N_VGetArrayPointer(y);
+  const bool hit =
+      d->cached && d->t_cache == t && std::equal(d->y_cache.begin(), d->y_cache.end(), yp);
+  if (!hit && FormSensitivityMatrices(d, t, yp) != 0) return 1;
+  const int n = d->n;
+  for (int k = 0; k < ns; ++k) {
+    const double* sk = N_VGetArrayPointer(yS[k]);
+    double* out = N_VGetArrayPointer(ySdot[k]);
+    for (int r = 0; r < n; ++r) out[r] = d->dfdp[static_cast<std::size_t>(k) * n + r];
+    for (int i = 0; i < n; ++i) {
+      const double si = sk[i];
+      if (si == 0.0) continue;
+      const double* col = &d->jac[static_cast<std::size_t>(i) * n];
+      for (int r = 0; r < n; ++r) out[r] += col[r] * si;
+    }
   }
   return 0;
 }
@@ -174,6 +337,7 @@ class Cvodes {
   }
   ~Cvodes() {
     if (mem_ != nullptr) CVodeFree(&mem_);
+    if (yS_ != nullptr) N_VDestroyVectorArray(yS_, ns_);
     if (ls_ != nullptr) SUNLinSolFree(ls_);
     if (a_ != nullptr) SUNMatDestroy(a_);
     if (y_ != nullptr) N_VDestroy(y_);
@@ -198,6 +362,14 @@ class Cvodes {
       Check(CVodeSetUserData(mem_, ctx_), "CVodeSetUserData", t0);
       Check(CVodeSetLinearSolver(mem_, ls_, a_), "CVodeSetLinearSolver", t0);
       Check(CVodeSetMaxNumSteps(mem_, kMaxSteps), "CVodeSetMaxNumSteps", t0);
+      if (ns_ > 0) {
+        yS_ = N_VCloneVectorArray(ns_, y_);
+        for (int k = 0; k < ns_; ++k) N_VConst(0.0, yS_[k]);
+        Check(CVodeSensInit(mem_, ns_, CV_STAGGERED, SensitivityRhs, yS_), "CVodeSensInit", t0);
+        Check(CVodeSetSensParams(mem_, nullptr, pbar_.data(), nullptr), "CVodeSetSensParams", t0);
+        Check(CVodeSensEEtolerances(mem_), "CVodeSensEEtolerances", t0);
+        Check(CVodeSetSensErrCon(mem_, SUNFALSE), "CVodeSetSensErrCon", t0);
+      }
       initialised_ = true;
     }
   }
@@ -213,11 +385,22 @@ class Cvodes {
                                " s (CVODES " + CVodeGetReturnFlagName(flag) + "); " +
                                DescribeState(*ctx_->model, *ctx_->state) + kFailureHint);
     }
+    if (ns_ > 0) {
+      Check(CVodeGetSens(mem_, &t_reached, yS_), "CVodeGetSens", t_out);
+    }
     // Only Stage::Time here: Drive realises the stage its observer asked for right after, so an
     // observer that reads q alone (the full-model fit) does not pay for kinematics at every
     // report time (≈ 1/3 of a 140 s, 40 Hz hand-rig simulation).
     LoadState(ctx_, t_out, N_VGetArrayPointer(y_), SimTK::Stage::Time);
   }
+  /// Integrate forward sensitivities of `scales.size()` parameters (typical magnitudes |θ_k|)
+  /// from the start; call before the first Start.
+  void EnableSensitivities(std::vector<double> scales) {
+    pbar_ = std::move(scales);
+    ns_ = static_cast<int>(pbar_.size());
+  }
+  /// Sensitivity k at the last AdvanceTo's time (zero before the first).
+  const double* Sensitivity(int k) const { return N_VGetArrayPointer(yS_[k]); }
   void AddStats(IntegrationStats* s) const {
     if (!initialised_) return;
     long v = 0;
@@ -239,6 +422,9 @@ class Cvodes {
   SUNMatrix a_ = nullptr;
   SUNLinearSolver ls_ = nullptr;
   double tol_ = 1e-6;
+  int ns_ = 0;                // sensitivities integrated
+  std::vector<double> pbar_;  // their parameters' scales
+  N_Vector* yS_ = nullptr;
   bool initialised_ = false;
   CvodesContext* ctx_ = nullptr;
 };
@@ -343,6 +529,102 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
       },
       &stats);
   if (integ) stats.steps += integ->getNumStepsTaken();
+  return stats;
+}
+
+IntegrationStats IntegrateTrialSensitivities(const UpperLimbModel& model,
+                                             const IntegratorParams& params,
+                                             const StimulationSchedule& schedule,
+                                             const std::vector<double>& report_times,
+                                             const std::vector<ParameterPerturbation>& parameters,
+                                             SimTK::State* state,
+                                             const SensitivityObserver& observer) {
+  if (params.method == IntegratorParams::Method::kSimbodyRkMerson) {
+    throw std::invalid_argument("sensitivities need a CVODES integrator method");
+  }
+  const ModelParams& base = model.params();
+  if (base.mechanisms.fatigue.enabled || base.mechanisms.potentiation.enabled) {
+    throw std::invalid_argument("sensitivities: fatigue and potentiation states are not supported");
+  }
+  CvodesContext ctx(&model, state, HasPrescribed(base));
+  SensitivityData d;
+  d.ctx = &ctx;
+  d.n = static_cast<int>(ctx.y_index.size());
+  const int nq = state->getNQ();
+  d.q_component.assign(kNumCoordinates, -1);
+  std::vector<int> u_component_of(kNumCoordinates, -1);
+  for (int i = 0; i < d.n; ++i) {
+    const int yi = ctx.y_index[i];
+    for (int c = 0; c < kNumCoordinates; ++c) {
+      if (yi == model.CoordinateBody(c).getFirstQIndex(*state)) d.q_component[c] = i;
+      if (yi == nq + model.CoordinateBody(c).getFirstUIndex(*state)) u_component_of[c] = i;
+    }
+  }
+  for (int c = 0; c < kNumCoordinates; ++c) {
+    if (base.coordinates[c].mode != CoordinateMode::kFree) continue;
+    if (d.q_component[c] < 0 || u_component_of[c] < 0) {
+      throw std::invalid_argument("sensitivities: free coordinate " + CoordinateNames()[c] +
+                                  " is not integrated");
+    }
+    d.free_coordinates.push_back(c);
+    d.free_u_slot.push_back(model.CoordinateBody(c).getFirstUIndex(*state));
+    d.u_component.push_back(u_component_of[c]);
+  }
+  for (const auto& m : base.muscles) d.paths.push_back(m.path);
+  std::vector<double> scales;
+  for (const auto& pp : parameters) {
+    if (!(pp.step != 0.0) || !std::isfinite(pp.step) || !(pp.scale > 0.0)) {
+      throw std::invalid_argument(
+          "sensitivities: parameter step must be finite and nonzero, "
+          "scale > 0");
+    }
+    if (pp.params.muscles.size() != base.muscles.size() ||
+        pp.params.channels.size() != base.channels.size()) {
+      throw std::invalid_argument("sensitivities: perturbed model has other muscles or channels");
+    }
+    SensitivityData::Parameter q{&pp.params, BuildElectrodeMatrix(pp.params), {}, pp.step};
+    for (const auto& m : pp.params.muscles) q.paths.push_back(m.path);
+    d.p.push_back(std::move(q));
+    scales.push_back(pp.scale);
+  }
+  const std::size_t nm = base.muscles.size();
+  d.da0.assign(parameters.size(), std::vector<muscles::ActivationState>(nm));
+  d.dw.assign(parameters.size(), std::vector<double>(nm, 0.0));
+  d.jac.assign(static_cast<std::size_t>(d.n) * d.n, 0.0);
+  d.dfdp.assign(static_cast<std::size_t>(d.n) * parameters.size(), 0.0);
+  d.f0.assign(d.n, 0.0);
+  d.f1.assign(d.n, 0.0);
+  d.y1.assign(d.n, 0.0);
+  ctx.sens = &d;
+
+  IntegrationStats stats;
+  Cvodes cv(d.n, params.tolerance * ctx.tolerance_scale,
+            params.method == IntegratorParams::Method::kCvodesAdams, &ctx);
+  const int np = static_cast<int>(parameters.size());
+  if (np > 0) cv.EnableSensitivities(scales);
+  std::vector<double> dq(static_cast<std::size_t>(kNumCoordinates) * np, 0.0);
+  Drive(
+      model, schedule, report_times, state, [&](const SimTK::State& st) { observer(st, dq); },
+      SimTK::Stage::Time,
+      [&](double t, double stop) {
+        cv.AdvanceTo(t, stop);
+        for (int k = 0; k < np; ++k) {
+          const double* sk = cv.Sensitivity(k);
+          for (int c = 0; c < kNumCoordinates; ++c) {
+            dq[static_cast<std::size_t>(c) * np + k] =
+                d.q_component[c] >= 0 && base.coordinates[c].mode == CoordinateMode::kFree
+                    ? sk[d.q_component[c]]
+                    : 0.0;
+          }
+        }
+      },
+      [&](double t) {
+        state->setTime(t);
+        cv.Start(t);
+      },
+      &stats);
+  cv.AddStats(&stats);
+  stats.rhs_evaluations = ctx.rhs;
   return stats;
 }
 

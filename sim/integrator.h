@@ -51,4 +51,41 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
                                 const Observer& observer,
                                 SimTK::Stage observe_stage = SimTK::Stage::Acceleration);
 
+/// One parameter θ_k of a forward-sensitivity integration: the model with θ_k moved by `step`.
+/// The sensitivity right-hand side re-evaluates only what depends on the parameters through
+/// pure functions — recruitment and the electrode matrix (RecruitedFractions), Hill and passive
+/// joint parameters and muscle paths (MuscleAndPassiveTorques) — so `params` may differ from the
+/// integrated model only there (differences elsewhere, e.g. segment masses or Ω, are not seen).
+struct ParameterPerturbation {
+  ModelParams params;
+  double step = 0.0;   ///< θ_k(params) − θ_k(model), in θ_k's unit, ≠ 0 and small.
+  double scale = 1.0;  ///< typical |θ_k|, > 0; CVODES scales the sensitivity tolerances by it.
+};
+
+/// Called at each report time with the state (realised to Stage::Time) and the sensitivities
+/// dq[c · P + k] = ∂q_c/∂θ_k (rad per unit of θ_k) of every coordinate c (0 for locked and
+/// prescribed ones).
+using SensitivityObserver =
+    std::function<void(const SimTK::State&, const std::vector<double>& dq_dtheta)>;
+
+/// IntegrateTrial (CVODES methods only) with forward sensitivities of the state to P parameters
+/// (`parameters`), integrated alongside it: ṡ_k = (∂f/∂y) s_k + ∂f/∂θ_k, s_k(0) = 0 (the initial
+/// state does not depend on them), CVODES' staggered corrector, sensitivities kept out of the
+/// local error test (the state takes the same steps as without them). Per step ∂f/∂y is formed
+/// once by difference quotients of the Simbody right-hand side (one per CVODES component) and
+/// ∂f/∂θ_k = [0; M_ff⁻¹ ∂τ_f/∂θ_k], with τ = MuscleAndPassiveTorques at the activations a(t; θ)
+/// whose sensitivities ∂a/∂θ_k follow eq. (6) in closed form (linear in w and the initial state)
+/// from ∂w/∂θ_k = difference quotient of RecruitedFractions, and M_ff the mass matrix of the free
+/// coordinates. A perturbed simulation per parameter costs ≈ 2 right-hand sides per step; this
+/// costs ≈ n_y + 2 per step for all P together. Throws std::invalid_argument when the model
+/// integrates other states (fatigue, potentiation) or the method is Simbody's RKM, and
+/// std::runtime_error like IntegrateTrial on failure.
+IntegrationStats IntegrateTrialSensitivities(const UpperLimbModel& model,
+                                             const IntegratorParams& params,
+                                             const StimulationSchedule& schedule,
+                                             const std::vector<double>& report_times,
+                                             const std::vector<ParameterPerturbation>& parameters,
+                                             SimTK::State* state,
+                                             const SensitivityObserver& observer);
+
 }  // namespace fesim::sim

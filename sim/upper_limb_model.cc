@@ -59,6 +59,32 @@ std::vector<double> UsOf(const CoordinateSlots& slots, const State& s) {
   return out;
 }
 
+/// w_j = H_IRC(Σ_k A_jk u_k) of muscle j (eq. 1, 3) for stimulation u (µs, already clipped).
+double RecruitedFraction(const MuscleParams& m, const muscles::ArrayMatrix& array, int j,
+                         const double* u_us) {
+  double v = 0.0;
+  for (int k = 0; k < array.channels; ++k) v += array(j, k) * u_us[k];
+  return muscles::Recruitment(m.recruitment, v);
+}
+
+/// Tendon force of one muscle at activation a with gain `active_gain` on the active part
+/// (eq. 4, 7), and the musculotendon kinematics it came from.
+struct MuscleTendonSample {
+  double force_n = 0.0, length_m = 0.0, velocity_m_s = 0.0;
+  bool clamped = false;
+};
+MuscleTendonSample MuscleTendonForce(const MuscleParams& m, const tendons::MusclePath& path,
+                                     const std::vector<double>& q, const std::vector<double>& qd,
+                                     double a, double active_gain) {
+  MuscleTendonSample out;
+  out.length_m = tendons::MusculotendonLength(path, q);
+  out.velocity_m_s = tendons::MusculotendonVelocity(path, q, qd);
+  const auto fibre = muscles::FibreFromMusculotendon(m.hill, out.length_m, out.velocity_m_s);
+  out.clamped = fibre.clamped;
+  out.force_n = muscles::HillTendonForce(m.hill, a, fibre, active_gain);
+  return out;
+}
+
 /// Passive joint moments on every coordinate and the tremor torque (thin adapter over
 /// passive_joint.h and mechanisms.h).
 class PassiveJointForce : public SimTK::Force::Custom::Implementation {
@@ -202,9 +228,7 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
 
   /// w = H_IRC(A u) of muscle j for stimulation u (µs).
   double Recruited(const Vector& u, int j) const {
-    double v = 0.0;
-    for (int k = 0; k < array_->channels; ++k) v += (*array_)(j, k) * u[k];
-    return muscles::Recruitment(params_->muscles[j].recruitment, v);
+    return RecruitedFraction(params_->muscles[j], *array_, j, u.size() > 0 ? &u[0] : nullptr);
   }
 
   int ZStart() const { return z_start_; }
@@ -255,11 +279,6 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
     out.length_m.resize(nm);
     out.velocity_m_s.resize(nm);
     for (int j = 0; j < nm; ++j) {
-      const auto& m = params_->muscles[j];
-      const double l = tendons::MusculotendonLength(paths_[j], q);
-      const double v = tendons::MusculotendonVelocity(paths_[j], q, qd);
-      const auto fibre = muscles::FibreFromMusculotendon(m.hill, l, v);
-      out.any_clamped = out.any_clamped || fibre.clamped;
       out.activation[j] = z[z_start_ + 2 * j];
       double gain = 1.0;
       if (fitness_offset_ >= 0) gain *= z[z_start_ + fitness_offset_ + j];
@@ -267,9 +286,12 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
         gain *=
             1.0 + params_->mechanisms.potentiation.gain * z[z_start_ + potentiation_offset_ + j];
       }
-      out.force_n[j] = muscles::HillTendonForce(m.hill, out.activation[j], fibre, gain);
-      out.length_m[j] = l;
-      out.velocity_m_s[j] = v;
+      const MuscleTendonSample m =
+          MuscleTendonForce(params_->muscles[j], paths_[j], q, qd, out.activation[j], gain);
+      out.any_clamped = out.any_clamped || m.clamped;
+      out.force_n[j] = m.force_n;
+      out.length_m[j] = m.length_m;
+      out.velocity_m_s[j] = m.velocity_m_s;
     }
     out.joint_torque_nm = tendons::JointTorques(paths_, q, out.force_n);
     return out;
@@ -294,6 +316,38 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   mutable int potentiation_offset_ = -1;  // from z_start_, −1 when potentiation is off
   mutable SimTK::DiscreteVariableIndex stim_index_;
 };
+
+std::vector<double> RecruitedFractions(const ModelParams& params, const muscles::ArrayMatrix& array,
+                                       const std::vector<double>& u_us) {
+  if (static_cast<int>(u_us.size()) != array.channels) {
+    throw std::invalid_argument("stimulation has " + std::to_string(u_us.size()) +
+                                " channels, electrode matrix has " +
+                                std::to_string(array.channels));
+  }
+  std::vector<double> u(u_us.size());
+  for (std::size_t k = 0; k < u.size(); ++k) u[k] = std::clamp(u_us[k], 0.0, kMaxPulseWidthUs);
+  std::vector<double> w(params.muscles.size());
+  for (std::size_t j = 0; j < w.size(); ++j) {
+    w[j] = RecruitedFraction(params.muscles[j], array, static_cast<int>(j), u.data());
+  }
+  return w;
+}
+
+std::vector<double> MuscleAndPassiveTorques(const ModelParams& params,
+                                            const std::vector<tendons::MusclePath>& paths,
+                                            const std::vector<double>& q,
+                                            const std::vector<double>& qd,
+                                            const std::vector<double>& a) {
+  std::vector<double> f(params.muscles.size());
+  for (std::size_t j = 0; j < f.size(); ++j) {
+    f[j] = MuscleTendonForce(params.muscles[j], paths[j], q, qd, a[j], 1.0).force_n;
+  }
+  std::vector<double> tau = tendons::JointTorques(paths, q, f);
+  for (int i = 0; i < kNumCoordinates; ++i) {
+    tau[i] += PassiveJointTorque(params.coordinates[i].passive, q[i], qd[i]);
+  }
+  return tau;
+}
 
 UpperLimbModel::UpperLimbModel(ModelParams params)
     : params_(std::make_shared<const ModelParams>(std::move(params))),

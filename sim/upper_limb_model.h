@@ -38,6 +38,24 @@ struct MuscleSnapshot {
   bool any_clamped = false;             ///< a fibre hit its minimum length.
 };
 
+/// Recruited fraction w_j = H_IRC(Σ_k A_jk u_k) of every muscle (eq. 1, 3) for stimulation
+/// u (µs per channel, clipped to [0, 300] as UpperLimbModel::SetStimulation does); `array` =
+/// BuildElectrodeMatrix(params). The muscle force element computes exactly this. Throws
+/// std::invalid_argument when u has the wrong number of channels.
+std::vector<double> RecruitedFractions(const ModelParams& params, const muscles::ArrayMatrix& array,
+                                       const std::vector<double>& u_us);
+
+/// The generalised forces (N·m per coordinate) that depend on muscle and joint parameters, at
+/// angles q (rad), speeds q̇ (rad/s) and activations a: τ = R(q) f (eq. 8–10) with the Hill
+/// tendon forces f (eq. 4, 7; no fatigue or potentiation gain) plus the passive joint moments
+/// (eq. 14 and range limits). `paths[j]` = params.muscles[j].path (built once by the caller).
+/// The force elements apply exactly these, plus gravity, support, tremor and mechanism gains.
+std::vector<double> MuscleAndPassiveTorques(const ModelParams& params,
+                                            const std::vector<tendons::MusclePath>& paths,
+                                            const std::vector<double>& q,
+                                            const std::vector<double>& qd,
+                                            const std::vector<double>& a);
+
 struct CoordinateSlots;  // where each coordinate's q and u sit in the state (upper_limb_model.cc)
 
 class UpperLimbModel {

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <stdexcept>
 #include <string>
 
@@ -114,6 +115,119 @@ TEST(Integrator, LockedCoordinatesLeftOutOfCvodesStillAgreeWithSimbody) {
   EXPECT_GT(moved, 0.1);
   EXPECT_LT(worst, kAgreementTol);
   std::printf("hand rig, CVODES (free q, u only) vs Simbody RKM: max |dq| = %.3g rad\n", worst);
+}
+
+/// Index of the muscle called `name` in p.
+int MuscleNamed(const ModelParams& p, const std::string& name) {
+  for (std::size_t j = 0; j < p.muscles.size(); ++j) {
+    if (p.muscles[j].name == name) return static_cast<int>(j);
+  }
+  throw std::invalid_argument("no muscle " + name);
+}
+
+TEST(Integrator, ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) {
+  // Hand rig (shoulder, elbow, pro/supination locked), both array channels stepped. Parameters of
+  // every kind the sensitivity right-hand side re-evaluates: passive stiffness (direct torque),
+  // recruitment β and γ and the array's current spread (through w and the closed-form activation
+  // sensitivities across breakpoints), a wrist moment arm (path, direct torque) and F_max (Hill).
+  ModelParams base = DefaultModelParams();
+  for (int c : {kShoulderElvPlane, kShoulderElevation, kShoulderRotation, kElbowFlexion, kProSup}) {
+    base.coordinates[c].mode = CoordinateMode::kLocked;
+  }
+  const int ecrl = MuscleNamed(base, "ECRL"), fcr = MuscleNamed(base, "FCR");
+  const auto wrist_arm = [](ModelParams& m, int j) -> double& {
+    for (auto& cr : m.muscles[j].path.crossings) {
+      if (cr.joint == kWristFlexion) return cr.arm.d_m;
+    }
+    throw std::invalid_argument("no wrist crossing");
+  };
+  using Setter = std::function<double&(ModelParams&)>;
+  const std::vector<std::pair<std::string, Setter>> parameters = {
+      {"k.wrist",
+       [](ModelParams& m) -> double& {
+         return m.coordinates[kWristFlexion].passive.stiffness_nm_per_rad;
+       }},
+      {"beta.ECRL",
+       [&](ModelParams& m) -> double& { return m.muscles[ecrl].recruitment.beta_per_us; }},
+      {"gamma.FCR", [&](ModelParams& m) -> double& { return m.muscles[fcr].recruitment.gamma; }},
+      {"array.spread", [](ModelParams& m) -> double& { return m.array.spread_m; }},
+      {"d.ECRL.wrist", [&](ModelParams& m) -> double& { return wrist_arm(m, ecrl); }},
+      {"Fmax.FCR",
+       [&](ModelParams& m) -> double& { return m.muscles[fcr].hill.max_isometric_force_n; }},
+  };
+  StimulationSchedule stim;
+  stim.times = {0.0, 0.4, 1.2, 2.0};
+  stim.values = {
+      {0, 0, 0, 0, 0, 0}, {180, 60, 0, 0, 0, 0}, {70, 220, 0, 0, 0, 0}, {120, 120, 0, 0, 0, 0}};
+  const auto times = Times(3.0, 0.05);
+  const IntegratorParams integrator{IntegratorParams::Method::kCvodes, 1e-10};
+  const int np = static_cast<int>(parameters.size());
+  std::vector<ParameterPerturbation> perturbed;
+  for (const auto& [name, at] : parameters) {
+    ParameterPerturbation pp{base, 0.0, 1.0};
+    double& v = at(pp.params);
+    pp.scale = std::abs(v);
+    pp.step = 1e-7 * std::abs(v);
+    v += pp.step;
+    perturbed.push_back(pp);
+  }
+  const UpperLimbModel model(base);
+  std::vector<std::vector<double>> sens;  // [sample][c * np + k]
+  SimTK::State s = model.MakeInitialState();
+  const IntegrationStats stats = IntegrateTrialSensitivities(
+      model, integrator, stim, times, perturbed, &s,
+      [&](const SimTK::State&, const std::vector<double>& dq) { sens.push_back(dq); });
+  ASSERT_EQ(sens.size(), times.size());
+  const auto simulate = [&](const ModelParams& m) {
+    const UpperLimbModel limb(m);
+    SimTK::State st = limb.MakeInitialState();
+    std::vector<std::vector<double>> q;
+    IntegrateTrial(limb, integrator, stim, times, &st,
+                   [&](const SimTK::State& x) { q.push_back(limb.GetQs(x)); });
+    return q;
+  };
+  for (int k = 0; k < np; ++k) {
+    ModelParams plus = base, minus = base;
+    const double h = 1e-4 * std::abs(parameters[k].second(plus));
+    parameters[k].second(plus) += h;
+    parameters[k].second(minus) -= h;
+    const auto qp = simulate(plus), qm = simulate(minus);
+    double largest = 0.0, worst = 0.0;
+    for (std::size_t i = 0; i < times.size(); ++i) {
+      for (int c = 0; c < kNumCoordinates; ++c) {
+        const double fd = (qp[i][c] - qm[i][c]) / (2.0 * h);
+        const double an = sens[i][static_cast<std::size_t>(c) * np + k];
+        if (base.coordinates[c].mode == CoordinateMode::kLocked) {
+          EXPECT_EQ(an, 0.0);
+          continue;
+        }
+        largest = std::max(largest, std::abs(fd));
+        worst = std::max(worst, std::abs(an - fd));
+      }
+    }
+    std::printf("%-13s max |dq/dtheta| %.4g, max |sensitivity - central difference| %.3g\n",
+                parameters[k].first.c_str(), largest, worst);
+    EXPECT_GT(largest, 0.0) << parameters[k].first;
+    EXPECT_LT(worst, 2e-3 * largest) << parameters[k].first;
+  }
+  std::printf("steps %ld, right-hand sides %ld\n", stats.steps, stats.rhs_evaluations);
+}
+
+TEST(Integrator, SensitivitiesRejectStatesTheyCannotDifferentiate) {
+  ModelParams p = DefaultModelParams();
+  p.mechanisms.fatigue.enabled = true;
+  const UpperLimbModel model(p);
+  SimTK::State s = model.MakeInitialState();
+  StimulationSchedule stim;
+  EXPECT_THROW(IntegrateTrialSensitivities(model, {}, stim, {0.0, 0.1}, {}, &s,
+                                           [](const SimTK::State&, const std::vector<double>&) {}),
+               std::invalid_argument);
+  const UpperLimbModel plain(DefaultModelParams());
+  SimTK::State s2 = plain.MakeInitialState();
+  EXPECT_THROW(IntegrateTrialSensitivities(
+                   plain, {IntegratorParams::Method::kSimbodyRkMerson, 1e-6}, stim, {0.0, 0.1}, {},
+                   &s2, [](const SimTK::State&, const std::vector<double>&) {}),
+               std::invalid_argument);
 }
 
 /// Default model whose elbow stretch reflex has a NaN gain: its torque is exactly 0 while
