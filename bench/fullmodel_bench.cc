@@ -22,6 +22,7 @@
 #include "identification/method_support.h"
 #include "identification/metrics.h"
 #include "scenarios/protocols.h"
+#include "sim/integrator.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
 
@@ -166,9 +167,62 @@ BENCHMARK(BM_SimulateDataSetStats)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(3);
 
+/// One 140 s data set with CVODES forward sensitivities to range(0) candidate parameters (the
+/// first of CandidateParameters: A entries, k, β, γ, R scales) at tolerance 1e-4: the unit cost
+/// of a Jacobian with FullModelFitOptions::sensitivities (compare range(0) ×
+/// BM_SimulateDataSet/4 for forward differences).
+void BM_SensitivityDataSet(benchmark::State& state) {
+  const Study s = MakeStudy();
+  const sim::ModelParams base = fm::WithExplicitArrayWeights(s.rig);
+  auto candidates = fm::CandidateParameters(s.rig, {"ext", "flex"});
+  candidates.resize(static_cast<std::size_t>(state.range(0)));
+  Eigen::VectorXd x(static_cast<Eigen::Index>(candidates.size()));
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    x(static_cast<Eigen::Index>(i)) = candidates[i].nominal;
+  }
+  std::vector<sim::ParameterPerturbation> perturbed;
+  for (Eigen::Index c = 0; c < x.size(); ++c) {
+    const double scale = std::max(std::abs(x(c)), 1e-3);
+    Eigen::VectorXd xp = x;
+    xp(c) += 1e-7 * scale;
+    perturbed.push_back({fm::ApplyParameters(base, candidates, xp), 1e-7 * scale, scale});
+  }
+  fesim::protocols::StepGridParams grid;
+  grid.u_max_us = 300.0;
+  const auto program = fesim::protocols::StepGridDataSets(grid, 1).front();
+  const sim::ModelParams model = fm::ApplyParameters(base, candidates, x);
+  sim::StimulationSchedule schedule;
+  for (std::size_t k = 0; k < program.times_s.size(); ++k) {
+    std::vector<double> u(model.channels.size(), 0.0);
+    u[0] = program.values_us[k][0];
+    u[1] = program.values_us[k][1];
+    schedule.times.push_back(program.times_s[k] + model.mechanisms.electromechanical_delay_s);
+    schedule.values.push_back(u);
+  }
+  std::vector<double> times;
+  for (int i = 0; i <= static_cast<int>(program.duration_s * kRateHz); ++i) {
+    times.push_back(i / kRateHz);
+  }
+  sim::IntegrationStats stats;
+  for (auto _ : state) {
+    const sim::UpperLimbModel limb(model);
+    SimTK::State st = limb.MakeInitialState();
+    double sum = 0.0;
+    stats = sim::IntegrateTrialSensitivities(
+        limb, {sim::IntegratorParams::Method::kCvodes, 1e-4}, schedule, times, perturbed, &st,
+        [&](const SimTK::State&, const std::vector<double>& dq) { sum += dq[0]; });
+    benchmark::DoNotOptimize(sum);
+  }
+  state.counters["steps"] = static_cast<double>(stats.steps);
+  state.counters["rhs"] = static_cast<double>(stats.rhs_evaluations);
+  state.counters["jacobians"] = static_cast<double>(stats.jacobian_evaluations);
+}
+BENCHMARK(BM_SensitivityDataSet)->Arg(29)->Unit(benchmark::kMillisecond)->Iterations(3);
+
 /// The full-model fit: sensitivity ranking of all candidates, then `starts` local optimisations
 /// of the 29 most influential, each capped at range(0) LM iterations; range(1) = 1: Broyden
-/// secant Jacobian updates, 0: a finite-difference Jacobian per accepted step.
+/// secant Jacobian updates, 0: a Jacobian per accepted step; range(2) = 1: Jacobians from CVODES
+/// forward sensitivities (the default), 0: forward differences (step 1e-2).
 void BM_FullModelFit(benchmark::State& state) {
   const Study s = MakeStudy();
   fm::FullModelFitOptions o;
@@ -180,6 +234,7 @@ void BM_FullModelFit(benchmark::State& state) {
   o.relative_tolerance = 1e-4;
   o.threads = 2;
   o.broyden = state.range(1) != 0;
+  o.sensitivities = state.range(2) != 0;
   fm::FullModelFit fit;
   for (auto _ : state) fit = fm::FitFullModel(s.rig, s.train, o);
   const auto& run = fit.runs.front();
@@ -198,8 +253,8 @@ void BM_FullModelFit(benchmark::State& state) {
   state.SetLabel(run.stop_reason);
   state.counters["total_s"] = fit.total_wall_s;
   // Convergence trace of the local run: residual evaluations used → cost after that step.
-  std::fprintf(stderr, "BM_FullModelFit/%d/%d trace (evaluations:cost):", int(state.range(0)),
-               int(state.range(1)));
+  std::fprintf(stderr, "BM_FullModelFit/%d/%d/%d trace (evaluations:cost):", int(state.range(0)),
+               int(state.range(1)), int(state.range(2)));
   for (std::size_t k = 0; k < run.cost_history.size(); ++k) {
     std::fprintf(stderr, " %d:%.5f", run.evaluations_history[k], run.cost_history[k]);
   }
@@ -211,8 +266,10 @@ void BM_FullModelFit(benchmark::State& state) {
       MeanNormalisedError(s.validation, fm::SimulateLike(fit.model, s.validation, 1e-6));
 }
 BENCHMARK(BM_FullModelFit)
-    ->Args({50, 1})  // Broyden secant updates (opt-in)
-    ->Args({50, 0})  // a finite-difference Jacobian per accepted step (the default)
+    ->Args({50, 1, 0})  // forward differences with Broyden secant updates (opt-in)
+    ->Args({50, 0, 0})  // a forward-difference Jacobian per accepted step
+    ->Args({50, 0, 1})  // a sensitivity Jacobian per accepted step (the default)
+    ->Args({50, 1, 1})  // sensitivity Jacobians with Broyden secant updates
     ->Unit(benchmark::kSecond)
     ->Iterations(1);
 

@@ -227,7 +227,8 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
   return res;
 }
 
-Eigen::VectorXd ConfidenceHalfWidths95(const Eigen::MatrixXd& jtj, double cost, long n_residuals) {
+Eigen::VectorXd ConfidenceHalfWidths95(const Eigen::MatrixXd& jtj, double cost, long n_residuals,
+                                       double participation) {
   const long p = jtj.rows();
   Eigen::VectorXd half = Eigen::VectorXd::Constant(p, std::numeric_limits<double>::quiet_NaN());
   if (n_residuals <= p || p == 0) return half;
@@ -245,7 +246,7 @@ Eigen::VectorXd ConfidenceHalfWidths95(const Eigen::MatrixXd& jtj, double cost, 
       inv(i) = 1.0 / s(i);
     } else {
       for (long k = 0; k < p; ++k) {
-        if (std::abs(V(k, i)) > 1e-6) free[static_cast<std::size_t>(k)] = false;
+        if (std::abs(V(k, i)) > participation) free[static_cast<std::size_t>(k)] = false;
       }
     }
   }

@@ -105,7 +105,12 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
                             const NormalEquationsFn& normal_equations = {});
 
 /// 95 % half-widths 1.96 √diag(σ² (JᵀJ)⁺), σ² = cost / (N − p); NaN for parameters in a
-/// singular direction of JᵀJ (not estimable, e.g. held at a bound where the cost is flat).
-Eigen::VectorXd ConfidenceHalfWidths95(const Eigen::MatrixXd& jtj, double cost, long n_residuals);
+/// singular direction of JᵀJ (eigenvalue < 1e-12 of the largest; not estimable, e.g. held at a
+/// bound where the cost is flat): those whose weight in its unit eigenvector exceeds
+/// `participation`. The eigenvector of a singular direction carries rounding of order
+/// ε‖JᵀJ‖/gap on the other parameters; callers whose JᵀJ has an exactly singular pair next to a
+/// well-determined rest raise it (the full-model fit: 1e-3).
+Eigen::VectorXd ConfidenceHalfWidths95(const Eigen::MatrixXd& jtj, double cost, long n_residuals,
+                                       double participation = 1e-6);
 
 }  // namespace fesim::identification

@@ -8,9 +8,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "muscles/activation.h"
 #include "sim/upper_limb_model.h"
@@ -177,6 +179,7 @@ struct SensitivityData {
     muscles::ArrayMatrix array;              // BuildElectrodeMatrix(*params)
     std::vector<tendons::MusclePath> paths;  // params->muscles[j].path
     double step;                             // θ_k change, its unit
+    bool moves_torques;  // TorqueParametersMayDiffer from the model: τ is re-evaluated
   };
   CvodesContext* ctx = nullptr;
   std::vector<Parameter> p;
@@ -193,10 +196,50 @@ struct SensitivityData {
   bool started = false;
   // ∂f/∂y (n × n, column-major) and ∂f/∂θ (n × P, column-major) at (t_cache, y_cache).
   bool cached = false;
+  SimTK::FactorLU mass_lu;  // M_ff, formed with ∂f/∂y
+  int jac_age = -1;   // new points since ∂f/∂y and M_ff were formed (−1: at the next one)
+  int jac_reuse = 1;  // form them at every jac_reuse-th new point (and after breakpoints)
   double t_cache = 0.0;
   std::vector<double> y_cache, jac, dfdp;
-  std::vector<double> f0, f1, y1;  // scratch
+  std::vector<double> f1, y1;  // scratch
 };
+
+/// False only when `a` and `b` give the same MuscleAndPassiveTorques for every state: equal Hill
+/// parameters and paths of every muscle and equal passive parameters of every coordinate
+/// (compared bytewise, so −0 vs 0 counts as a difference: conservative).
+bool TorqueParametersMayDiffer(const ModelParams& a, const ModelParams& b) {
+  static_assert(std::is_trivially_copyable_v<muscles::HillParams> &&
+                    sizeof(muscles::HillParams) % sizeof(double) == 0,
+                "HillParams: doubles only (compared bytewise)");
+  static_assert(std::is_trivially_copyable_v<PassiveJointParams> &&
+                    sizeof(PassiveJointParams) % sizeof(double) == 0,
+                "PassiveJointParams: doubles only (compared bytewise)");
+  if (a.muscles.size() != b.muscles.size()) return true;
+  for (std::size_t j = 0; j < a.muscles.size(); ++j) {
+    const auto& ma = a.muscles[j];
+    const auto& mb = b.muscles[j];
+    if (std::memcmp(&ma.hill, &mb.hill, sizeof(ma.hill)) != 0) return true;
+    if (ma.path.length_at_ref_m != mb.path.length_at_ref_m ||
+        ma.path.crossings.size() != mb.path.crossings.size()) {
+      return true;
+    }
+    for (std::size_t i = 0; i < ma.path.crossings.size(); ++i) {
+      const auto& ca = ma.path.crossings[i];
+      const auto& cb = mb.path.crossings[i];
+      if (ca.joint != cb.joint || ca.q_ref_rad != cb.q_ref_rad || ca.arm.model != cb.arm.model ||
+          ca.arm.d_m != cb.arm.d_m || ca.arm.d_tilde_m != cb.arm.d_tilde_m) {
+        return true;
+      }
+    }
+  }
+  for (int c = 0; c < kNumCoordinates; ++c) {
+    if (std::memcmp(&a.coordinates[c].passive, &b.coordinates[c].passive,
+                    sizeof(PassiveJointParams)) != 0) {
+      return true;
+    }
+  }
+  return false;
+}
 
 /// At a stimulation breakpoint (or the start): ∂a/∂θ carried over in closed form (eq. 6 is linear
 /// in w and the initial state, so the sensitivities obey it with input ∂w/∂θ), then ∂w/∂θ of the
@@ -222,29 +265,34 @@ void BeginSensitivityInterval(SensitivityData* d, const SimTK::State& state, dou
   d->t0 = t;
   d->started = true;
   d->cached = false;
+  d->jac_age = -1;
 }
 
 /// ∂f/∂y and ∂f/∂θ at (t, y) into d's cache (see IntegrateTrialSensitivities). Returns 0, or 1
 /// (recoverable) when a right-hand side fails.
-int FormSensitivityMatrices(SensitivityData* d, double t, const double* y) {
+int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const double* ydot) {
   CvodesContext* c = d->ctx;
   const int n = d->n;
   const int np = static_cast<int>(d->p.size());
   // ∂f/∂y by forward differences of the full right-hand side.
+  // `ydot` is f(t, y) (CVODES evaluates it before the sensitivity right-hand side).
   std::copy(y, y + n, d->y1.begin());
-  int flag = EvaluateRhs(c, t, d->y1.data(), d->f0.data());
-  for (int i = 0; i < n && flag == 0; ++i) {
+  int flag = 0;
+  const bool refresh = d->jac_age >= d->jac_reuse || d->jac_age < 0;
+  d->jac_age = refresh ? 1 : d->jac_age + 1;
+  for (int i = 0; i < n && flag == 0 && refresh; ++i) {
     const double h = 1e-7 * std::max(std::abs(y[i]), 1.0);
     d->y1[i] = y[i] + h;
     flag = EvaluateRhs(c, t, d->y1.data(), d->f1.data());
     d->y1[i] = y[i];
     for (int r = 0; r < n; ++r)
-      d->jac[static_cast<std::size_t>(i) * n + r] = (d->f1[r] - d->f0[r]) / h;
+      d->jac[static_cast<std::size_t>(i) * n + r] = (d->f1[r] - ydot[r]) / h;
   }
   if (flag != 0) return 1;
   // ∂f/∂θ: the q rows are 0 (q̇ = u); the free u rows are M_ff⁻¹ ∂τ_f/∂θ.
   try {
-    LoadState(c, t, y, SimTK::Stage::Position);
+    // Positions realised only where M_ff is formed (with ∂f/∂y); q, q̇, a need Stage::Time.
+    LoadState(c, t, y, refresh ? SimTK::Stage::Position : SimTK::Stage::Time);
   } catch (const std::exception&) {
     return 1;
   }
@@ -257,35 +305,36 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y) {
   for (std::size_t j = 0; j < nm; ++j) a[j] = Y[c->activation_index + 2 * static_cast<int>(j)];
   const ModelParams& base = c->model->params();
   const std::vector<double> tau0 = MuscleAndPassiveTorques(base, d->paths, q, qd, a);
-  // ∂τ/∂a_j (τ is affine in a_j).
-  std::vector<std::vector<double>> dtau_da(nm);
-  for (std::size_t j = 0; j < nm; ++j) {
-    std::vector<double> aj = a;
-    aj[j] += 1e-6;
-    dtau_da[j] = MuscleAndPassiveTorques(base, d->paths, q, qd, aj);
-    for (int i = 0; i < kNumCoordinates; ++i) dtau_da[j][i] = (dtau_da[j][i] - tau0[i]) / 1e-6;
-  }
+  const std::vector<double> dtau_da = TorquePerActivation(base, d->paths, q, qd, a);
   const int nf = static_cast<int>(d->free_coordinates.size());
-  SimTK::Matrix M;
-  c->model->matter().calcM(s, M);
-  SimTK::Matrix Mff(nf, nf);
-  for (int r = 0; r < nf; ++r) {
-    for (int col = 0; col < nf; ++col) Mff(r, col) = M(d->free_u_slot[r], d->free_u_slot[col]);
+  if (refresh) {
+    SimTK::Matrix M;
+    c->model->matter().calcM(s, M);
+    SimTK::Matrix Mff(nf, nf);
+    for (int r = 0; r < nf; ++r) {
+      for (int col = 0; col < nf; ++col) Mff(r, col) = M(d->free_u_slot[r], d->free_u_slot[col]);
+    }
+    d->mass_lu.factor(Mff);
   }
-  const SimTK::FactorLU lu(Mff);
+  const SimTK::FactorLU& lu = d->mass_lu;
   SimTK::Vector rhs(nf), udot(nf);
+  std::vector<double> da(nm);
   std::fill(d->dfdp.begin(), d->dfdp.end(), 0.0);
   for (int k = 0; k < np; ++k) {
     const auto& pk = d->p[k];
-    const std::vector<double> tau_k = MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a);
+    const std::vector<double> tau_k =
+        pk.moves_torques ? MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a) : tau0;
+    // ∂a_j/∂θ_k at t (zero for muscles θ_k does not reach).
+    for (std::size_t j = 0; j < nm; ++j) {
+      const auto& a0 = d->da0[k][j];
+      da[j] = d->dw[k][j] == 0.0 && a0.a == 0.0 && a0.a_dot == 0.0
+                  ? 0.0
+                  : muscles::ActivationFreeResponse(c->omega[j], d->dw[k][j], a0, t - d->t0).a;
+    }
     for (int r = 0; r < nf; ++r) {
       const int coord = d->free_coordinates[r];
       double v = (tau_k[coord] - tau0[coord]) / pk.step;
-      for (std::size_t j = 0; j < nm; ++j) {
-        const double da =
-            muscles::ActivationFreeResponse(c->omega[j], d->dw[k][j], d->da0[k][j], t - d->t0).a;
-        v += dtau_da[j][coord] * da;
-      }
+      for (std::size_t j = 0; j < nm; ++j) v += dtau_da[coord * nm + j] * da[j];
       rhs[r] = v;
     }
     lu.solve(rhs, udot);
@@ -300,14 +349,14 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y) {
 }
 
 /// CVODES' sensitivity right-hand side (CVSensRhsFn): ṡ_k = (∂f/∂y) s_k + ∂f/∂θ_k for all k.
-int SensitivityRhs(int ns, sunrealtype t, N_Vector y, N_Vector /*ydot*/, N_Vector* yS,
-                   N_Vector* ySdot, void* user, N_Vector /*tmp1*/, N_Vector /*tmp2*/) {
+int SensitivityRhs(int ns, sunrealtype t, N_Vector y, N_Vector ydot, N_Vector* yS, N_Vector* ySdot,
+                   void* user, N_Vector /*tmp1*/, N_Vector /*tmp2*/) {
   auto* c = static_cast<CvodesContext*>(user);
   SensitivityData* d = c->sens;
   const double* yp = N_VGetArrayPointer(y);
   const bool hit =
       d->cached && d->t_cache == t && std::equal(d->y_cache.begin(), d->y_cache.end(), yp);
-  if (!hit && FormSensitivityMatrices(d, t, yp) != 0) return 1;
+  if (!hit && FormSensitivityMatrices(d, t, yp, N_VGetArrayPointer(ydot)) != 0) return 1;
   const int n = d->n;
   for (int k = 0; k < ns; ++k) {
     const double* sk = N_VGetArrayPointer(yS[k]);
@@ -532,13 +581,11 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
   return stats;
 }
 
-IntegrationStats IntegrateTrialSensitivities(const UpperLimbModel& model,
-                                             const IntegratorParams& params,
-                                             const StimulationSchedule& schedule,
-                                             const std::vector<double>& report_times,
-                                             const std::vector<ParameterPerturbation>& parameters,
-                                             SimTK::State* state,
-                                             const SensitivityObserver& observer) {
+IntegrationStats IntegrateTrialSensitivities(
+    const UpperLimbModel& model, const IntegratorParams& params,
+    const StimulationSchedule& schedule, const std::vector<double>& report_times,
+    const std::vector<ParameterPerturbation>& parameters, SimTK::State* state,
+    const SensitivityObserver& observer, int state_jacobian_every) {
   if (params.method == IntegratorParams::Method::kSimbodyRkMerson) {
     throw std::invalid_argument("sensitivities need a CVODES integrator method");
   }
@@ -582,7 +629,11 @@ IntegrationStats IntegrateTrialSensitivities(const UpperLimbModel& model,
         pp.params.channels.size() != base.channels.size()) {
       throw std::invalid_argument("sensitivities: perturbed model has other muscles or channels");
     }
-    SensitivityData::Parameter q{&pp.params, BuildElectrodeMatrix(pp.params), {}, pp.step};
+    SensitivityData::Parameter q{&pp.params,
+                                 BuildElectrodeMatrix(pp.params),
+                                 {},
+                                 pp.step,
+                                 TorqueParametersMayDiffer(pp.params, base)};
     for (const auto& m : pp.params.muscles) q.paths.push_back(m.path);
     d.p.push_back(std::move(q));
     scales.push_back(pp.scale);
@@ -592,10 +643,13 @@ IntegrationStats IntegrateTrialSensitivities(const UpperLimbModel& model,
   d.dw.assign(parameters.size(), std::vector<double>(nm, 0.0));
   d.jac.assign(static_cast<std::size_t>(d.n) * d.n, 0.0);
   d.dfdp.assign(static_cast<std::size_t>(d.n) * parameters.size(), 0.0);
-  d.f0.assign(d.n, 0.0);
   d.f1.assign(d.n, 0.0);
   d.y1.assign(d.n, 0.0);
   ctx.sens = &d;
+  if (state_jacobian_every < 1) {
+    throw std::invalid_argument("sensitivities: state_jacobian_every must be >= 1");
+  }
+  d.jac_reuse = state_jacobian_every;
 
   IntegrationStats stats;
   Cvodes cv(d.n, params.tolerance * ctx.tolerance_scale,

@@ -76,16 +76,20 @@ using SensitivityObserver =
 /// ∂f/∂θ_k = [0; M_ff⁻¹ ∂τ_f/∂θ_k], with τ = MuscleAndPassiveTorques at the activations a(t; θ)
 /// whose sensitivities ∂a/∂θ_k follow eq. (6) in closed form (linear in w and the initial state)
 /// from ∂w/∂θ_k = difference quotient of RecruitedFractions, and M_ff the mass matrix of the free
-/// coordinates. A perturbed simulation per parameter costs ≈ 2 right-hand sides per step; this
-/// costs ≈ n_y + 2 per step for all P together. Throws std::invalid_argument when the model
+/// coordinates. ∂f/∂y and M_ff are formed at every `state_jacobian_every`-th new (t, y) and at
+/// each stimulation breakpoint, and reused in between (∂f/∂θ at every point): 1 is exact to the
+/// integrator's tolerance; 4 (the default) costs n_y/4 instead of n_y right-hand sides per step
+/// and gives sensitivities within ≈ 1.4 % (worst column, relative RMS) of the exact ones on the
+/// hand-array step grid at tolerance 1e-4 (bench/fullmodel_bench.cc BM_SensitivityDataSet). A
+/// perturbed simulation per parameter costs ≈ 2 right-hand sides per step; this costs
+/// ≈ 3 + n_y/state_jacobian_every per step for all P together (CVODES evaluates f once more per
+/// step for the staggered corrector). Throws std::invalid_argument when the model
 /// integrates other states (fatigue, potentiation) or the method is Simbody's RKM, and
 /// std::runtime_error like IntegrateTrial on failure.
-IntegrationStats IntegrateTrialSensitivities(const UpperLimbModel& model,
-                                             const IntegratorParams& params,
-                                             const StimulationSchedule& schedule,
-                                             const std::vector<double>& report_times,
-                                             const std::vector<ParameterPerturbation>& parameters,
-                                             SimTK::State* state,
-                                             const SensitivityObserver& observer);
+IntegrationStats IntegrateTrialSensitivities(
+    const UpperLimbModel& model, const IntegratorParams& params,
+    const StimulationSchedule& schedule, const std::vector<double>& report_times,
+    const std::vector<ParameterPerturbation>& parameters, SimTK::State* state,
+    const SensitivityObserver& observer, int state_jacobian_every = 4);
 
 }  // namespace fesim::sim

@@ -349,6 +349,23 @@ std::vector<double> MuscleAndPassiveTorques(const ModelParams& params,
   return tau;
 }
 
+std::vector<double> TorquePerActivation(const ModelParams& params,
+                                        const std::vector<tendons::MusclePath>& paths,
+                                        const std::vector<double>& q, const std::vector<double>& qd,
+                                        const std::vector<double>& a) {
+  constexpr double kDa = 1e-6;
+  const std::size_t nm = params.muscles.size();
+  std::vector<double> out = tendons::MomentArmMatrix(paths, q);  // R, joints × muscles
+  for (std::size_t j = 0; j < nm; ++j) {
+    const auto& m = params.muscles[j];
+    const double df = (MuscleTendonForce(m, paths[j], q, qd, a[j] + kDa, 1.0).force_n -
+                       MuscleTendonForce(m, paths[j], q, qd, a[j], 1.0).force_n) /
+                      kDa;
+    for (int c = 0; c < kNumCoordinates; ++c) out[c * nm + j] *= df;
+  }
+  return out;
+}
+
 UpperLimbModel::UpperLimbModel(ModelParams params)
     : params_(std::make_shared<const ModelParams>(std::move(params))),
       array_(std::make_shared<const muscles::ArrayMatrix>(BuildElectrodeMatrix(*params_))),

@@ -56,6 +56,14 @@ std::vector<double> MuscleAndPassiveTorques(const ModelParams& params,
                                             const std::vector<double>& qd,
                                             const std::vector<double>& a);
 
+/// ∂τ/∂a of MuscleAndPassiveTorques at (q, q̇, a), N·m per unit activation, coordinates ×
+/// muscles row-major: [c · n_muscles + j] = R_cj(q) ∂f_j/∂a_j (forward difference of the Hill
+/// tendon force, exact where f is affine in a).
+std::vector<double> TorquePerActivation(const ModelParams& params,
+                                        const std::vector<tendons::MusclePath>& paths,
+                                        const std::vector<double>& q, const std::vector<double>& qd,
+                                        const std::vector<double>& a);
+
 struct CoordinateSlots;  // where each coordinate's q and u sit in the state (upper_limb_model.cc)
 
 class UpperLimbModel {

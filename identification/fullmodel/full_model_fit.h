@@ -26,9 +26,10 @@
 //
 // Departures from §5.1, stated:
 // * Local optimiser: bounded Levenberg–Marquardt (identification/levenberg_marquardt.h) instead
-//   of MATLAB's interior point; Jacobians by forward differences evaluated in parallel threads
-//   (one model build + simulation per perturbed parameter and distinct trial), not CVODES
-//   sensitivities; optionally Broyden secant updates between them (FullModelFitOptions::
+//   of MATLAB's interior point; Jacobians by CVODES forward sensitivities (one augmented
+//   simulation per distinct trial, FullModelFitOptions::sensitivities) or by forward differences
+//   evaluated in parallel threads (one model build + simulation per perturbed parameter and
+//   distinct trial); optionally Broyden secant updates between them (FullModelFitOptions::
 //   broyden). Trials with identical stimulation and sample times share one simulation. Without
 //   secant updates LM holds active bounds and starts from a dimensionless damping
 //   (LmOptions::hold_active_bounds, scale_free_damping).
@@ -114,6 +115,12 @@ struct FullModelFitOptions {
   /// tight tolerances (relative 1e-10) the secant steps and the confirming Jacobians can cycle for
   /// many more evaluations than the plain method (seen in the planted-parameter tests).
   bool broyden = false;
+  /// Jacobians (and the sensitivity ranking) from CVODES forward sensitivities
+  /// (sim::IntegrateTrialSensitivities): one augmented simulation per distinct trial, exact to the
+  /// integrator's tolerance. False: forward differences with fd_relative_step, one perturbed
+  /// simulation per parameter and trial. A Jacobian whose sensitivity integration fails, or a rig
+  /// with fatigue or potentiation states, falls back to forward differences.
+  bool sensitivities = true;
 };
 
 /// One ranked candidate.
@@ -172,7 +179,8 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
 /// CLI entry "full-model". `scenario_path` empty: DefaultHandRig(); else the scenario's model.
 /// Trials' metadata key `scenario_path` (set by `fesim identify --scenario`) overrides it.
 /// Options from the first training trial's metadata: fullmodel.keep, .starts, .seed, .spread,
-/// .max_iterations, .tolerance, .integrator_tolerance, .threads, .broyden (0 or 1).
+/// .max_iterations, .tolerance, .integrator_tolerance, .threads, .broyden (0 or 1),
+/// .sensitivities (0 or 1).
 MethodEntry FullModelMethod(const std::string& scenario_path = "");
 
 }  // namespace fesim::identification::fullmodel
