@@ -740,6 +740,7 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
     fit->dynamic_step_wall_s.push_back(Seconds(ts));
     fit->dynamic_step_cpu_s.push_back(ThreadCpuSeconds() - cpu);
     fit->dynamic_step_iterations.push_back(r.iterations);
+    fit->dynamic_step_evaluations.push_back(r.evaluations);
     fit->dynamic_step_convergence.push_back(ToConvergence(r));
     if (r.cost < best.cost) {
       fit->dynamic_best_run = fit->dynamic_step_convergence.size() - 1;

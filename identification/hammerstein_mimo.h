@@ -103,8 +103,11 @@ struct HammersteinMimoFit {
   /// CPU time of the calling thread for each static / dynamic local optimisation, s (the steadier
   /// figure on a loaded machine; the fit is single-threaded).
   std::vector<double> static_step_cpu_s, dynamic_step_cpu_s;
-  std::vector<int> static_step_iterations;            ///< LM iterations per static start.
-  std::vector<int> dynamic_step_iterations;           ///< LM iterations per dynamic start.
+  std::vector<int> static_step_iterations;   ///< LM iterations per static start.
+  std::vector<int> dynamic_step_iterations;  ///< LM iterations per dynamic start.
+  /// Simulation passes over all trials per dynamic start: residual evaluations (fused with the
+  /// sensitivities on the exact path) plus, on the forward-difference path, two per Jacobian.
+  std::vector<int> dynamic_step_evaluations;
   std::vector<Convergence> static_step_convergence;   ///< per static start: converged, why.
   std::vector<Convergence> dynamic_step_convergence;  ///< per dynamic start: converged, why.
   std::size_t static_best_run = 0;   ///< index of the static start whose Ψ is kept.
