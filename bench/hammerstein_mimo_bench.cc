@@ -75,24 +75,29 @@ void BM_StaticLocalStep(benchmark::State& state) {
 }
 BENCHMARK(BM_StaticLocalStep)->Unit(benchmark::kMillisecond);
 
+/// range(0) = 0: exact sensitivities (the default), 1: forward-difference Jacobian.
 void BM_DynamicLocalStep(benchmark::State& state) {
   const auto trials = Trials();
   const SteadyStateSet set = ExtractSteadyState(trials, 1.0, 0.2);
   HammersteinMimoOptions o;
   const HammersteinMimoFit stat = FitHammersteinStatic(set, Planted().rest_rad, o);
   o.dynamic_starts = 1;
-  double iters = 0, steps = 0;
+  o.dynamic_jacobian = state.range(0) != 0 ? DynamicJacobian::kForwardDifference
+                                           : DynamicJacobian::kExactSensitivities;
+  double iters = 0, sims = 0, steps = 0;
   for (auto _ : state) {
     HammersteinMimoFit fit = stat;
     FitHammersteinDynamic(trials, o, &fit);
     iters += fit.dynamic_step_iterations[0];
+    sims += fit.dynamic_step_evaluations[0];
     steps += 1;
     benchmark::DoNotOptimize(fit.dynamic_cost);
   }
   state.counters["lm_iterations_per_step"] = iters / steps;
+  state.counters["simulations_per_step"] = sims / steps;
   state.counters["samples"] = static_cast<double>(trials[0].u_us.rows() * 2);
 }
-BENCHMARK(BM_DynamicLocalStep)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_DynamicLocalStep)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 void BM_TwoStepTotal(benchmark::State& state) {
   const auto trials = Trials();

@@ -33,7 +33,11 @@ double ThreadCpuSeconds() {
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
-constexpr double kMuNegligible_s = 1e-12;    // below this the first-order lag is dropped
+constexpr double kMuNegligible_s = 1e-12;  // below this the first-order lag is dropped
+// Below this μ the sensitivity ∂y/∂μ is its μ → 0 limit −Ω(x1 − x2) (error ≈ 5Ωμ relative);
+// above it −(y − u)/μ, whose cancellation costs ≈ 3e-18/μ² relative (measured at Ω = 2 rad/s,
+// T = 25 ms): the two meet at ≲ 3e-5 here and are ≤ 1e-6 for μ ≥ 2e-6 s or μ = 0.
+constexpr double kMuSensitivityFloor_s = 5e-7;
 constexpr double kSatMargin = 1e-2;          // u_sat ≥ (1 + margin) u_db_1 keeps Ψ inside P
 constexpr double kRidge = 1e-12;             // relative ridge of the bounded d sub-problem
 constexpr double kRelativeTolerance = 1e-8;  // LM stops when the cost falls by less than this
@@ -201,6 +205,225 @@ DifferenceSums SimulatePairDifferences(const FilterLanes& c, const double* z, co
   return out;
 }
 
+/// The coefficients of two augmented joint filters (DiscretiseJointSensitivities), one per lane:
+/// the ZOH filter (x1, x2, x3; the same coefficients as FilterLanes) and the sensitivity states
+/// v (row 4) and u (row 5). Φ(4,5) = Φ(5,4) = 0: v and u are driven by x and z only.
+struct SensitivityLanes {
+  Lanes2 a11, a21, a22, a31, a32, a33, b1, b2, b3, c2, c3;
+  Lanes2 v1, v2, v3, v4, vb, u1, u2, u3, u5, ub;
+};
+
+SensitivityLanes PairSensitivities(const JointSensitivityFilter& f0,
+                                   const JointSensitivityFilter& f1) {
+  const auto phi = [&](int i, int j) { return Lanes2{f0.Phi(i, j), f1.Phi(i, j)}; };
+  const auto gamma = [&](int i) { return Lanes2{f0.Gamma(i), f1.Gamma(i)}; };
+  return {phi(0, 0),
+          phi(1, 0),
+          phi(1, 1),
+          phi(2, 0),
+          phi(2, 1),
+          phi(2, 2),
+          gamma(0),
+          gamma(1),
+          gamma(2),
+          Lanes2{f0.C(1), f1.C(1)},
+          Lanes2{f0.C(2), f1.C(2)},
+          phi(3, 0),
+          phi(3, 1),
+          phi(3, 2),
+          phi(3, 3),
+          gamma(3),
+          phi(4, 0),
+          phi(4, 1),
+          phi(4, 2),
+          phi(4, 4),
+          gamma(4)};
+}
+
+/// Sums over one chain of the exact normal equations: a = y − v, b = y − u (the Ω and μ
+/// columns of J up to the factors k_omega, k_mu) and the residual o = ỹ − y.
+struct SensitivitySums {
+  double aa = 0, bb = 0, ab = 0, ao = 0, bo = 0;
+};
+
+/// SimulatePair (the residuals, bit for bit: the same filter coefficients and operations) fused
+/// with the propagation of the sensitivity states v, u and the sums of SensitivitySums, one
+/// chain per lane (out0 == out1 allowed when both lanes are the same chain).
+void SimulatePairSensitivities(const SensitivityLanes& c, const double* z0, const double* z1,
+                               const double* y0, const double* y1, Eigen::Index N, double* out0,
+                               double* out1, SensitivitySums* s0, SensitivitySums* s1) {
+  *s0 = {};
+  *s1 = {};
+  if (N <= 0) return;
+  Lanes2 x1 = {z0[0], z1[0]}, x2 = x1, x3 = x1, v = x1, u = x1;
+  const Lanes2 zero = {0.0, 0.0};
+  Lanes2 aa = zero, bb = zero, ab = zero, ao = zero, bo = zero;
+  for (Eigen::Index k = 0; k < N; ++k) {
+    const Lanes2 z = {z0[k], z1[k]};
+    const Lanes2 y = {y0[k], y1[k]};
+    const Lanes2 yhat = c.c2 * x2 + c.c3 * x3;
+    const Lanes2 o = y - yhat;
+    out0[k] = o[0];
+    out1[k] = o[1];
+    const Lanes2 a = yhat - v;
+    const Lanes2 b = yhat - u;
+    aa += a * a;
+    bb += b * b;
+    ab += a * b;
+    ao += a * o;
+    bo += b * o;
+    const Lanes2 n1 = c.a11 * x1 + c.b1 * z;
+    const Lanes2 n2 = c.a22 * x2 + (c.a21 * x1 + c.b2 * z);
+    const Lanes2 n3 = c.a33 * x3 + (c.a31 * x1 + c.a32 * x2 + c.b3 * z);
+    const Lanes2 n4 = c.v4 * v + (c.v1 * x1 + c.v2 * x2 + c.v3 * x3 + c.vb * z);
+    const Lanes2 n5 = c.u5 * u + (c.u1 * x1 + c.u2 * x2 + c.u3 * x3 + c.ub * z);
+    x1 = n1;
+    x2 = n2;
+    x3 = n3;
+    v = n4;
+    u = n5;
+  }
+  *s0 = {aa[0], bb[0], ab[0], ao[0], bo[0]};
+  *s1 = {aa[1], bb[1], ab[1], ao[1], bo[1]};
+}
+
+/// The dynamic step's residual r(Θ) = ỹ − C x = ŷ − y for fixed ẑ = D h(u) (eq. 43), rows grouped
+/// by joint (joint i's block depends on Ω and μ_i only), with its normal equations either exact
+/// (fused into the simulation) or by structured forward differences.
+class DynamicProblem {
+ public:
+  DynamicProblem(const std::vector<MimoTrialData>& trials, const HammersteinMimoParams& p)
+      : q_(p.d_rad.rows()) {
+    const auto phi = SigmoidsFromCutoffs(p.psi);
+    for (const auto& t : trials) {
+      Z_.emplace_back(ActivationMatrix(phi, t.u_us) * p.d_rad.transpose());
+      Yt_.emplace_back((-t.y_rad).rowwise() + p.rest_rad.transpose());
+      n_res_ += t.u_us.rows() * q_;
+    }
+    rows_per_joint_ = n_res_ / std::max<Eigen::Index>(q_, 1);
+    // One chain per (trial, joint); consecutive chains of equal length run in pairs, one per
+    // SIMD lane (a chain without a partner fills both lanes). Filters are computed once per
+    // joint and distinct sample period.
+    Eigen::Index offset = 0;
+    for (std::size_t t = 0; t < trials.size(); ++t) {
+      const double T = trials[t].sample_period_s;
+      std::size_t slot = 0;
+      while (slot < periods_.size() && periods_[slot] != T) ++slot;
+      if (slot == periods_.size()) periods_.push_back(T);
+      for (Eigen::Index i = 0; i < q_; ++i) {
+        chains_.push_back({t, i, i * rows_per_joint_ + offset, slot * q_ + i, T});
+      }
+      offset += Z_[t].rows();
+    }
+  }
+
+  Eigen::Index residuals() const { return n_res_; }
+
+  /// r(Θ), Θ = [Ω, μ_1 … μ_q].
+  Eigen::VectorXd Residual(const Eigen::VectorXd& theta) const {
+    std::vector<JointFilter> f;
+    for (double T : periods_) {
+      for (Eigen::Index i = 0; i < q_; ++i) {
+        f.push_back(DiscretiseJointDynamics(theta(0), theta(1 + i), T));
+      }
+    }
+    Eigen::VectorXd r(n_res_);
+    ForEachPair([&](const Chain& a, const Chain& b, Eigen::Index N) {
+      SimulatePair(PairFilters(f[a.filter], f[b.filter]), Z_[a.trial].col(a.joint).data(),
+                   Z_[b.trial].col(b.joint).data(), Yt_[a.trial].col(a.joint).data(),
+                   Yt_[b.trial].col(b.joint).data(), N, r.data() + a.offset, r.data() + b.offset);
+    });
+    return r;
+  }
+
+  /// r(Θ) (equal to Residual's bit for bit) and the exact JᵀJ, Jᵀr from one fused pass.
+  Eigen::VectorXd ResidualWithNormalEquations(const Eigen::VectorXd& theta, Eigen::MatrixXd* jtj,
+                                              Eigen::VectorXd* jtr) const {
+    std::vector<JointSensitivityFilter> f;
+    for (double T : periods_) {
+      for (Eigen::Index i = 0; i < q_; ++i) {
+        f.push_back(DiscretiseJointSensitivities(theta(0), theta(1 + i), T));
+      }
+    }
+    Eigen::VectorXd r(n_res_);
+    jtj->setZero(q_ + 1, q_ + 1);
+    jtr->setZero(q_ + 1);
+    const auto add = [&](const Chain& c, const SensitivitySums& s) {
+      const double ko = f[c.filter].k_omega, km = f[c.filter].k_mu;
+      const Eigen::Index i = 1 + c.joint;
+      (*jtj)(0, 0) += ko * ko * s.aa;
+      (*jtj)(0, i) += ko * km * s.ab;
+      (*jtj)(i, i) += km * km * s.bb;
+      (*jtr)(0) += ko * s.ao;
+      (*jtr)(i) += km * s.bo;
+    };
+    ForEachPair([&](const Chain& a, const Chain& b, Eigen::Index N) {
+      SensitivitySums sa, sb;
+      SimulatePairSensitivities(PairSensitivities(f[a.filter], f[b.filter]),
+                                Z_[a.trial].col(a.joint).data(), Z_[b.trial].col(b.joint).data(),
+                                Yt_[a.trial].col(a.joint).data(), Yt_[b.trial].col(b.joint).data(),
+                                N, r.data() + a.offset, r.data() + b.offset, &sa, &sb);
+      add(a, sa);
+      if (&a != &b) add(b, sb);
+    });
+    for (Eigen::Index i = 1; i <= q_; ++i) (*jtj)(i, 0) = (*jtj)(0, i);
+    return r;
+  }
+
+  /// Structured forward differences straight into the normal equations: per trial and joint i,
+  /// one simulation with Ω perturbed and one with μ_i perturbed (side by side in
+  /// SimulatePairDifferences; joint i's rows see only Ω and μ_i, so J's μ columns are zero
+  /// outside their joint's block), accumulated block by block without forming J. r0 = r(Θ).
+  void ForwardDifferenceNormalEquations(const Eigen::VectorXd& theta, const Eigen::VectorXd& r0,
+                                        Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) const {
+    constexpr double kFdStep = 1e-7;
+    const double h0 = -kFdStep * std::max(std::abs(theta(0)), 1e-3);  // inward of Ω ≤ Ω_max
+    Eigen::VectorXd h(q_);
+    for (Eigen::Index i = 0; i < q_; ++i) h(i) = kFdStep * std::max(std::abs(theta(1 + i)), 1e-3);
+    jtj->setZero(q_ + 1, q_ + 1);
+    jtr->setZero(q_ + 1);
+    for (const Chain& c : chains_) {
+      const Eigen::Index i = c.joint;
+      const DifferenceSums d = SimulatePairDifferences(
+          PairFilters(DiscretiseJointDynamics(theta(0) + h0, theta(1 + i), c.period_s),
+                      DiscretiseJointDynamics(theta(0), theta(1 + i) + h(i), c.period_s)),
+          Z_[c.trial].col(i).data(), Yt_[c.trial].col(i).data(), r0.data() + c.offset,
+          Z_[c.trial].rows());
+      (*jtj)(0, 0) += d.dd0 / (h0 * h0);
+      (*jtj)(0, 1 + i) += d.d01 / (h0 * h(i));
+      (*jtj)(1 + i, 1 + i) += d.dd1 / (h(i) * h(i));
+      (*jtr)(0) += d.db0 / h0;
+      (*jtr)(1 + i) += d.db1 / h(i);
+    }
+    for (Eigen::Index i = 0; i < q_; ++i) (*jtj)(1 + i, 0) = (*jtj)(0, 1 + i);
+  }
+
+ private:
+  struct Chain {
+    std::size_t trial;
+    Eigen::Index joint, offset;
+    std::size_t filter;  // index into the per-(period, joint) filters
+    double period_s;     // T
+  };
+
+  template <typename F>
+  void ForEachPair(const F& f) const {
+    for (std::size_t c = 0; c < chains_.size();) {
+      const Chain& a = chains_[c];
+      const Eigen::Index N = Z_[a.trial].rows();
+      const bool pair = c + 1 < chains_.size() && Z_[chains_[c + 1].trial].rows() == N;
+      f(a, pair ? chains_[c + 1] : a, N);
+      c += pair ? 2 : 1;
+    }
+  }
+
+  Eigen::Index q_;
+  std::vector<Eigen::MatrixXd> Z_, Yt_;  // ẑ of eq. (43) and ỹ, fixed during the search
+  Eigen::Index n_res_ = 0, rows_per_joint_ = 0;
+  std::vector<double> periods_;
+  std::vector<Chain> chains_;
+};
+
 }  // namespace
 
 Eigen::VectorXd MuscleActivations(const std::vector<SigmoidParams>& phi,
@@ -236,6 +459,80 @@ JointFilter DiscretiseJointDynamics(double omega_rad_s, double mu_s, double samp
   f.Ad = E.topLeftCorner<3, 3>();
   f.Bd = E.topRightCorner<3, 1>();
   return f;
+}
+
+JointSensitivityFilter DiscretiseJointSensitivities(double omega_rad_s, double mu_s,
+                                                    double sample_period_s) {
+  if (!(omega_rad_s > 0.0) || !(mu_s >= 0.0) || !(sample_period_s > 0.0)) {
+    throw std::invalid_argument("joint sensitivities: need Omega > 0, mu >= 0, T > 0");
+  }
+  // States x1, x2, x3, v, u and the held input z (column 5): d/dt [x; z] = M [x; z], so that
+  // exp(M T) holds Φ and Γ (the ZOH of the augmented system; see the header for v and u).
+  const double w = omega_rad_s;
+  Eigen::Matrix<double, 6, 6> M = Eigen::Matrix<double, 6, 6>::Zero();
+  M(0, 0) = -w;  // x1' = Ω(z − x1)
+  M(0, 5) = w;
+  M(1, 0) = w;  // x2' = Ω(x1 − x2)
+  M(1, 1) = -w;
+  JointSensitivityFilter f;
+  if (mu_s > kMuNegligible_s) {
+    M(2, 1) = 1.0 / mu_s;  // x3' = (x2 − x3)/μ, y = x3
+    M(2, 2) = -1.0 / mu_s;
+    f.C << 0.0, 0.0, 1.0;
+  } else {
+    f.C << 0.0, 1.0, 0.0;  // y = x2; x3 stays at its start and is not used
+  }
+  M(3, 1) = w * f.C(1);  // v' = Ω(y − v)
+  M(3, 2) = w * f.C(2);
+  M(3, 3) = -w;
+  f.k_omega = -2.0 / w;
+  if (mu_s > kMuSensitivityFloor_s) {
+    M(4, 2) = 1.0 / mu_s;  // u' = (y − u)/μ
+    M(4, 4) = -1.0 / mu_s;
+    f.k_mu = 1.0 / mu_s;
+  } else {
+    // u ≡ y + x2 − x1, so that y − u = x1 − x2: u' = y' + Ω(x1 − x2) − Ω(z − x1).
+    M.row(4) = f.C(1) * M.row(1) + f.C(2) * M.row(2);
+    M(4, 0) += 2.0 * w;
+    M(4, 1) -= w;
+    M(4, 5) -= w;
+    f.k_mu = w;
+  }
+  const Eigen::Matrix<double, 6, 6> E = (M * sample_period_s).exp();
+  f.Phi = E.topLeftCorner<5, 5>();
+  f.Gamma = E.topRightCorner<5, 1>();
+  // The filter rows exactly as DiscretiseJointDynamics computes them, so the residuals of the
+  // fused pass equal those of the plain simulation bit for bit (the difference is rounding).
+  const JointFilter plain = DiscretiseJointDynamics(omega_rad_s, mu_s, sample_period_s);
+  f.Phi.topLeftCorner<3, 3>() = plain.Ad;
+  f.Gamma.head<3>() = plain.Bd;
+  return f;
+}
+
+Eigen::MatrixXd SimulateJointSensitivities(double omega_rad_s, double mu_s,
+                                           const Eigen::VectorXd& z, double sample_period_s) {
+  const JointSensitivityFilter f = DiscretiseJointSensitivities(omega_rad_s, mu_s, sample_period_s);
+  const Eigen::Index N = z.size();
+  Eigen::MatrixXd out(N, 3);
+  Eigen::Matrix<double, 5, 1> s = Eigen::Matrix<double, 5, 1>::Constant(N > 0 ? z(0) : 0.0);
+  for (Eigen::Index k = 0; k < N; ++k) {
+    const double y = f.C * s.head<3>();
+    out(k, 0) = y;
+    out(k, 1) = -f.k_omega * (y - s(3));
+    out(k, 2) = -f.k_mu * (y - s(4));
+    s = f.Phi * s + f.Gamma * z(k);
+  }
+  return out;
+}
+
+DynamicNormalEquations HammersteinDynamicNormalEquations(const std::vector<MimoTrialData>& trials,
+                                                         const HammersteinMimoParams& p) {
+  const DynamicProblem problem(trials, p);
+  Eigen::VectorXd theta(p.mu_s.size() + 1);
+  theta << p.omega_rad_s, p.mu_s;
+  DynamicNormalEquations out;
+  out.residual = problem.ResidualWithNormalEquations(theta, &out.jtj, &out.jtr);
+  return out;
 }
 
 Eigen::MatrixXd SimulateHammersteinMimo(const HammersteinMimoParams& p, const Eigen::MatrixXd& u_us,
@@ -391,83 +688,34 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
                            const HammersteinMimoOptions& options, HammersteinMimoFit* fit) {
   const auto t0 = Clock::now();
   const Eigen::Index q = fit->params.d_rad.rows();
-  const auto phi = SigmoidsFromCutoffs(fit->params.psi);
-  // ẑ of eq. (43) and ỹ, fixed during the search.
-  std::vector<Eigen::MatrixXd> Z, Yt;
-  Eigen::Index n_res = 0;
-  for (const auto& t : trials) {
-    Z.emplace_back(ActivationMatrix(phi, t.u_us) * fit->params.d_rad.transpose());
-    Yt.emplace_back((-t.y_rad).rowwise() + fit->params.rest_rad.transpose());
-    n_res += t.u_us.rows() * q;
-  }
-  // Residual rows are grouped by joint: joint i's block depends on Ω and μ_i only.
-  const Eigen::Index rows_per_joint = n_res / std::max<Eigen::Index>(q, 1);
-  // One chain per (trial, joint), residual rows grouped by joint; consecutive chains of equal
-  // length run in pairs, one per SIMD lane (a chain without a partner fills both lanes).
-  struct Chain {
-    std::size_t trial;
-    Eigen::Index joint, offset;
+  const DynamicProblem problem(trials, fit->params);
+  const Eigen::Index n_res = problem.residuals();
+  const bool exact = options.dynamic_jacobian == DynamicJacobian::kExactSensitivities;
+  // Exact path: every residual evaluation also propagates the sensitivities and keeps JᵀJ, Jᵀr
+  // for its Θ. LevenbergMarquardt asks for the normal equations only at the point it evaluated
+  // last (the start, then each accepted step), so they come without another simulation; at any
+  // other Θ they are recomputed.
+  Eigen::VectorXd cached_theta;
+  Eigen::MatrixXd cached_jtj;
+  Eigen::VectorXd cached_jtr;
+  const auto residual = [&](const Eigen::VectorXd& theta) -> Eigen::VectorXd {
+    if (!exact) return problem.Residual(theta);
+    cached_theta = theta;
+    return problem.ResidualWithNormalEquations(theta, &cached_jtj, &cached_jtr);
   };
-  std::vector<Chain> chains;
-  {
-    Eigen::Index offset = 0;
-    for (std::size_t t = 0; t < trials.size(); ++t) {
-      for (Eigen::Index i = 0; i < q; ++i) chains.push_back({t, i, i * rows_per_joint + offset});
-      offset += Z[t].rows();
-    }
-  }
-  const auto residual_of = [&](double omega, const Eigen::VectorXd& mu) -> Eigen::VectorXd {
-    Eigen::VectorXd r(n_res);
-    for (std::size_t c = 0; c < chains.size();) {
-      const Chain& a = chains[c];
-      const Eigen::Index N = Z[a.trial].rows();
-      const bool pair = c + 1 < chains.size() && Z[chains[c + 1].trial].rows() == N;
-      const Chain& b = pair ? chains[c + 1] : a;
-      SimulatePair(
-          PairFilters(DiscretiseJointDynamics(omega, mu(a.joint), trials[a.trial].sample_period_s),
-                      DiscretiseJointDynamics(omega, mu(b.joint), trials[b.trial].sample_period_s)),
-          Z[a.trial].col(a.joint).data(), Z[b.trial].col(b.joint).data(),
-          Yt[a.trial].col(a.joint).data(), Yt[b.trial].col(b.joint).data(), N, r.data() + a.offset,
-          r.data() + b.offset);
-      c += pair ? 2 : 1;
-    }
-    return r;
-  };
-  const auto residual = [&](const Eigen::VectorXd& theta) {
-    return residual_of(theta(0), theta.tail(q));
-  };
-  // Structured forward differences straight into the normal equations: per trial and joint i,
-  // one simulation with Ω perturbed and one with μ_i perturbed (side by side in SimulatePair)
-  // (joint i's rows see only Ω and μ_i, so J's μ columns are zero outside their joint's block). JᵀJ
-  // and Jᵀr are accumulated block by block, without forming (and zeroing) the N·q × (q + 1)
-  // Jacobian.
-  constexpr double kFdStep = 1e-7;
   const auto normal_equations = [&](const Eigen::VectorXd& theta, const Eigen::VectorXd& r0,
                                     Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr, int* evals) {
-    const double h0 = -kFdStep * std::max(std::abs(theta(0)), 1e-3);  // inward of Ω ≤ Ω_max
-    Eigen::VectorXd h(q);
-    for (Eigen::Index i = 0; i < q; ++i) h(i) = kFdStep * std::max(std::abs(theta(1 + i)), 1e-3);
-    jtj->setZero(q + 1, q + 1);
-    jtr->setZero(q + 1);
-    Eigen::Index offset = 0;
-    for (std::size_t t = 0; t < trials.size(); ++t) {
-      const Eigen::Index N = Z[t].rows();
-      const double T = trials[t].sample_period_s;
-      for (Eigen::Index i = 0; i < q; ++i) {
-        const DifferenceSums d = SimulatePairDifferences(
-            PairFilters(DiscretiseJointDynamics(theta(0) + h0, theta(1 + i), T),
-                        DiscretiseJointDynamics(theta(0), theta(1 + i) + h(i), T)),
-            Z[t].col(i).data(), Yt[t].col(i).data(), r0.data() + i * rows_per_joint + offset, N);
-        (*jtj)(0, 0) += d.dd0 / (h0 * h0);
-        (*jtj)(0, 1 + i) += d.d01 / (h0 * h(i));
-        (*jtj)(1 + i, 1 + i) += d.dd1 / (h(i) * h(i));
-        (*jtr)(0) += d.db0 / h0;
-        (*jtr)(1 + i) += d.db1 / h(i);
-      }
-      offset += N;
+    if (!exact) {
+      problem.ForwardDifferenceNormalEquations(theta, r0, jtj, jtr);
+      *evals += 2;
+      return;
     }
-    for (Eigen::Index i = 0; i < q; ++i) (*jtj)(1 + i, 0) = (*jtj)(0, 1 + i);
-    *evals += 2;
+    if (cached_theta.size() != theta.size() || cached_theta != theta) {
+      residual(theta);
+      ++*evals;
+    }
+    *jtj = cached_jtj;
+    *jtr = cached_jtr;
   };
   const HammersteinMimoBounds& b = options.bounds;
   Eigen::VectorXd lower(q + 1), upper(q + 1);
@@ -492,6 +740,7 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
     fit->dynamic_step_wall_s.push_back(Seconds(ts));
     fit->dynamic_step_cpu_s.push_back(ThreadCpuSeconds() - cpu);
     fit->dynamic_step_iterations.push_back(r.iterations);
+    fit->dynamic_step_evaluations.push_back(r.evaluations);
     fit->dynamic_step_convergence.push_back(ToConvergence(r));
     if (r.cost < best.cost) {
       fit->dynamic_best_run = fit->dynamic_step_convergence.size() - 1;

@@ -62,11 +62,22 @@ struct HammersteinMimoBounds {
   double mu_min_s = 0.0, mu_max_s = 5.0;
 };
 
+/// How the dynamic step obtains JᵀJ and Jᵀr of its residual.
+enum class DynamicJacobian {
+  /// Exact discrete sensitivities ∂ŷ/∂Ω, ∂ŷ/∂μ_i propagated in the residual's simulation pass
+  /// (DiscretiseJointSensitivities); the default.
+  kExactSensitivities,
+  /// Structured forward differences, relative step 1e-7 (Ω stepped inwards): two perturbed
+  /// simulations per trial and joint at each accepted step.
+  kForwardDifference,
+};
+
 struct HammersteinMimoOptions {
-  int muscles_l = 0;         ///< l; 0 means l = number of inputs n.
-  int starts = 20;           ///< multi-start local optimisations of the static step, ≥ 1.
-  int dynamic_starts = 3;    ///< local optimisations of Θ (Ω spread over its range), ≥ 1.
-  unsigned seed = 1;         ///< start points.
+  int muscles_l = 0;       ///< l; 0 means l = number of inputs n.
+  int starts = 20;         ///< multi-start local optimisations of the static step, ≥ 1.
+  int dynamic_starts = 3;  ///< local optimisations of Θ (Ω spread over its range), ≥ 1.
+  unsigned seed = 1;       ///< start points.
+  DynamicJacobian dynamic_jacobian = DynamicJacobian::kExactSensitivities;
   double min_step_s = 1.0;   ///< shortest constant-input segment used for 𝒳, s.
   double ss_window_s = 0.2;  ///< averaging window at each segment's end, s.
   HammersteinMimoBounds bounds;
@@ -92,8 +103,11 @@ struct HammersteinMimoFit {
   /// CPU time of the calling thread for each static / dynamic local optimisation, s (the steadier
   /// figure on a loaded machine; the fit is single-threaded).
   std::vector<double> static_step_cpu_s, dynamic_step_cpu_s;
-  std::vector<int> static_step_iterations;            ///< LM iterations per static start.
-  std::vector<int> dynamic_step_iterations;           ///< LM iterations per dynamic start.
+  std::vector<int> static_step_iterations;   ///< LM iterations per static start.
+  std::vector<int> dynamic_step_iterations;  ///< LM iterations per dynamic start.
+  /// Simulation passes over all trials per dynamic start: residual evaluations (fused with the
+  /// sensitivities on the exact path) plus, on the forward-difference path, two per Jacobian.
+  std::vector<int> dynamic_step_evaluations;
   std::vector<Convergence> static_step_convergence;   ///< per static start: converged, why.
   std::vector<Convergence> dynamic_step_convergence;  ///< per dynamic start: converged, why.
   std::size_t static_best_run = 0;   ///< index of the static start whose Ψ is kept.
@@ -120,6 +134,48 @@ struct JointFilter {
   Eigen::RowVector3d C;
 };
 JointFilter DiscretiseJointDynamics(double omega_rad_s, double mu_s, double sample_period_s);
+
+/// The ZOH discretisation of H̃(s, θ_i) (eq. 18) augmented with two states whose outputs give
+/// its exact parameter sensitivities. With y = C x the joint's filter output (x3; x2 when μ_i is
+/// negligible) and P(s) = 1/(1 + s/Ω), L(s) = 1/(1 + μ_i s), so H̃ = L P²:
+///   ∂H̃/∂Ω = (2/Ω) (H̃ − P H̃)           (∂P/∂Ω = P (1 − P)/Ω),
+///   ∂H̃/∂μ = −(1/μ) (H̃ − L H̃)           (∂L/∂μ = −L (1 − L)/μ),
+/// so with v = P y and u = L y (states 4 and 5, v̇ = Ω(y − v), u̇ = (y − u)/μ):
+///   ∂y/∂Ω = (2/Ω) (y − v),  ∂y/∂μ = −(y − u)/μ.
+/// At μ = 0 (and below kMuNegligible_s, where the model is P²) the right derivative is
+/// ∂y/∂μ = −ẏ = −Ω(x1 − x2); u ≡ y + x2 − x1 then, so that ∂y/∂μ = −Ω (y − u). The same limit
+/// is used for 0 < μ ≤ 5e-7 s, where (y − u)/μ cancels to noise (relative error ≲ 3e-5 there;
+/// ≤ 1e-6 for μ = 0 and μ ≥ 2e-6 s). The ZOH of the augmented system
+/// is exact for piecewise-constant z, so the sampled v, u (and the sensitivities) are exact
+/// samples of the continuous ones: the derivatives of the discrete simulation, not
+/// approximations. All five states start at z(0) (steady state). Units: Ω rad/s, μ s, T s.
+struct JointSensitivityFilter {
+  Eigen::Matrix<double, 5, 5> Phi;    ///< lower triangular; states x1, x2, x3, v, u.
+  Eigen::Matrix<double, 5, 1> Gamma;  ///< input column.
+  Eigen::RowVector3d C;               ///< y = C x (as JointFilter::C).
+  double k_omega = 0.0;               ///< ∂(ỹ − y)/∂Ω = k_omega (y − v): −2/Ω, s/rad.
+  double k_mu = 0.0;  ///< ∂(ỹ − y)/∂μ = k_mu (y − u): 1/μ, or Ω for μ ≤ 5e-7 s, 1/s.
+};
+JointSensitivityFilter DiscretiseJointSensitivities(double omega_rad_s, double mu_s,
+                                                    double sample_period_s);
+
+/// One joint's filter response y(k) = C x(k) to z (N samples, from the steady state of z(0))
+/// with its exact derivatives: N×3, columns y, ∂y/∂Ω, ∂y/∂μ (a scalar reference of what the
+/// dynamic step propagates).
+Eigen::MatrixXd SimulateJointSensitivities(double omega_rad_s, double mu_s,
+                                           const Eigen::VectorXd& z, double sample_period_s);
+
+/// The dynamic step's least-squares problem at Θ = [p.omega_rad_s, p.mu_s]: residual
+/// r = ŷ − y over all trials, rows grouped by joint (joint-major, then trial, then sample; ŷ as
+/// SimulateHammersteinMimo), with the exact JᵀJ ((q+1)×(q+1)) and Jᵀr of r over Θ — what
+/// FitHammersteinDynamic uses with DynamicJacobian::kExactSensitivities.
+struct DynamicNormalEquations {
+  Eigen::VectorXd residual;
+  Eigen::MatrixXd jtj;
+  Eigen::VectorXd jtr;
+};
+DynamicNormalEquations HammersteinDynamicNormalEquations(const std::vector<MimoTrialData>& trials,
+                                                         const HammersteinMimoParams& p);
 
 /// Simulated joint angles y = r − H D h(u) (eq. 33) for an N×n input; N×q, rad.
 Eigen::MatrixXd SimulateHammersteinMimo(const HammersteinMimoParams& p, const Eigen::MatrixXd& u_us,

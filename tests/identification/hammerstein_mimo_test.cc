@@ -100,6 +100,159 @@ TEST(HammersteinMimo, JointDynamicsHaveUnitDcGainAndCriticallyDampedStep) {
   EXPECT_NEAR(g.C * xs, 1.0, kStepDC_tol);  // H̃(0) = 1 (eq. 34)
 }
 
+// Exact sensitivities of the dynamic step against finite differences of the model itself.
+constexpr double kJacobianTol = 1e-6;  // relative, vs second-order finite differences
+constexpr double kFdRelStep = 1e-5;    // truncation ~1e-10, rounding ~1e-11 relative
+// At μ = 0 the one-sided quotient needs a larger absolute step: the model's exp(M T) has entries
+// T/h there, and its rounding (≈ ε T/h absolute) over h gives 3e-2 at h = 1e-8, 4e-7 at 1e-4.
+constexpr double kFdStepAtMuZero_s = 3e-5;
+
+/// y = C x of DiscretiseJointDynamics' filter driven by z from its steady state (the model).
+Eigen::VectorXd JointResponse(double omega, double mu, const Eigen::VectorXd& z, double T) {
+  const JointFilter f = DiscretiseJointDynamics(omega, mu, T);
+  Eigen::Vector3d x = Eigen::Vector3d::Constant(z(0));
+  Eigen::VectorXd y(z.size());
+  for (Eigen::Index k = 0; k < z.size(); ++k) {
+    y(k) = f.C * x;
+    x = f.Ad * x + f.Bd * z(k);
+  }
+  return y;
+}
+
+/// Second-order difference quotient of f at x: central, or one-sided (−3f(x) + 4f(x + h) −
+/// f(x + 2h))/(2h) where x − h would leave the domain (μ = 0).
+template <typename F>
+Eigen::VectorXd Derivative(const F& f, double x, double h, bool one_sided) {
+  if (one_sided) return (-3.0 * f(x) + 4.0 * f(x + h) - f(x + 2.0 * h)) / (2.0 * h);
+  return (f(x + h) - f(x - h)) / (2.0 * h);
+}
+
+double MaxRelError(const Eigen::VectorXd& got, const Eigen::VectorXd& want) {
+  return (got - want).cwiseAbs().maxCoeff() / want.cwiseAbs().maxCoeff();
+}
+
+TEST(HammersteinMimo, JointSensitivitiesEqualDifferencesOfTheModel) {
+  std::mt19937 rng(kSeed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  // A random staircase z (steps of 1–60 samples), 2000 samples at T.
+  const double T = kSamplePeriod;
+  Eigen::VectorXd z(2000);
+  for (Eigen::Index k = 0; k < z.size();) {
+    const auto len = static_cast<Eigen::Index>(1 + 60 * unit(rng));
+    const double level = 2.0 * unit(rng) - 1.0;
+    for (Eigen::Index j = 0; j < len && k < z.size(); ++j) z(k++) = level;
+  }
+  // Random (Ω, μ) in the bounds' interior, the repeated pole Ω = 1/μ, and μ = 0.
+  std::vector<std::pair<double, double>> cases = {{4.0, 0.25}, {2.0, 0.0}, {0.05, 3.0}, {9.0, 0.0}};
+  for (int c = 0; c < 6; ++c) cases.emplace_back(0.3 + 9.7 * unit(rng), 0.01 + 2.0 * unit(rng));
+  for (const auto& [omega, mu] : cases) {
+    SCOPED_TRACE("Omega = " + std::to_string(omega) + ", mu = " + std::to_string(mu));
+    const Eigen::MatrixXd s = SimulateJointSensitivities(omega, mu, z, T);
+    EXPECT_LT((s.col(0) - JointResponse(omega, mu, z, T)).cwiseAbs().maxCoeff(), 1e-12);
+    const Eigen::VectorXd d_omega = Derivative([&](double w) { return JointResponse(w, mu, z, T); },
+                                               omega, kFdRelStep * omega, false);
+    const double h_mu = mu == 0.0 ? kFdStepAtMuZero_s : kFdRelStep * mu;
+    const Eigen::VectorXd d_mu =
+        Derivative([&](double m) { return JointResponse(omega, m, z, T); }, mu, h_mu, mu == 0.0);
+    EXPECT_LT(MaxRelError(s.col(1), d_omega), kJacobianTol);
+    EXPECT_LT(MaxRelError(s.col(2), d_mu), kJacobianTol);
+  }
+}
+
+TEST(HammersteinMimo, DynamicNormalEquationsEqualDifferencesOfTheSimulation) {
+  auto trials = Trials(Planted(), kNoiseStd_rad, kSeed + 3);
+  // A third, shorter trial at another sample period: an unpaired chain and a second filter set.
+  MimoTrialData extra;
+  extra.sample_period_s = 0.02;
+  extra.u_us = trials[0].u_us.topRows(1001);
+  extra.y_rad = trials[0].y_rad.topRows(1001);
+  trials.push_back(extra);
+  std::mt19937 rng(kSeed + 4);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int c = 0; c < 4; ++c) {
+    HammersteinMimoParams p = Planted();
+    p.omega_rad_s = 0.5 + 9.0 * unit(rng);
+    for (int i = 0; i < 3; ++i) p.mu_s(i) = 0.01 + 1.5 * unit(rng);
+    if (c == 3) p.mu_s(1) = 0.0;  // lower bound: right derivative
+    SCOPED_TRACE("case " + std::to_string(c));
+    // r = ŷ − y over all trials, joint-major, from SimulateHammersteinMimo (the model).
+    const auto residual = [&](const HammersteinMimoParams& pp) {
+      std::vector<Eigen::MatrixXd> e;
+      Eigen::Index n = 0;
+      for (const auto& t : trials) {
+        e.push_back(SimulateHammersteinMimo(pp, t.u_us, t.sample_period_s) - t.y_rad);
+        n += e.back().size();
+      }
+      Eigen::VectorXd r(n);
+      Eigen::Index o = 0;
+      for (int i = 0; i < 3; ++i) {
+        for (const auto& m : e) {
+          r.segment(o, m.rows()) = m.col(i);
+          o += m.rows();
+        }
+      }
+      return r;
+    };
+    const DynamicNormalEquations ne = HammersteinDynamicNormalEquations(trials, p);
+    const Eigen::VectorXd r = residual(p);
+    ASSERT_EQ(ne.residual.size(), r.size());
+    EXPECT_LT((ne.residual - r).cwiseAbs().maxCoeff(), 1e-12);
+    Eigen::MatrixXd J(r.size(), 4);
+    J.col(0) = Derivative(
+        [&](double w) {
+          HammersteinMimoParams pp = p;
+          pp.omega_rad_s = w;
+          return residual(pp);
+        },
+        p.omega_rad_s, kFdRelStep * p.omega_rad_s, false);
+    for (int i = 0; i < 3; ++i) {
+      J.col(1 + i) = Derivative(
+          [&](double m) {
+            HammersteinMimoParams pp = p;
+            pp.mu_s(i) = m;
+            return residual(pp);
+          },
+          p.mu_s(i), p.mu_s(i) == 0.0 ? kFdStepAtMuZero_s : kFdRelStep * p.mu_s(i),
+          p.mu_s(i) == 0.0);
+    }
+    const Eigen::MatrixXd jtj = J.transpose() * J;
+    const Eigen::VectorXd jtr = J.transpose() * r;
+    for (int a = 0; a < 4; ++a) {
+      const double scale_r = std::sqrt(jtj(a, a)) * r.norm();
+      EXPECT_LT(std::abs(ne.jtr(a) - jtr(a)), kJacobianTol * scale_r) << "J'r " << a;
+      for (int b = 0; b < 4; ++b) {
+        const double scale = std::sqrt(jtj(a, a) * jtj(b, b));
+        EXPECT_LT(std::abs(ne.jtj(a, b) - jtj(a, b)), kJacobianTol * scale) << "J'J " << a << b;
+      }
+    }
+    // μ columns vanish outside their joint's block: JᵀJ(μ_i, μ_k) = 0 for i ≠ k.
+    EXPECT_EQ(ne.jtj(1, 2), 0.0);
+    EXPECT_EQ(ne.jtj(2, 3), 0.0);
+  }
+}
+
+TEST(HammersteinMimo, ExactAndForwardDifferenceDynamicStepsReachTheSameOptimum) {
+  const HammersteinMimoParams truth = Planted();
+  const auto trials = Trials(truth, kNoiseStd_rad, kSeed + 5);
+  HammersteinMimoOptions o;
+  const SteadyStateSet set = ExtractSteadyState(trials, o.min_step_s, o.ss_window_s);
+  const HammersteinMimoFit stat = FitHammersteinStatic(set, truth.rest_rad, o);
+  HammersteinMimoFit exact = stat, fd = stat;
+  FitHammersteinDynamic(trials, o, &exact);
+  o.dynamic_jacobian = DynamicJacobian::kForwardDifference;
+  FitHammersteinDynamic(trials, o, &fd);
+  for (const auto* f : {&exact, &fd}) {
+    for (const auto& c : f->dynamic_step_convergence) EXPECT_TRUE(c.converged) << c.stop_reason;
+  }
+  EXPECT_LT(Rel(exact.dynamic_cost, fd.dynamic_cost), 1e-7);
+  EXPECT_LT(Rel(exact.params.omega_rad_s, fd.params.omega_rad_s), 1e-4);
+  for (int i = 0; i < 3; ++i) EXPECT_LT(Rel(exact.params.mu_s(i), fd.params.mu_s(i)), 1e-4);
+  EXPECT_LT(Rel(exact.params.omega_rad_s, truth.omega_rad_s), kNoisyTol);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_LT(Rel(exact.theta_ci95(1 + i), fd.theta_ci95(1 + i)), 1e-3) << "ci95 mu " << i;
+  }
+}
+
 TEST(HammersteinMimo, SteadyStateSetIsTheEndOfEachStep) {
   const auto trials = Trials(Planted(), 0.0, kSeed);
   const SteadyStateSet set = ExtractSteadyState({trials[0]}, 1.0, 0.2);
