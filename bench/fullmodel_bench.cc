@@ -167,57 +167,104 @@ BENCHMARK(BM_SimulateDataSetStats)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(3);
 
-/// One 140 s data set with CVODES forward sensitivities to range(0) candidate parameters (the
-/// first of CandidateParameters: A entries, k, β, γ, R scales) at tolerance 1e-4: the unit cost
-/// of a Jacobian with FullModelFitOptions::sensitivities (compare range(0) ×
-/// BM_SimulateDataSet/4 for forward differences).
-void BM_SensitivityDataSet(benchmark::State& state) {
-  const Study s = MakeStudy();
-  const sim::ModelParams base = fm::WithExplicitArrayWeights(s.rig);
-  auto candidates = fm::CandidateParameters(s.rig, {"ext", "flex"});
-  candidates.resize(static_cast<std::size_t>(state.range(0)));
+/// The first `count` candidate parameters of the hand rig at their nominal values, perturbed for
+/// sim::IntegrateTrialSensitivities, and one 140 s step-grid data set (schedule, 40 Hz times).
+struct SensitivityProblem {
+  sim::ModelParams model;
+  std::vector<sim::ParameterPerturbation> perturbed;
+  sim::StimulationSchedule schedule;
+  std::vector<double> times;
+};
+SensitivityProblem MakeSensitivityProblem(int count) {
+  const sim::ModelParams rig = fm::DefaultHandRig();
+  const sim::ModelParams base = fm::WithExplicitArrayWeights(rig);
+  auto candidates = fm::CandidateParameters(rig, {"ext", "flex"});
+  candidates.resize(static_cast<std::size_t>(count));
   Eigen::VectorXd x(static_cast<Eigen::Index>(candidates.size()));
   for (std::size_t i = 0; i < candidates.size(); ++i) {
     x(static_cast<Eigen::Index>(i)) = candidates[i].nominal;
   }
-  std::vector<sim::ParameterPerturbation> perturbed;
+  SensitivityProblem p;
   for (Eigen::Index c = 0; c < x.size(); ++c) {
     const double scale = std::max(std::abs(x(c)), 1e-3);
     Eigen::VectorXd xp = x;
     xp(c) += 1e-7 * scale;
-    perturbed.push_back({fm::ApplyParameters(base, candidates, xp), 1e-7 * scale, scale});
+    p.perturbed.push_back({fm::ApplyParameters(base, candidates, xp), 1e-7 * scale, scale});
   }
   fesim::protocols::StepGridParams grid;
   grid.u_max_us = 300.0;
   const auto program = fesim::protocols::StepGridDataSets(grid, 1).front();
-  const sim::ModelParams model = fm::ApplyParameters(base, candidates, x);
-  sim::StimulationSchedule schedule;
+  p.model = fm::ApplyParameters(base, candidates, x);
   for (std::size_t k = 0; k < program.times_s.size(); ++k) {
-    std::vector<double> u(model.channels.size(), 0.0);
+    std::vector<double> u(p.model.channels.size(), 0.0);
     u[0] = program.values_us[k][0];
     u[1] = program.values_us[k][1];
-    schedule.times.push_back(program.times_s[k] + model.mechanisms.electromechanical_delay_s);
-    schedule.values.push_back(u);
+    p.schedule.times.push_back(program.times_s[k] + p.model.mechanisms.electromechanical_delay_s);
+    p.schedule.values.push_back(u);
   }
-  std::vector<double> times;
   for (int i = 0; i <= static_cast<int>(program.duration_s * kRateHz); ++i) {
-    times.push_back(i / kRateHz);
+    p.times.push_back(i / kRateHz);
   }
+  return p;
+}
+
+/// dq/dθ at every sample ([sample][c · P + k]) of `p` at `tolerance`, the state Jacobian formed
+/// at every `every`-th step.
+std::vector<std::vector<double>> Sensitivities(const SensitivityProblem& p, double tolerance,
+                                               int every, sim::IntegrationStats* stats = nullptr) {
+  const sim::UpperLimbModel limb(p.model);
+  SimTK::State st = limb.MakeInitialState();
+  std::vector<std::vector<double>> out;
+  const auto s = sim::IntegrateTrialSensitivities(
+      limb, {sim::IntegratorParams::Method::kCvodes, tolerance}, p.schedule, p.times, p.perturbed,
+      &st, [&](const SimTK::State&, const std::vector<double>& dq) { out.push_back(dq); }, every);
+  if (stats) *stats = s;
+  return out;
+}
+
+/// One 140 s data set with CVODES forward sensitivities to range(0) candidate parameters (the
+/// first of CandidateParameters: A entries, k, β, γ, R scales) at tolerance 10^−range(1), the
+/// state Jacobian formed every range(2)-th step: the unit cost of a Jacobian with
+/// FullModelFitOptions::sensitivities (compare range(0) × BM_SimulateDataSet/4 for forward
+/// differences; the fit's default is tolerance 1e-3 when its residuals use 1e-4, every 4th).
+void BM_SensitivityDataSet(benchmark::State& state) {
+  const SensitivityProblem p = MakeSensitivityProblem(static_cast<int>(state.range(0)));
+  const double tol = std::pow(10.0, -static_cast<double>(state.range(1)));
   sim::IntegrationStats stats;
   for (auto _ : state) {
-    const sim::UpperLimbModel limb(model);
-    SimTK::State st = limb.MakeInitialState();
-    double sum = 0.0;
-    stats = sim::IntegrateTrialSensitivities(
-        limb, {sim::IntegratorParams::Method::kCvodes, 1e-4}, schedule, times, perturbed, &st,
-        [&](const SimTK::State&, const std::vector<double>& dq) { sum += dq[0]; });
-    benchmark::DoNotOptimize(sum);
+    benchmark::DoNotOptimize(Sensitivities(p, tol, static_cast<int>(state.range(2)), &stats));
   }
   state.counters["steps"] = static_cast<double>(stats.steps);
   state.counters["rhs"] = static_cast<double>(stats.rhs_evaluations);
   state.counters["jacobians"] = static_cast<double>(stats.jacobian_evaluations);
+  // Accuracy on the three measured joints against tolerance 1e-7, state Jacobian at every step:
+  // relative RMS error of the whole Jacobian and of its worst column.
+  const auto ref = Sensitivities(p, 1e-7, 1);
+  const auto got = Sensitivities(p, tol, static_cast<int>(state.range(2)));
+  const std::size_t np = p.perturbed.size();
+  double worst = 0.0, total_num = 0.0, total_den = 0.0;
+  for (std::size_t k = 0; k < np; ++k) {
+    double num = 0.0, den = 0.0;
+    for (std::size_t i = 0; i < ref.size(); ++i) {
+      for (int c : {sim::kWristFlexion, sim::kMcpFlexion, sim::kPipFlexion}) {
+        const double e = got[i][c * np + k] - ref[i][c * np + k];
+        num += e * e;
+        den += ref[i][c * np + k] * ref[i][c * np + k];
+      }
+    }
+    total_num += num;
+    total_den += den;
+    if (den > 0.0) worst = std::max(worst, std::sqrt(num / den));
+  }
+  state.counters["jacobian_rel_rms_err"] = std::sqrt(total_num / total_den);
+  state.counters["worst_column_rel_rms_err"] = worst;
 }
-BENCHMARK(BM_SensitivityDataSet)->Arg(29)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_SensitivityDataSet)
+    ->Args({29, 4, 1})
+    ->Args({29, 4, 4})
+    ->Args({29, 3, 4})  // what the fit uses with residuals at 1e-4
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
 
 /// The full-model fit: sensitivity ranking of all candidates, then `starts` local optimisations
 /// of the 29 most influential, each capped at range(0) LM iterations; range(1) = 1: Broyden

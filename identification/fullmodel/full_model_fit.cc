@@ -596,6 +596,9 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
   const auto t_total = Clock::now();
   if (options.keep_parameters < 1) throw std::invalid_argument("keep_parameters must be >= 1");
   if (options.starts < 1) throw std::invalid_argument("starts must be >= 1");
+  if (!(options.jacobian_tolerance_factor >= 1.0)) {
+    throw std::invalid_argument("jacobian_tolerance_factor must be >= 1");
+  }
   const TrainingData data = ReadTraining(rig, train);
   const int threads = ResolveThreads(options.threads);
   const double tol = options.integrator_tolerance;
@@ -633,7 +636,8 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     const std::string sens_label = "sensitivity ranking of " + std::to_string(nc) + " parameters";
     const Eigen::MatrixXd J_nom =
         options.sensitivities
-            ? SensitivityJacobian(base, fit.candidates, x_nom, upper_all, data, tol, threads)
+            ? SensitivityJacobian(base, fit.candidates, x_nom, upper_all, data,
+                                  tol * options.jacobian_tolerance_factor, threads)
             : ParallelJacobian(base, fit.candidates, x_nom, r_nom, upper_all, data, tol,
                                options.fd_relative_step, threads, [&](double f) {
                                  if (progress) progress(0.1 * f, sens_label);
@@ -703,7 +707,8 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     if (options.sensitivities) {
       try {
         ++*evaluations;  // one (augmented) simulation of each distinct trial
-        return SensitivityJacobian(base, fit.kept, x, upper, data, tol, threads);
+        return SensitivityJacobian(base, fit.kept, x, upper, data,
+                                   tol * options.jacobian_tolerance_factor, threads);
       } catch (const std::exception&) {
         // An integration that fails with sensitivities (or a rig they cannot differentiate)
         // falls back to forward differences, whose failed columns are zero.
@@ -859,6 +864,8 @@ MethodResult RunFullModel(const std::string& default_scenario, const std::vector
   o.threads = md.Int("threads", 0, 0, 256);
   o.broyden = md.Int("broyden", o.broyden ? 1 : 0, 0, 1) == 1;
   o.sensitivities = md.Int("sensitivities", o.sensitivities ? 1 : 0, 0, 1) == 1;
+  o.jacobian_tolerance_factor =
+      md.Real("jacobian_tolerance_factor", o.jacobian_tolerance_factor, 1.0, 1e4);
   md.RejectUnknown();
 
   const FullModelFit fit = FitFullModel(rig, train, o, progress);
