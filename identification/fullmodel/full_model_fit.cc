@@ -129,6 +129,14 @@ SimPlan PlanFor(const sim::ModelParams& model, const Trial& trial) {
   return plan;
 }
 
+/// The plan's stimulation as `model` receives it: delayed by the electromechanical delay (as
+/// sim::RunTrial does).
+sim::StimulationSchedule DelayedSchedule(const sim::ModelParams& model, const SimPlan& plan) {
+  sim::StimulationSchedule delayed = plan.schedule;
+  for (double& t : delayed.times) t += model.mechanisms.electromechanical_delay_s;
+  return delayed;
+}
+
 /// Simulated angles q[column][sample] (rad) of `plan` on `model`: the rig's initial state at
 /// t = 0, the schedule delayed by the electromechanical delay (as sim::RunTrial does), CVODES at
 /// `tolerance`, q read at exactly the sample times from a state realised only to Stage::Time
@@ -137,8 +145,7 @@ SimPlan PlanFor(const sim::ModelParams& model, const Trial& trial) {
 std::vector<std::vector<double>> SimulatePlan(const sim::ModelParams& model, const SimPlan& plan,
                                               double tolerance) {
   const sim::UpperLimbModel limb(model);
-  sim::StimulationSchedule delayed = plan.schedule;
-  for (double& t : delayed.times) t += model.mechanisms.electromechanical_delay_s;
+  const sim::StimulationSchedule delayed = DelayedSchedule(model, plan);
   sim::IntegratorParams integrator;
   integrator.tolerance = tolerance;
   SimTK::State state = limb.MakeInitialState();
@@ -331,8 +338,7 @@ std::vector<std::vector<double>> PlanSensitivities(
     const sim::ModelParams& model, const std::vector<sim::ParameterPerturbation>& perturbed,
     const SimPlan& plan, double tolerance) {
   const sim::UpperLimbModel limb(model);
-  sim::StimulationSchedule delayed = plan.schedule;
-  for (double& t : delayed.times) t += model.mechanisms.electromechanical_delay_s;
+  const sim::StimulationSchedule delayed = DelayedSchedule(model, plan);
   sim::IntegratorParams integrator;
   integrator.tolerance = tolerance;
   SimTK::State state = limb.MakeInitialState();
