@@ -281,7 +281,8 @@ void BM_FullModelFit(benchmark::State& state) {
   o.relative_tolerance = 1e-4;
   o.threads = 2;
   o.broyden = state.range(1) != 0;
-  o.sensitivities = state.range(2) != 0;
+  o.jacobian = state.range(2) != 0 ? fm::JacobianMethod::kSensitivities
+                                   : fm::JacobianMethod::kForwardDifferences;
   fm::FullModelFit fit;
   for (auto _ : state) fit = fm::FitFullModel(s.rig, s.train, o);
   const auto& run = fit.runs.front();

@@ -400,6 +400,20 @@ Eigen::MatrixXd SensitivityJacobian(const sim::ModelParams& base,
   return J;
 }
 
+/// Cost of one augmented (sensitivity) simulation in plain simulations: 361 / 99.6 ms CPU on the
+/// hand-array step grid (bench/fullmodel_bench.cc BM_SensitivityDataSet/29/3/4 against
+/// BM_SimulateDataSet/4).
+constexpr double kAugmentedSimulationCost = 3.6;
+
+/// Whether `method` means sensitivities for `p` parameters, `plans` distinct simulations and
+/// `threads` workers (kAuto: fewer simulation-costs per thread; forward differences spread all
+/// p · plans simulations over the threads, sensitivities only the plans).
+bool UseSensitivities(JacobianMethod method, int p, int plans, int threads) {
+  if (method != JacobianMethod::kAuto) return method == JacobianMethod::kSensitivities;
+  const auto per_thread = [threads](int tasks) { return (tasks + threads - 1) / threads; };
+  return kAugmentedSimulationCost * per_thread(plans) < per_thread(p * plans);
+}
+
 int ResolveThreads(int threads) {
   if (threads > 0) return threads;
   return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
@@ -641,7 +655,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     const Eigen::VectorXd r_nom = Residuals(base, fit.candidates, x_nom, data, tol, threads, true);
     const std::string sens_label = "sensitivity ranking of " + std::to_string(nc) + " parameters";
     const Eigen::MatrixXd J_nom =
-        options.sensitivities
+        UseSensitivities(options.jacobian, nc, static_cast<int>(data.plans.size()), threads)
             ? SensitivityJacobian(base, fit.candidates, x_nom, upper_all, data,
                                   tol * options.jacobian_tolerance_factor, threads)
             : ParallelJacobian(base, fit.candidates, x_nom, r_nom, upper_all, data, tol,
@@ -710,7 +724,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     const std::string label = "start " + std::to_string(current_start + 1) + "/" +
                               std::to_string(options.starts) + ", Jacobian " +
                               std::to_string(jacobians);
-    if (options.sensitivities) {
+    if (UseSensitivities(options.jacobian, p, static_cast<int>(data.plans.size()), threads)) {
       try {
         ++*evaluations;  // one (augmented) simulation of each distinct trial
         return SensitivityJacobian(base, fit.kept, x, upper, data,
@@ -869,7 +883,7 @@ MethodResult RunFullModel(const std::string& default_scenario, const std::vector
   o.integrator_tolerance = md.Real("integrator_tolerance", o.integrator_tolerance, 1e-12, 1e-2);
   o.threads = md.Int("threads", 0, 0, 256);
   o.broyden = md.Int("broyden", o.broyden ? 1 : 0, 0, 1) == 1;
-  o.sensitivities = md.Int("sensitivities", o.sensitivities ? 1 : 0, 0, 1) == 1;
+  o.jacobian = static_cast<JacobianMethod>(md.Int("jacobian", 0, 0, 2));
   o.jacobian_tolerance_factor =
       md.Real("jacobian_tolerance_factor", o.jacobian_tolerance_factor, 1.0, 1e4);
   md.RejectUnknown();

@@ -94,6 +94,9 @@ sim::ModelParams ApplyParameters(const sim::ModelParams& base,
 /// posture — the hand rig of paper 000 §5.1.
 sim::ModelParams DefaultHandRig();
 
+/// Jacobian of the simulated outputs with respect to the fitted parameters.
+enum class JacobianMethod { kAuto, kSensitivities, kForwardDifferences };
+
 struct FullModelFitOptions {
   int keep_parameters = 29;  ///< K, the most influential candidates fitted, ≥ 1.
   /// Fit exactly these candidates (by name) instead of the K best ranked (ranking still reported).
@@ -115,12 +118,15 @@ struct FullModelFitOptions {
   /// tight tolerances (relative 1e-10) the secant steps and the confirming Jacobians can cycle for
   /// many more evaluations than the plain method (seen in the planted-parameter tests).
   bool broyden = false;
-  /// Jacobians (and the sensitivity ranking) from CVODES forward sensitivities
-  /// (sim::IntegrateTrialSensitivities): one augmented simulation per distinct trial, exact to the
-  /// integrator's tolerance. False: forward differences with fd_relative_step, one perturbed
-  /// simulation per parameter and trial. A Jacobian whose sensitivity integration fails, or a rig
-  /// with fatigue or potentiation states, falls back to forward differences.
-  bool sensitivities = true;
+  /// How Jacobians (and the sensitivity ranking) are computed: CVODES forward sensitivities
+  /// (sim::IntegrateTrialSensitivities: one augmented simulation per distinct trial, ≈ 3.6
+  /// simulations' cost on the hand rig, exact to its tolerance, see jacobian_tolerance_factor) or
+  /// forward differences with fd_relative_step (one perturbed simulation per parameter and trial,
+  /// spread over the threads); kAuto picks the one with the fewer simulation-costs per thread
+  /// (sensitivities for the paper's 29 parameters; forward differences for a handful of
+  /// parameters on one trial). A sensitivity integration that fails, or a rig with fatigue or
+  /// potentiation states, falls back to forward differences.
+  JacobianMethod jacobian = JacobianMethod::kAuto;
   /// The sensitivity simulations run at this multiple of integrator_tolerance (residuals, hence
   /// the cost and the stop, at integrator_tolerance itself): LM needs the Jacobian for its step
   /// direction only. At 10 (the default) with the state Jacobian reused over 4 steps
@@ -187,7 +193,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
 /// Trials' metadata key `scenario_path` (set by `fesim identify --scenario`) overrides it.
 /// Options from the first training trial's metadata: fullmodel.keep, .starts, .seed, .spread,
 /// .max_iterations, .tolerance, .integrator_tolerance, .threads, .broyden (0 or 1),
-/// .sensitivities (0 or 1), .jacobian_tolerance_factor.
+/// .jacobian (0 auto, 1 sensitivities, 2 forward differences), .jacobian_tolerance_factor.
 MethodEntry FullModelMethod(const std::string& scenario_path = "");
 
 }  // namespace fesim::identification::fullmodel

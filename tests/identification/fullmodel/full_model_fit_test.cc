@@ -111,8 +111,10 @@ PlantedProblem MakePlanted() {
   return p;
 }
 
-FullModelFit FitPlanted(const PlantedProblem& p, const std::vector<Trial>& train) {
+FullModelFit FitPlanted(const PlantedProblem& p, const std::vector<Trial>& train,
+                        JacobianMethod jacobian = JacobianMethod::kAuto) {
   FullModelFitOptions o;
+  o.jacobian = jacobian;
   for (const auto& c : p.planted) o.fit_names.push_back(c.name);
   o.starts = 1;
   o.max_iterations = 40;
@@ -164,6 +166,30 @@ TEST(FullModelFitTest, RecoversPlantedParametersFromNoiselessData) {
   // The start point was off by 20–40 %: the fit moved.
   EXPECT_GT(fit.runs[0].iterations, 1);
   EXPECT_LT(fit.cost, 1e-6);
+}
+
+TEST(FullModelFitTest, SensitivityAndForwardDifferenceJacobiansReachTheSamePlantedOptimum) {
+  // Jacobians from CVODES forward sensitivities (at 10x the residuals' tolerance, the state
+  // Jacobian reused over 4 steps) against forward differences: same planted values, and one
+  // augmented simulation per Jacobian instead of one per parameter. (kAuto picks forward
+  // differences for these 5 parameters on one trial.)
+  const PlantedProblem p = MakePlanted();
+  const Trial data = MakeTrial(p.truth_model, Staircase(p.rig), 7.0, 0.0, 1);
+  const FullModelFit sens = FitPlanted(p, {data}, JacobianMethod::kSensitivities);
+  const FullModelFit fd = FitPlanted(p, {data}, JacobianMethod::kForwardDifferences);
+  for (const auto& c : p.planted) {
+    EXPECT_LT(RelativeError(sens, p, c.name), kNoiselessRelTol) << c.name;
+    EXPECT_LT(RelativeError(fd, p, c.name), kNoiselessRelTol) << c.name;
+  }
+  const auto& rs = sens.runs[0];
+  const auto& rf = fd.runs[0];
+  std::printf(
+      "sensitivities: %d iterations, %d evaluations, %.2f CPU-s; forward differences: %d, "
+      "%d, %.2f CPU-s\n",
+      rs.iterations, rs.evaluations, rs.cpu_s, rf.iterations, rf.evaluations, rf.cpu_s);
+  // Evaluations count one per augmented simulation set (sensitivities) or per parameter (FD).
+  EXPECT_LE(rs.evaluations, rs.iterations * 4 + 4);
+  EXPECT_GE(rf.evaluations, rf.jacobians * static_cast<int>(p.planted.size()));
 }
 
 TEST(FullModelFitTest, StaysCloseUnderHalfDegreeAngleNoise) {
@@ -346,6 +372,10 @@ TEST(FullModelFitTest, MethodEntryRejectsUnusableData) {
     if (name.rfind("q.", 0) == 0) name = "x" + name;
   }
   EXPECT_NE(message(no_output).find("no q.* output column"), std::string::npos);
+  Trial bad_factor = good;
+  bad_factor.metadata["fullmodel.jacobian_tolerance_factor"] = "0.5";
+  EXPECT_NE(message(bad_factor).find("jacobian_tolerance_factor"), std::string::npos)
+      << message(bad_factor);
   Trial short_trial = good;
   short_trial.time.resize(5);
   for (auto& c : short_trial.columns) c.resize(5);
