@@ -405,13 +405,12 @@ Eigen::MatrixXd SensitivityJacobian(const sim::ModelParams& base,
 /// BM_SimulateDataSet/4).
 constexpr double kAugmentedSimulationCost = 3.6;
 
-/// Whether `method` means sensitivities for `p` parameters, `plans` distinct simulations and
-/// `threads` workers (kAuto: fewer simulation-costs per thread; forward differences spread all
-/// p · plans simulations over the threads, sensitivities only the plans).
-bool UseSensitivities(JacobianMethod method, int p, int plans, int threads) {
+/// Whether `method` means sensitivities for `p` parameters (kAuto: when p perturbed simulations
+/// cost more than one augmented one). Deliberately independent of the thread count, so a fit
+/// gives the same figures however it is run (one process, any number of MPI ranks).
+bool UseSensitivities(JacobianMethod method, int p) {
   if (method != JacobianMethod::kAuto) return method == JacobianMethod::kSensitivities;
-  const auto per_thread = [threads](int tasks) { return (tasks + threads - 1) / threads; };
-  return kAugmentedSimulationCost * per_thread(plans) < per_thread(p * plans);
+  return kAugmentedSimulationCost < p;
 }
 
 int ResolveThreads(int threads) {
@@ -655,7 +654,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     const Eigen::VectorXd r_nom = Residuals(base, fit.candidates, x_nom, data, tol, threads, true);
     const std::string sens_label = "sensitivity ranking of " + std::to_string(nc) + " parameters";
     const Eigen::MatrixXd J_nom =
-        UseSensitivities(options.jacobian, nc, static_cast<int>(data.plans.size()), threads)
+        UseSensitivities(options.jacobian, nc)
             ? SensitivityJacobian(base, fit.candidates, x_nom, upper_all, data,
                                   tol * options.jacobian_tolerance_factor, threads)
             : ParallelJacobian(base, fit.candidates, x_nom, r_nom, upper_all, data, tol,
@@ -724,7 +723,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     const std::string label = "start " + std::to_string(current_start + 1) + "/" +
                               std::to_string(options.starts) + ", Jacobian " +
                               std::to_string(jacobians);
-    if (UseSensitivities(options.jacobian, p, static_cast<int>(data.plans.size()), threads)) {
+    if (UseSensitivities(options.jacobian, p)) {
       try {
         ++*evaluations;  // one (augmented) simulation of each distinct trial
         return SensitivityJacobian(base, fit.kept, x, upper, data,

@@ -122,10 +122,10 @@ struct FullModelFitOptions {
   /// (sim::IntegrateTrialSensitivities: one augmented simulation per distinct trial, ≈ 3.6
   /// simulations' cost on the hand rig, exact to its tolerance, see jacobian_tolerance_factor) or
   /// forward differences with fd_relative_step (one perturbed simulation per parameter and trial,
-  /// spread over the threads); kAuto picks the one with the fewer simulation-costs per thread
-  /// (sensitivities for the paper's 29 parameters; forward differences for a handful of
-  /// parameters on one trial). A sensitivity integration that fails, or a rig with fatigue or
-  /// potentiation states, falls back to forward differences.
+  /// spread over the threads); kAuto takes sensitivities when the parameters outnumber that cost
+  /// (≥ 4 parameters; the rule ignores the thread count, so the figures do not depend on how the
+  /// fit is run). A sensitivity integration that fails, or a rig with fatigue or potentiation
+  /// states, falls back to forward differences.
   JacobianMethod jacobian = JacobianMethod::kAuto;
   /// The sensitivity simulations run at this multiple of integrator_tolerance (residuals, hence
   /// the cost and the stop, at integrator_tolerance itself): LM needs the Jacobian for its step

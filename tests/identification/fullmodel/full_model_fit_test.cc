@@ -171,8 +171,8 @@ TEST(FullModelFitTest, RecoversPlantedParametersFromNoiselessData) {
 TEST(FullModelFitTest, SensitivityAndForwardDifferenceJacobiansReachTheSamePlantedOptimum) {
   // Jacobians from CVODES forward sensitivities (at 10x the residuals' tolerance, the state
   // Jacobian reused over 4 steps) against forward differences: same planted values, and one
-  // augmented simulation per Jacobian instead of one per parameter. (kAuto picks forward
-  // differences for these 5 parameters on one trial.)
+  // augmented simulation per Jacobian instead of one per parameter. (kAuto picks sensitivities
+  // for these 5 parameters.)
   const PlantedProblem p = MakePlanted();
   const Trial data = MakeTrial(p.truth_model, Staircase(p.rig), 7.0, 0.0, 1);
   const FullModelFit sens = FitPlanted(p, {data}, JacobianMethod::kSensitivities);
