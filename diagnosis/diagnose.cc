@@ -913,7 +913,11 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
                                       static_cast<int>(library[old].params.size()));
         out.candidates[old].heldout_gain_on_accepted = g_old;
         on_top_reference[old] = without.heldout_nrmse;
-        if (p_old < options.alpha && g_old > options.min_heldout_gain) continue;
+        // Kept when it passes, or when the others alone cannot predict the held-out data.
+        if (!std::isfinite(without.heldout_nrmse) ||
+            (p_old < options.alpha && g_old > options.min_heldout_gain)) {
+          continue;
+        }
         out.candidates[old].accepted = false;
         dropped.insert(library[old].id);
         accepted = rest;
