@@ -8,6 +8,9 @@
 //                   [--seed S]   (datasets get seeds S+1, S+2, … in order; default 1000)
 //                   [--model full|NAME] (diagnose a reduced model, diagnose --model)
 //                   [--protocol steps|grid] (every dataset; default: alternate)
+//                   [--pair-list a+b,c+d,…] (the pairs planted, cycled; default: fatigue+tremor,
+//                   delay+sensor_drift, stiction+tremor, potentiation+delay,
+//                   fatigue+sensor_drift)
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -43,6 +46,12 @@ struct Case {
   std::string kind;  // "single", "clean", "pair", "outside"
   PlantedSpec spec;
   fesim::diagnosis::PlantedDataset data;
+  /// Pairs: effect RMS / noise RMS of each planted mechanism alone (same seed: same participant,
+  /// protocol and noise), in spec.mechanisms order.
+  std::vector<double> alone_effect;
+  /// Pairs: RMS of measured(both) − measured(the other alone) / noise RMS for each mechanism: its
+  /// effect on top of the other (the noise is the same draw and cancels).
+  std::vector<double> marginal_effect;
   Diagnosis result;
 };
 
@@ -52,6 +61,25 @@ double ParamError(const Case& c, const fesim::diagnosis::NamedValue& planted) {
     if (p.name == planted.name) return std::abs(p.value - planted.value) / std::abs(planted.value);
   }
   return NAN;
+}
+
+/// RMS of a − b over the q.* columns of all trials (same layout), rad.
+double RmsDifference(const std::vector<fesim::Trial>& a, const std::vector<fesim::Trial>& b) {
+  double ss = 0.0;
+  long n = 0;
+  for (std::size_t t = 0; t < a.size() && t < b.size(); ++t) {
+    for (const auto& o : a[t].NamesWithPrefix("q.")) {
+      const auto& ya = a[t].Column(o);
+      const auto& yb = b[t].Column(o);
+      for (std::size_t i = 0; i < ya.size() && i < yb.size(); ++i) {
+        if (std::isfinite(ya[i]) && std::isfinite(yb[i])) {
+          ss += (ya[i] - yb[i]) * (ya[i] - yb[i]);
+          ++n;
+        }
+      }
+    }
+  }
+  return n ? std::sqrt(ss / static_cast<double>(n)) : 0.0;
 }
 
 }  // namespace
@@ -65,6 +93,7 @@ int main(int argc, char** argv) {
   std::string model = "full";  // or a reduced model (diagnose --model NAME)
   std::string protocol;        // "steps" / "grid" for every dataset; empty: alternate
   std::vector<std::string> mechanisms;
+  std::vector<std::vector<std::string>> pair_list;  // --pair-list a+b,c+d (cycled)
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--per")
@@ -95,7 +124,17 @@ int main(int argc, char** argv) {
       model = v;
     else if (k == "--protocol")
       protocol = v;
-    else {
+    else if (k == "--pair-list") {
+      for (const auto& pair : Split(v)) {
+        const auto plus = pair.find('+');
+        if (plus == std::string::npos) {
+          std::fprintf(stderr, "diagnosis_suite: --pair-list entry '%s' is not a+b\n",
+                       pair.c_str());
+          return 2;
+        }
+        pair_list.push_back({pair.substr(0, plus), pair.substr(plus + 1)});
+      }
+    } else {
       std::fprintf(stderr, "diagnosis_suite: unknown option %s\n", k.c_str());
       return 2;
     }
@@ -136,11 +175,13 @@ int main(int argc, char** argv) {
     c.spec.seed = ++seed;
     cases.push_back(c);
   }
-  const std::vector<std::vector<std::string>> pair_list = {{"fatigue", "tremor"},
-                                                           {"delay", "sensor_drift"},
-                                                           {"stiction", "tremor"},
-                                                           {"potentiation", "delay"},
-                                                           {"fatigue", "sensor_drift"}};
+  if (pair_list.empty()) {
+    pair_list = {{"fatigue", "tremor"},
+                 {"delay", "sensor_drift"},
+                 {"stiction", "tremor"},
+                 {"potentiation", "delay"},
+                 {"fatigue", "sensor_drift"}};
+  }
   for (int k = 0; k < pairs; ++k) {
     Case c;
     c.kind = "pair";
@@ -182,11 +223,32 @@ int main(int argc, char** argv) {
     c.spec.duration_s = duration;
     const fesim::Scenario& case_rig = c.spec.channels[0] == "bic" ? elbow_rig : rig;
     c.data = fesim::diagnosis::MakePlantedDataset(case_rig, c.spec);
+    std::string alone;
+    if (c.kind == "pair") {
+      std::vector<fesim::diagnosis::PlantedDataset> single;
+      for (const auto& m : c.spec.mechanisms) {
+        fesim::diagnosis::PlantedSpec one = c.spec;
+        one.mechanisms = {m};
+        single.push_back(fesim::diagnosis::MakePlantedDataset(case_rig, one));
+        c.alone_effect.push_back(single.back().effect_rms_rad / single.back().noise_rms_rad);
+      }
+      for (std::size_t k = 0; k < 2; ++k) {
+        c.marginal_effect.push_back(RmsDifference(c.data.trials, single[1 - k].trials) /
+                                    c.data.noise_rms_rad);
+        char b[160];
+        std::snprintf(b, sizeof b, "%s%s %.2f alone, %.2f on top", k ? "; " : " (",
+                      c.spec.mechanisms[k].c_str(), c.alone_effect[k], c.marginal_effect[k]);
+        alone += b;
+      }
+      alone += ")";
+    }
     if (effects_only) {
-      std::fprintf(stderr, "%s scale %.1f %s effect/noise %.2f\n",
-                   c.spec.mechanisms.empty() ? "none" : c.spec.mechanisms[0].c_str(),
-                   c.spec.effect_scale, c.spec.protocol.c_str(),
-                   c.data.effect_rms_rad / c.data.noise_rms_rad);
+      std::string planted;
+      for (const auto& m : c.spec.mechanisms) planted += (planted.empty() ? "" : "+") + m;
+      std::fprintf(stderr, "%s scale %.1f %s seed %llu effect/noise %.2f%s\n",
+                   planted.empty() ? "none" : planted.c_str(), c.spec.effect_scale,
+                   c.spec.protocol.c_str(), static_cast<unsigned long long>(c.spec.seed),
+                   c.data.effect_rms_rad / c.data.noise_rms_rad, alone.c_str());
       continue;
     }
     const auto tc = std::chrono::steady_clock::now();
@@ -216,9 +278,11 @@ int main(int argc, char** argv) {
         std::string ps;
         for (const auto& p : cr.parameters) ps += " " + p.name + "=" + std::to_string(p.value);
         std::fprintf(stderr,
-                     "    %-40s S %9.1f dof %d padj %.2g fitted %d lr_padj %.2g gain %.4f%s\n",
+                     "    %-40s S %9.1f dof %d padj %.2g fitted %d lr_padj %.2g gain %.4f | on "
+                     "top: S %.1f gain %.4f%s\n",
                      cr.label.c_str(), cr.score_statistic, cr.dof, cr.p_adjusted, cr.fitted,
-                     cr.lr_p_adjusted, cr.heldout_gain, ps.c_str());
+                     cr.lr_p_adjusted, cr.heldout_gain, cr.score_on_accepted,
+                     cr.heldout_gain_on_accepted, ps.c_str());
       }
     }
     if (verbose >= 1) {
@@ -238,13 +302,14 @@ int main(int argc, char** argv) {
     for (const auto& m : c.spec.mechanisms) planted += (planted.empty() ? "" : "+") + m;
     std::string found;
     for (const auto& m : c.result.mechanisms) found += (found.empty() ? "" : "+") + m;
-    std::fprintf(stderr,
-                 "[%zu/%zu] %-8s planted %-32s scale %.1f %-5s effect/noise %.2f -> %s (%s) "
-                 "conf %.2f gain %.3f  %.1f s\n",
-                 i + 1, cases.size(), c.kind.c_str(), planted.empty() ? "none" : planted.c_str(),
-                 c.spec.effect_scale, c.spec.protocol.c_str(),
-                 c.data.effect_rms_rad / c.data.noise_rms_rad, c.result.cause.c_str(),
-                 found.c_str(), c.result.confidence, c.result.gain, c.result.wall_s);
+    std::fprintf(
+        stderr,
+        "[%zu/%zu] %-8s planted %-32s scale %.1f %-5s seed %llu effect/noise %.2f%s -> "
+        "%s (%s) conf %.2f gain %.3f  %.1f s\n",
+        i + 1, cases.size(), c.kind.c_str(), planted.empty() ? "none" : planted.c_str(),
+        c.spec.effect_scale, c.spec.protocol.c_str(), static_cast<unsigned long long>(c.spec.seed),
+        c.data.effect_rms_rad / c.data.noise_rms_rad, alone.c_str(), c.result.cause.c_str(),
+        found.c_str(), c.result.confidence, c.result.gain, c.result.wall_s);
   }
   const double total_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -285,9 +350,14 @@ int main(int argc, char** argv) {
       pair_both += both ? 1 : 0;
       std::string found;
       for (const auto& m : c.result.mechanisms) found += (found.empty() ? "" : ", ") + m;
+      char eff[128];
+      std::snprintf(eff, sizeof eff, "%.2f | %.2f, %.2f | %.2f, %.2f",
+                    c.data.effect_rms_rad / c.data.noise_rms_rad, c.alone_effect[0],
+                    c.alone_effect[1], c.marginal_effect[0], c.marginal_effect[1]);
       pair_lines += "| " + c.spec.mechanisms[0] + " + " + c.spec.mechanisms[1] + " | " +
-                    c.spec.protocol + " | " + (found.empty() ? c.result.cause : found) + " | " +
-                    (both ? "yes" : "no") + " |\n";
+                    c.spec.protocol + " | " + std::to_string(c.spec.seed) + " | " + eff + " | " +
+                    (found.empty() ? c.result.cause : found) + " | " + (both ? "yes" : "no") +
+                    " |\n";
     } else if (c.kind == "outside") {
       ++outside_n;
       const bool ok =
@@ -371,8 +441,11 @@ int main(int argc, char** argv) {
     md += "\n";
   }
   if (pair_n)
-    md += "\n## Two mechanisms\n\n| planted | protocol | named | both |\n|---|---|---|---|\n" +
-          pair_lines;
+    md +=
+        "\n## Two mechanisms\n\n| planted | protocol | seed | effect / noise | each alone | each "
+        "on "
+        "top of the other | named | both |\n|---|---|---|---|---|---|---|---|\n" +
+        pair_lines;
   if (outside_n) {
     md +=
         "\n## Outside the library (0.1 Hz baseline wander)\n\n| scale | protocol | cause | "

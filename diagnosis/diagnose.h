@@ -24,9 +24,20 @@
 //    LR = N ln(RSS₀/RSS₁) ~ χ²_p (Bonferroni-adjusted as above, an information criterion) and
 //    held-out gain g = (x − y)/x of the held-out NRMSE. Accepted when p_adj(LR) < alpha and
 //    g > min_heldout_gain; greedily, the best g first (then refitted with the subject
-//    parameters), then a second mechanism on top by the same test relative to the extended
-//    model, and the whole refitted again. A second-round candidate needs only its training LR
-//    test from the first round (the first mechanism may mask its held-out gain there).
+//    parameters). Then forward selection on top of the extended model, up to max_accepted
+//    mechanisms: the score tests of step 3 are repeated at the extended model (its residual, the
+//    Jacobian of all its parameters projected out, same Bonferroni M) for the ids not accepted
+//    yet; the best-scoring max_fitted (one joint per id) are fitted on top of it (profiled and
+//    polished as below; start: the candidate's own screening fit when it passed its training
+//    test, else the Gauss–Newton step of the new test), and the one with the largest held-out
+//    gain over the extended model among those that pass LR (against the extended model's RSS)
+//    and g > min_heldout_gain is accepted; its polished fit is the new extended model. A
+//    backward step follows: an earlier mechanism that no longer passes both tests on top of
+//    the others (compared with their refit without it) is dropped for good (a first pick that
+//    stood in for the later ones), and the search goes on. (The second round once took its
+//    candidates from the baseline's ranking and, through the cache text, lost the Jacobian it
+//    meant to profile with, so its fits froze the subject parameters and the first mechanism:
+//    run C's and session 5's pair misses, docs/diagnosis.md.)
 //    During a candidate's own fit (screening) the subject parameters are profiled, not frozen:
 //    re-optimised to first order through their baseline Jacobian J_s (variable projection,
 //    FitParameters' `nuisance`), so the fit minimises ‖(I − P_s) r‖² like the score test; then,
@@ -43,8 +54,10 @@
 //    candidates run side by side.
 // 5. Verdict. Nothing accepted: `none`, unless the held-out residual of the baseline keeps
 //    structure (StructuredVarianceFraction > max_structure on some output): `unexplained`.
-//    Otherwise the accepted mechanism with the larger gain, confidence
-//        c = (1 − p_adj(LR)) · (1 − g_alt / g),  g_alt = best held-out gain of another id,
+//    Otherwise the first accepted mechanism, confidence
+//        c = (1 − p_adj(LR)) · (1 − g_alt / g),  g_alt = best held-out gain of another id not
+//    accepted (on the baseline, less the NRMSE share it still removes when fitted on top of the
+//    accepted ones, which it does not explain in their place),
 //    capped at 0.4 when structure remains after the extension (never a confident wrong name).
 //    `none`: c = 1 − 0.5 min(1, g_best / min_heldout_gain); `unexplained`: c = min(1, 0.5 +
 //    0.5 s / max_structure) with s the remaining structured fraction.
@@ -125,6 +138,10 @@ struct CandidateResult {
   double heldout_nrmse = NAN;  ///< of the extended model (this candidate on the baseline).
   double heldout_gain = NAN;   ///< relative to the baseline.
   bool accepted = false;
+  /// Second round (on top of the mechanism(s) accepted before it): S of its score test at the
+  /// extended model (NaN: not tested there) and its held-out gain over that model (NaN: not
+  /// fitted there).
+  double score_on_accepted = NAN, heldout_gain_on_accepted = NAN;
   std::vector<NamedValue> parameters;  ///< fitted extension parameters.
   std::string evidence;                ///< signature figures, one line.
 };

@@ -82,6 +82,10 @@ Json DiagnosisJson(const Diagnosis& d) {
     e.Set("id", c.id);
     e.Set("score", c.score);
     e.Set("heldout_gain", c.fitted ? Json(c.heldout_gain) : Json());
+    if (std::isfinite(c.heldout_gain_on_accepted)) {
+      // Second round: its held-out gain over the model with the other accepted mechanism(s).
+      e.Set("heldout_gain_on_top", c.heldout_gain_on_accepted);
+    }
     e.Set("evidence", (c.joint.empty() ? "" : "[" + c.joint + "] ") + c.evidence);
     cands.Push(e);
   }
@@ -163,12 +167,15 @@ std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs) {
   md +=
       "\n## Candidate ranking\n\nScore = −log10 of the Bonferroni-adjusted p-value of the "
       "score test (0 = no evidence); held-out gain of the candidate alone on the baseline "
-      "(blank: not fitted).\n\n| candidate | score | held-out gain | accepted | evidence |\n"
-      "|---|---|---|---|---|\n";
+      "(blank: not fitted); on top: its held-out gain over the model with the other accepted "
+      "mechanism(s) (second round; blank: not fitted there).\n\n| candidate | score | held-out "
+      "gain | on top | accepted | evidence |\n|---|---|---|---|---|---|\n";
   for (const auto& c : d.candidates) {
     md += "| " + c.label + " | " + F("%.1f", c.score) + " | " +
           (c.fitted ? F("%.4f", c.heldout_gain) : std::string("")) + " | " +
-          (c.accepted ? "yes" : "") + " | " + c.evidence + " |\n";
+          (std::isfinite(c.heldout_gain_on_accepted) ? F("%.4f", c.heldout_gain_on_accepted)
+                                                     : std::string("")) +
+          " | " + (c.accepted ? "yes" : "") + " | " + c.evidence + " |\n";
   }
   md +=
       "\nSubject parameters calibrated on the training data:\n\n| parameter | value | ± 95 % | "
