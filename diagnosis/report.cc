@@ -82,10 +82,6 @@ Json DiagnosisJson(const Diagnosis& d) {
     e.Set("id", c.id);
     e.Set("score", c.score);
     e.Set("heldout_gain", c.fitted ? Json(c.heldout_gain) : Json());
-    if (std::isfinite(c.heldout_gain_on_accepted)) {
-      // Second round: its held-out gain over the model with the other accepted mechanism(s).
-      e.Set("heldout_gain_on_top", c.heldout_gain_on_accepted);
-    }
     e.Set("evidence", (c.joint.empty() ? "" : "[" + c.joint + "] ") + c.evidence);
     cands.Push(e);
   }
