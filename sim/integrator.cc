@@ -292,12 +292,16 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
     for (int r = 0; r < n; ++r)
       d->jac[static_cast<std::size_t>(i) * n + r] = (d->f1[r] - ydot[r]) / h;
   }
-  if (flag != 0) return 1;
+  if (flag != 0) {
+    d->jac_age = -1;  // ∂f/∂y partly overwritten: form it again at the next point
+    return 1;
+  }
   // ∂f/∂θ: the q rows are 0 (q̇ = u); the free u rows are M_ff⁻¹ ∂τ_f/∂θ.
   try {
     // Positions realised only where M_ff is formed (with ∂f/∂y); q, q̇, a need Stage::Time.
     LoadState(c, t, y, refresh ? SimTK::Stage::Position : SimTK::Stage::Time);
   } catch (const std::exception&) {
+    d->jac_age = -1;  // M_ff not formed
     return 1;
   }
   const SimTK::State& s = *c->state;

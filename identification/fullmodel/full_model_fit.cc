@@ -413,6 +413,31 @@ bool UseSensitivities(JacobianMethod method, int p) {
   return kAugmentedSimulationCost < p;
 }
 
+/// ∂r/∂x by `options.jacobian` (UseSensitivities), by forward differences when a sensitivity
+/// integration fails or the rig has states sensitivities cannot differentiate (fatigue,
+/// potentiation). Adds the simulation sets it used to *evaluations (1 augmented, or one per
+/// parameter); `progress` gets the forward differences' fraction done.
+Eigen::MatrixXd FitJacobian(const FullModelFitOptions& options, const sim::ModelParams& base,
+                            const std::vector<FitParameter>& params, const Eigen::VectorXd& x,
+                            const Eigen::VectorXd& r0, const Eigen::VectorXd& upper,
+                            const TrainingData& data, double tolerance, int threads,
+                            int* evaluations, const std::function<void(double)>& progress) {
+  const int p = static_cast<int>(x.size());
+  if (UseSensitivities(options.jacobian, p)) {
+    try {
+      Eigen::MatrixXd J = SensitivityJacobian(
+          base, params, x, upper, data, tolerance * options.jacobian_tolerance_factor, threads);
+      ++*evaluations;
+      return J;
+    } catch (const std::exception&) {
+      // Forward differences below; their failed columns are zero.
+    }
+  }
+  *evaluations += p;
+  return ParallelJacobian(base, params, x, r0, upper, data, tolerance, options.fd_relative_step,
+                          threads, progress);
+}
+
 int ResolveThreads(int threads) {
   if (threads > 0) return threads;
   return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
@@ -653,14 +678,12 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     }
     const Eigen::VectorXd r_nom = Residuals(base, fit.candidates, x_nom, data, tol, threads, true);
     const std::string sens_label = "sensitivity ranking of " + std::to_string(nc) + " parameters";
+    int ranking_simulations = 0;
     const Eigen::MatrixXd J_nom =
-        UseSensitivities(options.jacobian, nc)
-            ? SensitivityJacobian(base, fit.candidates, x_nom, upper_all, data,
-                                  tol * options.jacobian_tolerance_factor, threads)
-            : ParallelJacobian(base, fit.candidates, x_nom, r_nom, upper_all, data, tol,
-                               options.fd_relative_step, threads, [&](double f) {
-                                 if (progress) progress(0.1 * f, sens_label);
-                               });
+        FitJacobian(options, base, fit.candidates, x_nom, r_nom, upper_all, data, tol, threads,
+                    &ranking_simulations, [&](double f) {
+                      if (progress) progress(0.1 * f, sens_label);
+                    });
     const double sqrt_n = std::sqrt(static_cast<double>(std::max<long>(1, data.residuals)));
     for (int i = 0; i < nc; ++i) {
       order[i] = i;
@@ -723,23 +746,12 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     const std::string label = "start " + std::to_string(current_start + 1) + "/" +
                               std::to_string(options.starts) + ", Jacobian " +
                               std::to_string(jacobians);
-    if (UseSensitivities(options.jacobian, p)) {
-      try {
-        ++*evaluations;  // one (augmented) simulation of each distinct trial
-        return SensitivityJacobian(base, fit.kept, x, upper, data,
-                                   tol * options.jacobian_tolerance_factor, threads);
-      } catch (const std::exception&) {
-        // An integration that fails with sensitivities (or a rig they cannot differentiate)
-        // falls back to forward differences, whose failed columns are zero.
-      }
-    }
-    *evaluations += p;
-    return ParallelJacobian(base, fit.kept, x, r, upper, data, tol, options.fd_relative_step,
-                            threads, [&](double f) {
-                              if (progress) {
-                                progress(0.1 + 0.85 * (current_start + f) / options.starts, label);
-                              }
-                            });
+    return FitJacobian(options, base, fit.kept, x, r, upper, data, tol, threads, evaluations,
+                       [&](double f) {
+                         if (progress) {
+                           progress(0.1 + 0.85 * (current_start + f) / options.starts, label);
+                         }
+                       });
   };
   LmOptions lm;
   lm.max_iterations = options.max_iterations;

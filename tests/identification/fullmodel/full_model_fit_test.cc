@@ -192,6 +192,30 @@ TEST(FullModelFitTest, SensitivityAndForwardDifferenceJacobiansReachTheSamePlant
   EXPECT_GE(rf.evaluations, rf.jacobians * static_cast<int>(p.planted.size()));
 }
 
+TEST(FullModelFitTest, RigWithFatigueStatesFallsBackToForwardDifferences) {
+  // Sensitivities do not differentiate the fatigue states: asked for anyway, the ranking and the
+  // Jacobians fall back to forward differences and give exactly their figures.
+  sim::ModelParams rig = DefaultHandRig();
+  rig.mechanisms.fatigue.enabled = true;
+  const Trial data = MakeTrial(rig, Staircase(rig), 3.0, 0.0, 1);
+  FullModelFitOptions o;
+  o.fit_names = {"k.wrist_flexion"};
+  o.starts = 1;
+  o.max_iterations = 2;
+  o.integrator_tolerance = 1e-6;
+  o.jacobian = JacobianMethod::kSensitivities;
+  const FullModelFit sens = FitFullModel(rig, {data}, o);
+  o.jacobian = JacobianMethod::kForwardDifferences;
+  const FullModelFit fd = FitFullModel(rig, {data}, o);
+  ASSERT_EQ(sens.ranking.size(), fd.ranking.size());
+  for (std::size_t i = 0; i < fd.ranking.size(); ++i) {
+    EXPECT_EQ(sens.ranking[i].name, fd.ranking[i].name);
+    EXPECT_EQ(sens.ranking[i].sensitivity, fd.ranking[i].sensitivity);
+  }
+  EXPECT_EQ(sens.values(0), fd.values(0));
+  EXPECT_EQ(sens.runs[0].evaluations, fd.runs[0].evaluations);
+}
+
 TEST(FullModelFitTest, StaysCloseUnderHalfDegreeAngleNoise) {
   const PlantedProblem p = MakePlanted();
   const Trial data = MakeTrial(p.truth_model, Staircase(p.rig), 7.0, kNoiseStdRad, 7);
