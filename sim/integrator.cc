@@ -196,11 +196,14 @@ struct SensitivityData {
   bool started = false;
   // ∂f/∂y (n × n, column-major) and ∂f/∂θ (n × P, column-major) at (t_cache, y_cache).
   bool cached = false;
-  SimTK::FactorLU mass_lu;  // M_ff, formed with ∂f/∂y
+  std::vector<double> mass_inv;  // M_ff⁻¹ (nf × nf, column-major), formed with ∂f/∂y
   int jac_age = -1;   // new points since ∂f/∂y and M_ff were formed (−1: at the next one)
   int jac_reuse = 1;  // form them at every jac_reuse-th new point (and after breakpoints)
   double t_cache = 0.0;
   std::vector<double> y_cache, jac, dfdp;
+  // The free u rows of ∂f/∂y less M_ff⁻¹ ∂τ/∂y of MuscleAndPassiveTorques, at the last full
+  // formation (nf × n, column-major): the slowly varying rigid-body part.
+  std::vector<double> jac_rest;
   std::vector<double> f1, y1;  // scratch
 };
 
@@ -274,10 +277,18 @@ void BeginSensitivityInterval(SensitivityData* d, const SimTK::State& state, dou
 
 /// ∂f/∂y and ∂f/∂θ at (t, y) into d's cache (see IntegrateTrialSensitivities). Returns 0, or 1
 /// (recoverable) when a right-hand side fails.
+///
+/// The free u rows of ∂f/∂y are M_ff⁻¹ ∂τ/∂y plus the rigid-body and other-force terms (gravity,
+/// velocity products, ∂M_ff/∂q, support). The first, with the stiff, fast-changing muscle forces,
+/// is formed at every point by difference quotients of the pure MuscleAndPassiveTorques (cheap);
+/// the rest only every `jac_reuse`-th point, as the full difference quotient of the Simbody
+/// right-hand side less the first (one right-hand side per component).
 int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const double* ydot) {
   CvodesContext* c = d->ctx;
   const int n = d->n;
   const int np = static_cast<int>(d->p.size());
+  const int nf = static_cast<int>(d->free_coordinates.size());
+  const std::size_t nm = c->omega.size();
   // ∂f/∂y by forward differences of the full right-hand side.
   // `ydot` is f(t, y) (CVODES evaluates it before the sensitivity right-hand side).
   std::copy(y, y + n, d->y1.begin());
@@ -296,7 +307,6 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
     d->jac_age = -1;  // ∂f/∂y partly overwritten: form it again at the next point
     return 1;
   }
-  // ∂f/∂θ: the q rows are 0 (q̇ = u); the free u rows are M_ff⁻¹ ∂τ_f/∂θ.
   try {
     // Positions realised only where M_ff is formed (with ∂f/∂y); q, q̇, a need Stage::Time.
     LoadState(c, t, y, refresh ? SimTK::Stage::Position : SimTK::Stage::Time);
@@ -305,16 +315,14 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
     return 1;
   }
   const SimTK::State& s = *c->state;
-  const std::vector<double> q = c->model->GetQs(s);
-  const std::vector<double> qd = c->model->GetUs(s);
-  const std::size_t nm = c->omega.size();
+  std::vector<double> q = c->model->GetQs(s);
+  std::vector<double> qd = c->model->GetUs(s);
   std::vector<double> a(nm);
   const SimTK::Vector& Y = s.getY();
   for (std::size_t j = 0; j < nm; ++j) a[j] = Y[c->activation_index + 2 * static_cast<int>(j)];
   const ModelParams& base = c->model->params();
   const std::vector<double> tau0 = MuscleAndPassiveTorques(base, d->paths, q, qd, a);
   const std::vector<double> dtau_da = TorquePerActivation(base, d->paths, q, qd, a);
-  const int nf = static_cast<int>(d->free_coordinates.size());
   if (refresh) {
     SimTK::Matrix M;
     c->model->matter().calcM(s, M);
@@ -322,32 +330,102 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
     for (int r = 0; r < nf; ++r) {
       for (int col = 0; col < nf; ++col) Mff(r, col) = M(d->free_u_slot[r], d->free_u_slot[col]);
     }
-    d->mass_lu.factor(Mff);
+    const SimTK::FactorLU lu(Mff);
+    SimTK::Vector e(nf, 0.0), col(nf);
+    for (int k = 0; k < nf; ++k) {
+      e[k] = 1.0;
+      lu.solve(e, col);
+      e[k] = 0.0;
+      for (int r = 0; r < nf; ++r) d->mass_inv[static_cast<std::size_t>(k) * nf + r] = col[r];
+    }
   }
-  const SimTK::FactorLU& lu = d->mass_lu;
-  SimTK::Vector rhs(nf), udot(nf);
-  std::vector<double> da(nm);
+  const std::vector<double>& minv = d->mass_inv;
+  std::vector<double> v(nf), udot(nf);
+  // udot = M_ff⁻¹ v.
+  const auto solve = [&] {
+    for (int r = 0; r < nf; ++r) {
+      double sum = 0.0;
+      for (int k = 0; k < nf; ++k) sum += minv[static_cast<std::size_t>(k) * nf + r] * v[k];
+      udot[r] = sum;
+    }
+  };
+  // M_ff⁻¹ ∂τ/∂y_i of the muscle and passive torques (zero for components that are neither a
+  // free q nor a free u) into the free u rows of ∂f/∂y: added to the rest of the last full
+  // formation, or, at a full formation, subtracted from it to give the new rest.
+  for (int i = 0; i < n; ++i) {
+    int coord = -1;
+    bool is_q = false;
+    for (int f = 0; f < nf && coord < 0; ++f) {
+      const int cf = d->free_coordinates[f];
+      if (d->q_component[cf] == i) {
+        coord = cf;
+        is_q = true;
+      } else if (d->u_component[f] == i) {
+        coord = cf;
+      }
+    }
+    std::fill(udot.begin(), udot.end(), 0.0);
+    if (coord >= 0) {
+      double& x = is_q ? q[coord] : qd[coord];
+      const double x0 = x;
+      const double h = 1e-7 * std::max(std::abs(y[i]), 1.0);
+      x = x0 + h;
+      const std::vector<double> tau_i = MuscleAndPassiveTorques(base, d->paths, q, qd, a);
+      x = x0;
+      for (int f = 0; f < nf; ++f) {
+        const int cf = d->free_coordinates[f];
+        v[f] = (tau_i[cf] - tau0[cf]) / h;
+      }
+      solve();
+    }
+    for (int f = 0; f < nf; ++f) {
+      const std::size_t at = static_cast<std::size_t>(i) * nf + f;
+      double& entry = d->jac[static_cast<std::size_t>(i) * n + d->u_component[f]];
+      if (refresh) {
+        d->jac_rest[at] = entry - udot[f];
+      } else {
+        entry = d->jac_rest[at] + udot[f];
+      }
+    }
+  }
+  // ∂f/∂θ: the q rows are 0 (q̇ = u); the free u rows are M_ff⁻¹ ∂τ_f/∂θ, where
+  // ∂τ/∂θ_k = ∂τ/∂a · ∂a/∂θ_k (+ the direct change of τ for parameters that move it).
+  // M_ff⁻¹ ∂τ_f/∂a_j for every muscle (nf × nm, column-major).
+  std::vector<double> x_da(static_cast<std::size_t>(nf) * nm);
+  for (std::size_t j = 0; j < nm; ++j) {
+    for (int f = 0; f < nf; ++f) v[f] = dtau_da[d->free_coordinates[f] * nm + j];
+    solve();
+    std::copy(udot.begin(), udot.end(), x_da.begin() + static_cast<std::ptrdiff_t>(j * nf));
+  }
+  // a(t) of eq. (6) is linear in the interval's w and initial (a, ȧ): its coefficients per muscle.
+  const double dt = t - d->t0;
+  std::vector<double> c_w(nm), c_a(nm), c_ad(nm);
+  for (std::size_t j = 0; j < nm; ++j) {
+    c_w[j] = muscles::ActivationFreeResponse(c->omega[j], 1.0, {0.0, 0.0}, dt).a;
+    c_a[j] = muscles::ActivationFreeResponse(c->omega[j], 0.0, {1.0, 0.0}, dt).a;
+    c_ad[j] = muscles::ActivationFreeResponse(c->omega[j], 0.0, {0.0, 1.0}, dt).a;
+  }
   std::fill(d->dfdp.begin(), d->dfdp.end(), 0.0);
   for (int k = 0; k < np; ++k) {
     const auto& pk = d->p[k];
-    const std::vector<double> tau_k =
-        pk.moves_torques ? MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a) : tau0;
+    std::fill(udot.begin(), udot.end(), 0.0);
+    if (pk.moves_torques) {
+      const std::vector<double> tau_k = MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a);
+      for (int f = 0; f < nf; ++f) {
+        const int cf = d->free_coordinates[f];
+        v[f] = (tau_k[cf] - tau0[cf]) / pk.step;
+      }
+      solve();
+    }
     // ∂a_j/∂θ_k at t (zero for muscles θ_k does not reach).
     for (std::size_t j = 0; j < nm; ++j) {
       const auto& a0 = d->da0[k][j];
-      da[j] = d->dw[k][j] == 0.0 && a0.a == 0.0 && a0.a_dot == 0.0
-                  ? 0.0
-                  : muscles::ActivationFreeResponse(c->omega[j], d->dw[k][j], a0, t - d->t0).a;
+      const double da = c_w[j] * d->dw[k][j] + c_a[j] * a0.a + c_ad[j] * a0.a_dot;
+      if (da == 0.0) continue;
+      for (int f = 0; f < nf; ++f) udot[f] += x_da[j * nf + f] * da;
     }
-    for (int r = 0; r < nf; ++r) {
-      const int coord = d->free_coordinates[r];
-      double v = (tau_k[coord] - tau0[coord]) / pk.step;
-      for (std::size_t j = 0; j < nm; ++j) v += dtau_da[coord * nm + j] * da[j];
-      rhs[r] = v;
-    }
-    lu.solve(rhs, udot);
-    for (int r = 0; r < nf; ++r) {
-      d->dfdp[static_cast<std::size_t>(k) * n + d->u_component[r]] = udot[r];
+    for (int f = 0; f < nf; ++f) {
+      d->dfdp[static_cast<std::size_t>(k) * n + d->u_component[f]] = udot[f];
     }
   }
   d->t_cache = t;
@@ -651,6 +729,8 @@ IntegrationStats IntegrateTrialSensitivities(
   d.dw.assign(parameters.size(), std::vector<double>(nm, 0.0));
   d.jac.assign(static_cast<std::size_t>(d.n) * d.n, 0.0);
   d.dfdp.assign(static_cast<std::size_t>(d.n) * parameters.size(), 0.0);
+  d.mass_inv.assign(d.free_coordinates.size() * d.free_coordinates.size(), 0.0);
+  d.jac_rest.assign(d.free_coordinates.size() * static_cast<std::size_t>(d.n), 0.0);
   d.f1.assign(d.n, 0.0);
   d.y1.assign(d.n, 0.0);
   ctx.sens = &d;

@@ -71,25 +71,31 @@ using SensitivityObserver =
 /// IntegrateTrial (CVODES methods only) with forward sensitivities of the state to P parameters
 /// (`parameters`), integrated alongside it: ṡ_k = (∂f/∂y) s_k + ∂f/∂θ_k, s_k(0) = 0 (the initial
 /// state does not depend on them), CVODES' staggered corrector, sensitivities kept out of the
-/// local error test (the state takes the same steps as without them). Per step ∂f/∂y is formed
-/// once by difference quotients of the Simbody right-hand side (one per CVODES component) and
-/// ∂f/∂θ_k = [0; M_ff⁻¹ ∂τ_f/∂θ_k], with τ = MuscleAndPassiveTorques at the activations a(t; θ)
-/// whose sensitivities ∂a/∂θ_k follow eq. (6) in closed form (linear in w and the initial state)
-/// from ∂w/∂θ_k = difference quotient of RecruitedFractions, and M_ff the mass matrix of the free
-/// coordinates. ∂f/∂y and M_ff are formed at every `state_jacobian_every`-th new (t, y) and at
-/// each stimulation breakpoint, and reused in between (∂f/∂θ at every point): 1 is exact to the
-/// integrator's tolerance; 4 (the default) costs n_y/4 instead of n_y right-hand sides per step
-/// and gives sensitivities within ≈ 1.4 % (worst column, relative RMS) of the exact ones on the
-/// hand-array step grid at tolerance 1e-4 (bench/fullmodel_bench.cc BM_SensitivityDataSet). A
-/// perturbed simulation per parameter costs ≈ 2 right-hand sides per step; this costs
-/// ≈ 3 + n_y/state_jacobian_every per step for all P together (CVODES evaluates f once more per
-/// step for the staggered corrector). Throws std::invalid_argument when the model
-/// integrates other states (fatigue, potentiation) or the method is Simbody's RKM, and
-/// std::runtime_error like IntegrateTrial on failure.
+/// local error test (the state takes the same steps as without them). ∂f/∂θ_k =
+/// [0; M_ff⁻¹ ∂τ_f/∂θ_k], with τ = MuscleAndPassiveTorques at the activations a(t; θ) whose
+/// sensitivities ∂a/∂θ_k follow eq. (6) in closed form (linear in w and the initial state) from
+/// ∂w/∂θ_k = difference quotient of RecruitedFractions, and M_ff the mass matrix of the free
+/// coordinates. ∂f/∂y = [0 I; ∂u̇/∂q ∂u̇/∂u] is split in two: M_ff⁻¹ ∂τ/∂y of the muscle and
+/// passive torques (stiff and fast-changing with the activations) is formed at every step by
+/// difference quotients of the pure MuscleAndPassiveTorques; the rest (gravity, velocity
+/// products, ∂M_ff/∂q, support, tremor) is the difference quotient of the Simbody right-hand side
+/// (one per CVODES component) less that part, formed with M_ff at every
+/// `state_jacobian_every`-th new (t, y) and at each stimulation breakpoint, and reused in
+/// between. 1 is exact to the integrator's tolerance; 16 (the default) costs n_y/16 right-hand
+/// sides per step and gives sensitivities within 0.07 % of central differences of whole
+/// simulations (Integrator.ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) and
+/// within 0.2 % (whole Jacobian; worst column 1.5 %, relative RMS) of the exact ones on the
+/// hand-array step grid at tolerance 1e-3 (bench/fullmodel_bench.cc BM_SensitivityDataSet;
+/// forming the whole ∂f/∂y every 4th step instead gave 1.4 % / 5.9 %). A perturbed simulation
+/// per parameter costs ≈ 2 right-hand sides per step; this costs ≈ 3 + n_y/state_jacobian_every
+/// per step for all P together (CVODES evaluates f once more per step for the staggered
+/// corrector) plus 1 + n_y + (parameters that move τ) evaluations of the pure torque function.
+/// Throws std::invalid_argument when the model integrates other states (fatigue, potentiation)
+/// or the method is Simbody's RKM, and std::runtime_error like IntegrateTrial on failure.
 IntegrationStats IntegrateTrialSensitivities(
     const UpperLimbModel& model, const IntegratorParams& params,
     const StimulationSchedule& schedule, const std::vector<double>& report_times,
     const std::vector<ParameterPerturbation>& parameters, SimTK::State* state,
-    const SensitivityObserver& observer, int state_jacobian_every = 4);
+    const SensitivityObserver& observer, int state_jacobian_every = 16);
 
 }  // namespace fesim::sim

@@ -172,7 +172,8 @@ TEST(Integrator, ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) 
     perturbed.push_back(pp);
   }
   const UpperLimbModel model(base);
-  // ∂f/∂y formed at every step (exact) and at every 4th (the default, reused in between).
+  // ∂f/∂y formed at every step (exact), and with its rigid-body part only at every 16th (the
+  // default; the muscle and passive part at every step).
   std::vector<std::vector<double>> sens, sens4;  // [sample][c * np + k]
   SimTK::State s = model.MakeInitialState();
   const IntegrationStats stats = IntegrateTrialSensitivities(
@@ -214,13 +215,14 @@ TEST(Integrator, ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) 
     }
     std::printf(
         "%-13s max |dq/dtheta| %.4g, max |sensitivity - central difference| %.3g (every "
-        "step), %.3g (every 4th)\n",
+        "step), %.3g (default: rigid-body part every 16th)\n",
         parameters[k].first.c_str(), largest, worst, worst4);
     EXPECT_GT(largest, 0.0) << parameters[k].first;
     EXPECT_LT(worst, 2e-3 * largest) << parameters[k].first;
-    EXPECT_LT(worst4, 3e-2 * largest) << parameters[k].first;
+    // 0.07 % seen; 1.2 % / 1.6 % when the whole ∂f/∂y is formed only at every 4th / 16th step.
+    EXPECT_LT(worst4, 3e-3 * largest) << parameters[k].first;
   }
-  std::printf("steps %ld / %ld, right-hand sides %ld / %ld (every step / every 4th)\n", stats.steps,
+  std::printf("steps %ld / %ld, right-hand sides %ld / %ld (every step / default)\n", stats.steps,
               stats4.steps, stats.rhs_evaluations, stats4.rhs_evaluations);
   EXPECT_LT(stats4.rhs_evaluations, stats.rhs_evaluations / 2);
 }
