@@ -182,7 +182,12 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
       ++res.iterations;
       res.cost_history.push_back(res.cost);
       res.evaluations_history.push_back(res.evaluations);
-      lambda = std::max(lambda / 3.0, 1e-300);
+      const double predicted = -(2.0 * g.dot(dx) + dx.dot(jtj * dx));
+      const double factor =
+          options.gain_ratio_damping && predicted > 0.0
+              ? std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * decrease / predicted - 1.0, 3))
+              : 1.0 / 3.0;
+      lambda = std::max(lambda * factor, 1e-300);
       nu = 2.0;
       rejected = 0;
       if (options.broyden) {
@@ -195,7 +200,11 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
         res.stop_reason = LmStopReason::kZeroCost;
         break;
       }
-      if (decrease <= options.relative_tolerance * old_cost) {
+      // Converged only when the linear model also predicted no more (MINPACK's ftol test): a
+      // step that gained little of a large predicted decrease (ρ ≈ 0, e.g. along an inexact
+      // Jacobian) is not a minimum.
+      if (decrease <= options.relative_tolerance * old_cost &&
+          predicted <= options.relative_tolerance * old_cost) {
         if (!fresh) {  // a small decrease along a secant step: go on with a real Jacobian
           refresh();
           continue;

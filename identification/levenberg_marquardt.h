@@ -18,8 +18,10 @@ struct LmResult;
 Convergence ToConvergence(const LmResult& result);
 
 struct LmOptions {
-  int max_iterations = 200;           ///< accepted steps at most.
-  double relative_tolerance = 1e-12;  ///< stop when the cost decreases by less than this fraction.
+  int max_iterations = 200;  ///< accepted steps at most.
+  /// Stop when an accepted step lowers the cost by less than this fraction and its linear model
+  /// predicted less too.
+  double relative_tolerance = 1e-12;
   double step_tolerance = 1e-12;  ///< stop when ‖Δx‖ ≤ this · (‖x‖ + step_tolerance).
   double initial_damping = 1e-3;  ///< λ₀ relative to max diag(JᵀJ) (see scale_free_damping).
   /// λ₀ = initial_damping itself. The damping term is λ·diag(JᵀJ) (Marquardt's scaling), so λ is
@@ -46,11 +48,19 @@ struct LmOptions {
   /// then clamped, which along a valley ending on a bound moves little per iteration (seen as a
   /// 200-iteration crawl of the Hammerstein static step on full-model data).
   bool hold_active_bounds = false;
+  /// After an accepted step, scale λ by max(1/3, 1 − (2ρ − 1)³), ρ = actual / predicted cost
+  /// decrease (Nielsen 1999, "Damping parameter in Marquardt's method", IMM-REP-1999-05; Madsen,
+  /// Nielsen & Tingleff 2004, eq. 2.21), instead of always dividing it by 3: λ stays where a step
+  /// gains half of what the linear model predicts (ρ ≈ 0.5) and falls only as ρ → 1. On
+  /// residuals whose linear model holds in a region of roughly fixed size (the full-model fit's
+  /// slow phase) the fixed 1/3 overshoots it and costs one rejected trial per iteration.
+  bool gain_ratio_damping = false;
 };
 
 /// Why a Levenberg–Marquardt run stopped. The first three are convergence; the others are not.
 enum class LmStopReason {
-  kRelativeDecrease,  ///< an accepted step lowered the cost by ≤ relative_tolerance · cost.
+  kRelativeDecrease,  ///< an accepted step lowered the cost, and its linear model predicted it
+                      ///< to, by ≤ relative_tolerance · cost.
   kStepTolerance,  ///< the (clamped) step ‖Δx‖ fell to ≤ step_tolerance · (‖x‖ + step_tol.)
                    ///< (after ≥ 1 accepted step, or at once: a stationary start).
   kZeroCost,        ///< the cost reached exactly 0.

@@ -405,6 +405,15 @@ Eigen::MatrixXd SensitivityJacobian(const sim::ModelParams& base,
 /// BM_SimulateDataSet/4).
 constexpr double kAugmentedSimulationCost = 3.6;
 
+/// Tolerance multiple of the sensitivity Jacobian that gives the confidence intervals' JᵀJ: within
+/// 0.2 % (whole Jacobian, relative RMS; worst column 1.5 %) of the exact one on the hand-array
+/// step grid (bench/fullmodel_bench.cc BM_SensitivityDataSet/29/3/16), where the iterations'
+/// (jacobian_tolerance_factor 100) are within 9 % (worst column 31 %).
+constexpr double kConfidenceJacobianToleranceFactor = 10.0;
+/// The coarsest integrator tolerance of a sensitivity Jacobian (9 % from the exact one on the
+/// hand-array step grid; it is not known to stay useful beyond).
+constexpr double kCoarsestJacobianTolerance = 1e-2;
+
 /// Whether `method` means sensitivities for `p` parameters (kAuto: when p perturbed simulations
 /// cost more than one augmented one). Deliberately independent of the thread count, so a fit
 /// gives the same figures however it is run (one process, any number of MPI ranks).
@@ -425,8 +434,12 @@ Eigen::MatrixXd FitJacobian(const FullModelFitOptions& options, const sim::Model
   const int p = static_cast<int>(x.size());
   if (UseSensitivities(options.jacobian, p)) {
     try {
-      Eigen::MatrixXd J = SensitivityJacobian(
-          base, params, x, upper, data, tolerance * options.jacobian_tolerance_factor, threads);
+      // Never coarser than kCoarsestJacobianTolerance (unless the residuals are).
+      const double jacobian_tolerance = std::max(
+          tolerance,
+          std::min(tolerance * options.jacobian_tolerance_factor, kCoarsestJacobianTolerance));
+      Eigen::MatrixXd J =
+          SensitivityJacobian(base, params, x, upper, data, jacobian_tolerance, threads);
       ++*evaluations;
       return J;
     } catch (const std::exception&) {
@@ -763,6 +776,9 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
   // damping made `fesim benchmark --quick`'s capped fit cycle through rejected secant steps.
   lm.hold_active_bounds = !options.broyden;  // bounded A, k, β, γ, R: no crawl along a bound
   lm.scale_free_damping = !options.broyden;  // no run of short gradient steps at the start
+  // One rejected trial per iteration otherwise (docs/performance.md, issue 4): a residual
+  // evaluation costs 0.3–0.4 of a sensitivity Jacobian.
+  lm.gain_ratio_damping = !options.broyden;
   double best_cost = std::numeric_limits<double>::infinity();
   LmResult best;
   for (int sidx = 0; sidx < options.starts; ++sidx) {
@@ -815,7 +831,19 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
   // FullModelFitTest.MethodEntryFitsPlantedRigAndPredictsHeldOutTrial) whose eigenvector has
   // rounding-level weights (≈ 1e-6) on every other parameter; the pair gets NaN, the rest their
   // intervals.
-  fit.ci95_half_width = ConfidenceHalfWidths95(best.jtj, best.cost, data.residuals, 1e-3);
+  // The iterations' sensitivity Jacobians are coarse (jacobian_tolerance_factor); the intervals
+  // get one at kConfidenceJacobianToleranceFactor at the minimiser.
+  Eigen::MatrixXd jtj = best.jtj;
+  if (UseSensitivities(options.jacobian, p) &&
+      options.jacobian_tolerance_factor > kConfidenceJacobianToleranceFactor) {
+    FullModelFitOptions fine = options;
+    fine.jacobian_tolerance_factor = kConfidenceJacobianToleranceFactor;
+    int evaluations = 0;
+    const Eigen::MatrixXd J = FitJacobian(fine, base, fit.kept, best.x, best.residual, upper, data,
+                                          tol, threads, &evaluations, {});
+    jtj = J.transpose() * J;
+  }
+  fit.ci95_half_width = ConfidenceHalfWidths95(jtj, best.cost, data.residuals, 1e-3);
   fit.model = ApplyParameters(base, fit.kept, fit.values);
   fit.total_wall_s = Seconds(t_total);
   if (progress) progress(0.95, "done fitting");

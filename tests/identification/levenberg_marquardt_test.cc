@@ -55,6 +55,48 @@ TEST(LevenbergMarquardt, BroydenUpdatesReachTheSameMinimumWithFewerJacobians) {
   EXPECT_LT((b.jtj - J_min.transpose() * J_min).norm(), 1e-4 * (J_min.transpose() * J_min).norm());
 }
 
+/// Trial steps LM rejected: residual evaluations less the start, the accepted steps and the
+/// forward-difference Jacobians' p evaluations each.
+int RejectedTrials(const LmResult& r, int p) {
+  return r.evaluations - 1 - r.iterations - p * r.jacobian_evaluations;
+}
+
+TEST(LevenbergMarquardt, GainRatioDampingReachesTheSameMinimaWithNoMoreRejectedTrials) {
+  // Rosenbrock's curved valley, and Box's 3-D exponential fit (Moré, Garbow & Hillstrom 1981,
+  // problem 12: r_i = e^{−t_i x₁} − e^{−t_i x₂} − x₃ (e^{−t_i} − e^{−10 t_i}), t_i = 0.1 i,
+  // minimum 0 at (1, 10, 1), start (0, 10, 20)).
+  const auto box = [](const Eigen::VectorXd& x) {
+    Eigen::VectorXd r(10);
+    for (int i = 0; i < 10; ++i) {
+      const double t = 0.1 * (i + 1);
+      r(i) = std::exp(-t * x(0)) - std::exp(-t * x(1)) - x(2) * (std::exp(-t) - std::exp(-10 * t));
+    }
+    return r;
+  };
+  LmOptions nielsen;
+  nielsen.gain_ratio_damping = true;
+  const LmResult rn = LevenbergMarquardt(Rosenbrock, Eigen::Vector2d(-1.2, 1.0), Unbounded(-1),
+                                         Unbounded(1), nielsen);
+  const LmResult rf =
+      LevenbergMarquardt(Rosenbrock, Eigen::Vector2d(-1.2, 1.0), Unbounded(-1), Unbounded(1));
+  const Eigen::VectorXd inf = Eigen::VectorXd::Constant(3, std::numeric_limits<double>::infinity());
+  const LmResult bn = LevenbergMarquardt(box, Eigen::Vector3d(0.0, 10.0, 20.0), -inf, inf, nielsen);
+  const LmResult bf = LevenbergMarquardt(box, Eigen::Vector3d(0.0, 10.0, 20.0), -inf, inf);
+  std::printf(
+      "rejected trials / accepted steps: Rosenbrock %d/%d (1/3 rule %d/%d), Box 3-D %d/%d "
+      "(1/3 rule %d/%d)\n",
+      RejectedTrials(rn, 2), rn.iterations, RejectedTrials(rf, 2), rf.iterations,
+      RejectedTrials(bn, 3), bn.iterations, RejectedTrials(bf, 3), bf.iterations);
+  EXPECT_TRUE(rn.converged) << LmStopReasonName(rn.stop_reason);
+  EXPECT_LT((rn.x - Eigen::Vector2d(1.0, 1.0)).norm(), kRosenbrockTol);
+  EXPECT_TRUE(bn.converged) << LmStopReasonName(bn.stop_reason);
+  EXPECT_LT((bn.x - Eigen::Vector3d(1.0, 10.0, 1.0)).norm(), 1e-5);
+  // Seen: Rosenbrock 6 rejected / 29 accepted (1/3 rule: 10 / 25), Box 3 / 10 both.
+  EXPECT_LT(RejectedTrials(rn, 2), RejectedTrials(rf, 2));
+  EXPECT_LE(RejectedTrials(rn, 2) + rn.iterations, RejectedTrials(rf, 2) + rf.iterations);
+  EXPECT_LE(RejectedTrials(bn, 3), RejectedTrials(bf, 3));
+}
+
 TEST(LevenbergMarquardt, OneIterationIsReportedAsTheIterationLimitNotConvergence) {
   LmOptions o;
   o.max_iterations = 1;
