@@ -226,8 +226,8 @@ std::vector<std::vector<double>> Sensitivities(const SensitivityProblem& p, doub
 /// first of CandidateParameters: A entries, k, β, γ, R scales) at tolerance 10^−range(1), the
 /// state Jacobian formed every range(2)-th step: the unit cost of a Jacobian with
 /// FullModelFitOptions::sensitivities (compare range(0) × BM_SimulateDataSet/4 for forward
-/// differences; the fit's default is tolerance 1e-3 when its residuals use 1e-4, the rigid-body
-/// part of ∂f/∂y every 16th).
+/// differences; with residuals at 1e-4 the fit's iterations use tolerance 1e-2, its confidence
+/// intervals 1e-3, both with the rigid-body part of ∂f/∂y every 16th step).
 void BM_SensitivityDataSet(benchmark::State& state) {
   const SensitivityProblem p = MakeSensitivityProblem(static_cast<int>(state.range(0)));
   const double tol = std::pow(10.0, -static_cast<double>(state.range(1)));
@@ -265,7 +265,8 @@ BENCHMARK(BM_SensitivityDataSet)
     ->Args({29, 4, 4})
     ->Args({29, 3, 4})
     ->Args({29, 3, 8})
-    ->Args({29, 3, 16})  // what the fit uses with residuals at 1e-4
+    ->Args({29, 3, 16})  // the confidence intervals' Jacobian with residuals at 1e-4
+    ->Args({29, 2, 16})  // the iterations' Jacobians with residuals at 1e-4
     ->Unit(benchmark::kMillisecond)
     ->Iterations(3);
 

@@ -200,11 +200,9 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
         res.stop_reason = LmStopReason::kZeroCost;
         break;
       }
-      // Converged only when the linear model also predicted no more (MINPACK's ftol test): a
-      // step that gained little of a large predicted decrease (ρ ≈ 0, e.g. along an inexact
-      // Jacobian) is not a minimum.
       if (decrease <= options.relative_tolerance * old_cost &&
-          predicted <= options.relative_tolerance * old_cost) {
+          (!options.stop_needs_predicted_decrease ||
+           predicted <= options.relative_tolerance * old_cost)) {
         if (!fresh) {  // a small decrease along a secant step: go on with a real Jacobian
           refresh();
           continue;

@@ -18,10 +18,12 @@ struct LmResult;
 Convergence ToConvergence(const LmResult& result);
 
 struct LmOptions {
-  int max_iterations = 200;  ///< accepted steps at most.
-  /// Stop when an accepted step lowers the cost by less than this fraction and its linear model
-  /// predicted less too.
-  double relative_tolerance = 1e-12;
+  int max_iterations = 200;           ///< accepted steps at most.
+  double relative_tolerance = 1e-12;  ///< stop when the cost decreases by less than this fraction.
+  /// The relative-decrease stop also needs the linear model's predicted decrease below
+  /// relative_tolerance · cost (MINPACK's ftol test): a step that gained little of a large
+  /// predicted decrease (ρ ≈ 0, e.g. along an inexact Jacobian) is not taken for a minimum.
+  bool stop_needs_predicted_decrease = false;
   double step_tolerance = 1e-12;  ///< stop when ‖Δx‖ ≤ this · (‖x‖ + step_tolerance).
   double initial_damping = 1e-3;  ///< λ₀ relative to max diag(JᵀJ) (see scale_free_damping).
   /// λ₀ = initial_damping itself. The damping term is λ·diag(JᵀJ) (Marquardt's scaling), so λ is
@@ -59,8 +61,8 @@ struct LmOptions {
 
 /// Why a Levenberg–Marquardt run stopped. The first three are convergence; the others are not.
 enum class LmStopReason {
-  kRelativeDecrease,  ///< an accepted step lowered the cost, and its linear model predicted it
-                      ///< to, by ≤ relative_tolerance · cost.
+  kRelativeDecrease,  ///< an accepted step lowered the cost by ≤ relative_tolerance · cost (and
+                      ///< predicted no more, with stop_needs_predicted_decrease).
   kStepTolerance,  ///< the (clamped) step ‖Δx‖ fell to ≤ step_tolerance · (‖x‖ + step_tol.)
                    ///< (after ≥ 1 accepted step, or at once: a stationary start).
   kZeroCost,        ///< the cost reached exactly 0.

@@ -779,6 +779,8 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
   // One rejected trial per iteration otherwise (docs/performance.md, issue 4): a residual
   // evaluation costs 0.3–0.4 of a sensitivity Jacobian.
   lm.gain_ratio_damping = !options.broyden;
+  // The iterations' Jacobians are coarse (jacobian_tolerance_factor): no stop on one poor step.
+  lm.stop_needs_predicted_decrease = true;
   double best_cost = std::numeric_limits<double>::infinity();
   LmResult best;
   for (int sidx = 0; sidx < options.starts; ++sidx) {

@@ -97,6 +97,30 @@ TEST(LevenbergMarquardt, GainRatioDampingReachesTheSameMinimaWithNoMoreRejectedT
   EXPECT_LE(RejectedTrials(bn, 3), RejectedTrials(bf, 3));
 }
 
+TEST(LevenbergMarquardt, PredictedDecreaseStopIgnoresAPoorStepAlongAnInexactJacobian) {
+  // r(x) = x − 1 from x = 0, but the Jacobian is given 1000× too large: the Gauss–Newton step is
+  // 1000× too short, gains 0.2 % where its linear model predicts all of the cost.
+  const ResidualFn r = [](const Eigen::VectorXd& x) { return Eigen::VectorXd(x.array() - 1.0); };
+  const JacobianFn wrong = [](const Eigen::VectorXd&, const Eigen::VectorXd&, int*) {
+    return Eigen::MatrixXd::Constant(1, 1, 1000.0);
+  };
+  LmOptions o;
+  o.relative_tolerance = 1e-2;
+  o.scale_free_damping = true;
+  o.max_iterations = 20;
+  const Eigen::VectorXd x0 = Eigen::VectorXd::Zero(1);
+  const LmResult plain =
+      LevenbergMarquardt(r, x0, Unbounded(-1).head(1), Unbounded(1).head(1), o, {}, wrong);
+  EXPECT_EQ(plain.stop_reason, LmStopReason::kRelativeDecrease);  // far from x = 1
+  EXPECT_LT(plain.x(0), 0.01);
+  o.stop_needs_predicted_decrease = true;
+  const LmResult guarded =
+      LevenbergMarquardt(r, x0, Unbounded(-1).head(1), Unbounded(1).head(1), o, {}, wrong);
+  EXPECT_NE(guarded.stop_reason, LmStopReason::kRelativeDecrease);
+  EXPECT_GT(guarded.iterations, plain.iterations);
+  EXPECT_GT(guarded.x(0), plain.x(0));
+}
+
 TEST(LevenbergMarquardt, OneIterationIsReportedAsTheIterationLimitNotConvergence) {
   LmOptions o;
   o.max_iterations = 1;
