@@ -94,6 +94,21 @@ int main(int argc, char** argv) {
   std::string protocol;        // "steps" / "grid" for every dataset; empty: alternate
   std::vector<std::string> mechanisms;
   std::vector<std::vector<std::string>> pair_list;  // --pair-list a+b,c+d (cycled)
+  const char* usage =
+      "usage: diagnosis_suite [--per N] [--clean N] [--pairs N] [--outside N] [--trials T]\n"
+      "  [--duration S] [--mechanisms a,b,...] [--threads N] [--out FILE] [--seed S]\n"
+      "  [--model full|NAME] [--protocol steps|grid] [--pair-list a+b,...] [--verbose N]\n"
+      "  [--effects-only 0|1]   (defaults: the full suite, hours of CPU)\n";
+  for (int i = 1; i < argc; ++i) {
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
+      std::fputs(usage, stdout);
+      return 0;
+    }
+  }
+  if (argc % 2 == 0) {
+    std::fprintf(stderr, "diagnosis_suite: option %s has no value\n%s", argv[argc - 1], usage);
+    return 2;
+  }
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--per")
