@@ -400,9 +400,13 @@ Eigen::MatrixXd SensitivityJacobian(const sim::ModelParams& base,
   return J;
 }
 
-/// Cost of one augmented (sensitivity) simulation in plain simulations: 361 / 99.6 ms CPU on the
-/// hand-array step grid (bench/fullmodel_bench.cc BM_SensitivityDataSet/29/3/4 against
-/// BM_SimulateDataSet/4).
+/// Cost of one augmented (sensitivity) simulation in plain simulations, as the kAuto rule counts
+/// it: 361 / 99.6 ms CPU on the hand-array step grid when it was set (session 5: tolerance 10×,
+/// the whole ∂f/∂y every 4th step). Now 168 / 110 ms (BM_SensitivityDataSet/29/2/16 against
+/// BM_SimulateDataSet/4, 2026-11-22 19:57 UTC) for the iterations and one 355 ms Jacobian for the
+/// intervals per fit; the rule is kept (forward differences for ≤ 3 parameters: at most three
+/// simulations per Jacobian, spread over the threads), so fits with few parameters give the same
+/// figures as before.
 constexpr double kAugmentedSimulationCost = 3.6;
 
 /// Tolerance multiple of the sensitivity Jacobian that gives the confidence intervals' JᵀJ: within

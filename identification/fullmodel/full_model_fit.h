@@ -119,13 +119,13 @@ struct FullModelFitOptions {
   /// many more evaluations than the plain method (seen in the planted-parameter tests).
   bool broyden = false;
   /// How Jacobians (and the sensitivity ranking) are computed: CVODES forward sensitivities
-  /// (sim::IntegrateTrialSensitivities: one augmented simulation per distinct trial, ≈ 3.6
-  /// simulations' cost on the hand rig, exact to its tolerance, see jacobian_tolerance_factor) or
-  /// forward differences with fd_relative_step (one perturbed simulation per parameter and trial,
-  /// spread over the threads); kAuto takes sensitivities when the parameters outnumber that cost
-  /// (≥ 4 parameters; the rule ignores the thread count, so the figures do not depend on how the
-  /// fit is run). A sensitivity integration that fails, or a rig with fatigue or potentiation
-  /// states, falls back to forward differences.
+  /// (sim::IntegrateTrialSensitivities: one augmented simulation per distinct trial, ≈ 1.5
+  /// simulations' cost on the hand rig at the default jacobian_tolerance_factor) or forward
+  /// differences with fd_relative_step (one perturbed simulation per parameter and trial, spread
+  /// over the threads); kAuto takes sensitivities for ≥ 4 parameters (the rule was set when an
+  /// augmented simulation cost 3.6 plain ones and is kept; it ignores the thread count, so the
+  /// figures do not depend on how the fit is run). A sensitivity integration that fails, or a rig
+  /// with fatigue or potentiation states, falls back to forward differences.
   JacobianMethod jacobian = JacobianMethod::kAuto;
   /// The sensitivity simulations of the iterations run at this multiple of integrator_tolerance
   /// (residuals, hence the cost and the stop, at integrator_tolerance itself): LM needs the
