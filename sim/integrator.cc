@@ -349,6 +349,14 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
       udot[r] = sum;
     }
   };
+  // udot = M_ff⁻¹ (τ − τ0)_free / h: a difference quotient of the torques through the masses.
+  const auto solve_difference = [&](const std::vector<double>& tau, double h) {
+    for (int f = 0; f < nf; ++f) {
+      const int cf = d->free_coordinates[f];
+      v[f] = (tau[cf] - tau0[cf]) / h;
+    }
+    solve();
+  };
   // M_ff⁻¹ ∂τ/∂y_i of the muscle and passive torques (zero for components that are neither a
   // free q nor a free u) into the free u rows of ∂f/∂y: added to the rest of the last full
   // formation, or, at a full formation, subtracted from it to give the new rest.
@@ -372,11 +380,7 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
       x = x0 + h;
       const std::vector<double> tau_i = MuscleAndPassiveTorques(base, d->paths, q, qd, a);
       x = x0;
-      for (int f = 0; f < nf; ++f) {
-        const int cf = d->free_coordinates[f];
-        v[f] = (tau_i[cf] - tau0[cf]) / h;
-      }
-      solve();
+      solve_difference(tau_i, h);
     }
     for (int f = 0; f < nf; ++f) {
       const std::size_t at = static_cast<std::size_t>(i) * nf + f;
@@ -410,12 +414,7 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
     const auto& pk = d->p[k];
     std::fill(udot.begin(), udot.end(), 0.0);
     if (pk.moves_torques) {
-      const std::vector<double> tau_k = MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a);
-      for (int f = 0; f < nf; ++f) {
-        const int cf = d->free_coordinates[f];
-        v[f] = (tau_k[cf] - tau0[cf]) / pk.step;
-      }
-      solve();
+      solve_difference(MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a), pk.step);
     }
     // ∂a_j/∂θ_k at t (zero for muscles θ_k does not reach).
     for (std::size_t j = 0; j < nm; ++j) {
