@@ -13,6 +13,8 @@
 #include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <utility>
+#include <vector>
 
 #include "muscles/activation.h"
 #include "sim/upper_limb_model.h"
@@ -457,16 +459,41 @@ int SensitivityRhs(int ns, sunrealtype t, N_Vector y, N_Vector ydot, N_Vector* y
   return 0;
 }
 
+/// CVODES' absolute tolerance per component: params.tolerance (scaled like the relative one,
+/// see CvodesContext::tolerance_scale), divided by params.speed_time_scale_s for the
+/// generalized speeds u when that is > 0 (IntegratorParams).
+std::vector<double> AbsoluteTolerances(const CvodesContext& ctx, const IntegratorParams& params) {
+  if (!(params.speed_time_scale_s >= 0.0) || !std::isfinite(params.speed_time_scale_s)) {
+    throw std::invalid_argument("integrator: speed_time_scale_s must be finite and >= 0");
+  }
+  const double tol = params.tolerance * ctx.tolerance_scale;
+  const int nq = ctx.state->getNQ(), nu = ctx.state->getNU();
+  std::vector<double> abs_tol(ctx.y_index.size(), tol);
+  if (params.speed_time_scale_s > 0.0) {
+    for (std::size_t i = 0; i < ctx.y_index.size(); ++i) {
+      if (ctx.y_index[i] >= nq && ctx.y_index[i] < nq + nu) {
+        abs_tol[i] = tol / params.speed_time_scale_s;
+      }
+    }
+  }
+  return abs_tol;
+}
+
 /// Owns the SUNDIALS objects (RAII).
 class Cvodes {
  public:
-  Cvodes(int n, double tol, bool adams, CvodesContext* ctx) {
+  /// `abs_tol`: the absolute tolerance of each component; `tol` the relative one.
+  Cvodes(int n, double tol, std::vector<double> abs_tol, bool adams, CvodesContext* ctx) {
     if (SUNContext_Create(nullptr, &sunctx_) != 0) throw std::runtime_error("SUNContext_Create");
     y_ = N_VNew_Serial(n, sunctx_);
     mem_ = CVodeCreate(adams ? CV_ADAMS : CV_BDF, sunctx_);
     a_ = SUNDenseMatrix(n, n, sunctx_);
     ls_ = SUNLinSol_Dense(y_, a_, sunctx_);
     tol_ = tol;
+    abs_tol_ = std::move(abs_tol);
+    if (static_cast<int>(abs_tol_.size()) != n) {
+      throw std::invalid_argument("Cvodes: one absolute tolerance per component");
+    }
     ctx_ = ctx;
   }
   ~Cvodes() {
@@ -492,7 +519,11 @@ class Cvodes {
     for (std::size_t i = 0; i < ctx_->y_index.size(); ++i) y[i] = y0[ctx_->y_index[i]];
     if (!initialised_) {
       Check(CVodeInit(mem_, Rhs, t0, y_), "CVodeInit", t0);
-      Check(CVodeSStolerances(mem_, tol_, tol_), "CVodeSStolerances", t0);
+      N_Vector abs_tol = N_VNew_Serial(static_cast<sunindextype>(abs_tol_.size()), sunctx_);
+      std::copy(abs_tol_.begin(), abs_tol_.end(), N_VGetArrayPointer(abs_tol));
+      const int flag = CVodeSVtolerances(mem_, tol_, abs_tol);  // copies abs_tol
+      N_VDestroy(abs_tol);
+      Check(flag, "CVodeSVtolerances", t0);
       Check(CVodeSetUserData(mem_, ctx_), "CVodeSetUserData", t0);
       Check(CVodeSetLinearSolver(mem_, ls_, a_), "CVodeSetLinearSolver", t0);
       Check(CVodeSetMaxNumSteps(mem_, kMaxSteps), "CVodeSetMaxNumSteps", t0);
@@ -507,17 +538,32 @@ class Cvodes {
       initialised_ = true;
     }
   }
+  /// At most `max_steps` internal steps in all (0: no limit; IntegratorParams::max_steps).
+  void SetStepBudget(long max_steps) { step_budget_ = max_steps; }
   /// Advances to exactly t_out (≤ stop) and leaves the solution in the context's state,
   /// realised to Stage::Time.
   void AdvanceTo(double t_out, double stop) {
     Check(CVodeSetStopTime(mem_, stop), "CVodeSetStopTime", t_out);
+    long left = kMaxSteps;
+    if (step_budget_ > 0) {
+      long taken = 0;
+      CVodeGetNumSteps(mem_, &taken);
+      left = std::min(kMaxSteps, step_budget_ - taken);
+      if (left <= 0) left = 1;  // CVODES takes ≤ 0 as its default; one step, then the check
+      Check(CVodeSetMaxNumSteps(mem_, left), "CVodeSetMaxNumSteps", t_out);
+    }
     double t_reached = 0.0;
     const int flag = CVode(mem_, t_out, y_, &t_reached, CV_NORMAL);
     if (flag < 0) {
       LoadState(ctx_, t_reached, N_VGetArrayPointer(y_));
-      throw std::runtime_error("integration failed at t = " + std::to_string(t_reached) +
-                               " s (CVODES " + CVodeGetReturnFlagName(flag) + "); " +
-                               DescribeState(*ctx_->model, *ctx_->state) + kFailureHint);
+      const std::string why =
+          flag == CV_TOO_MUCH_WORK && step_budget_ > 0 && left < kMaxSteps
+              ? "the step budget (IntegratorParams::max_steps = " + std::to_string(step_budget_) +
+                    ") is used up"
+              : std::string("CVODES ") + CVodeGetReturnFlagName(flag);
+      throw std::runtime_error("integration failed at t = " + std::to_string(t_reached) + " s (" +
+                               why + "); " + DescribeState(*ctx_->model, *ctx_->state) +
+                               kFailureHint);
     }
     if (ns_ > 0) {
       Check(CVodeGetSens(mem_, &t_reached, yS_), "CVodeGetSens", t_out);
@@ -556,6 +602,8 @@ class Cvodes {
   SUNMatrix a_ = nullptr;
   SUNLinearSolver ls_ = nullptr;
   double tol_ = 1e-6;
+  std::vector<double> abs_tol_;
+  long step_budget_ = 0;      // internal steps in all, 0 = no limit
   int ns_ = 0;                // sensitivities integrated
   std::vector<double> pbar_;  // their parameters' scales
   N_Vector* yS_ = nullptr;
@@ -610,7 +658,9 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
   if (params.method != IntegratorParams::Method::kSimbodyRkMerson) {
     CvodesContext ctx(&model, state, HasPrescribed(model.params()));
     Cvodes cv(static_cast<int>(ctx.y_index.size()), params.tolerance * ctx.tolerance_scale,
+              AbsoluteTolerances(ctx, params),
               params.method == IntegratorParams::Method::kCvodesAdams, &ctx);
+    cv.SetStepBudget(params.max_steps);
     Drive(
         model, schedule, report_times, state, observer, observe_stage,
         [&](double t, double stop) { cv.AdvanceTo(t, stop); },
@@ -739,8 +789,9 @@ IntegrationStats IntegrateTrialSensitivities(
   d.jac_reuse = state_jacobian_every;
 
   IntegrationStats stats;
-  Cvodes cv(d.n, params.tolerance * ctx.tolerance_scale,
+  Cvodes cv(d.n, params.tolerance * ctx.tolerance_scale, AbsoluteTolerances(ctx, params),
             params.method == IntegratorParams::Method::kCvodesAdams, &ctx);
+  cv.SetStepBudget(params.max_steps);
   const int np = static_cast<int>(parameters.size());
   if (np > 0) cv.EnableSensitivities(scales);
   std::vector<double> dq(static_cast<std::size_t>(kNumCoordinates) * np, 0.0);

@@ -158,6 +158,18 @@ struct IntegratorParams {
   enum class Method { kCvodes, kCvodesAdams, kSimbodyRkMerson };
   Method method = Method::kCvodes;
   double tolerance = 1e-6;  ///< relative and absolute accuracy, > 0.
+  /// CVODES methods: the absolute tolerance of the generalized speeds u is tolerance / t_c
+  /// (rad/s) with t_c this time scale, so that a speed error held over t_c moves q by the
+  /// tolerance — Simbody's weighting of u errors by a characteristic time (its integrators'
+  /// u weights; default time scale 0.1 s). 0: the same number as for q (rad/s = rad). A
+  /// lightly damped oscillation (a tremor) is step-limited by its speeds' error: t_c = 0.1 s
+  /// takes 1.7× fewer steps for a 1.5× larger q error (docs/performance.md, issue 7). ≥ 0.
+  double speed_time_scale_s = 0.0;
+  /// CVODES methods: internal steps over the whole integration at most (0: no limit but CVODES'
+  /// 10⁶ per report interval). Used up: std::runtime_error naming the time reached. A fit that
+  /// wanders into a stiff corner (a joint limit made extremely sharp, say) then loses one
+  /// simulation in seconds instead of crawling at steps of 1e-20 s for tens of minutes.
+  long max_steps = 0;
 };
 
 /// Everything that defines one virtual participant on one rig.

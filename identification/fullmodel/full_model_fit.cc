@@ -138,16 +138,14 @@ sim::StimulationSchedule DelayedSchedule(const sim::ModelParams& model, const Si
 }
 
 /// Simulated angles q[column][sample] (rad) of `plan` on `model`: the rig's initial state at
-/// t = 0, the schedule delayed by the electromechanical delay (as sim::RunTrial does), CVODES at
-/// `tolerance`, q read at exactly the sample times from a state realised only to Stage::Time
-/// (no kinematics per sample: 173 → 129 ms CPU for a 140 s, 40 Hz data set, bench/
+/// t = 0, the schedule delayed by the electromechanical delay (as sim::RunTrial does), CVODES with
+/// `integrator`'s settings, q read at exactly the sample times from a state realised only to
+/// Stage::Time (no kinematics per sample: 173 → 129 ms CPU for a 140 s, 40 Hz data set, bench/
 /// fullmodel_bench.cc BM_SimulateDataSet/4), without RunTrial's sensor and truth records.
 std::vector<std::vector<double>> SimulatePlan(const sim::ModelParams& model, const SimPlan& plan,
-                                              double tolerance) {
+                                              const sim::IntegratorParams& integrator) {
   const sim::UpperLimbModel limb(model);
   const sim::StimulationSchedule delayed = DelayedSchedule(model, plan);
-  sim::IntegratorParams integrator;
-  integrator.tolerance = tolerance;
   SimTK::State state = limb.MakeInitialState();
   std::vector<std::vector<double>> q(plan.coords.size());
   for (auto& column : q) column.reserve(plan.times.size());
@@ -160,6 +158,14 @@ std::vector<std::vector<double>> SimulatePlan(const sim::ModelParams& model, con
       },
       SimTK::Stage::Time);
   return q;
+}
+
+/// SimulatePlan at CVODES tolerance `tolerance`, the other settings at their defaults.
+std::vector<std::vector<double>> SimulatePlan(const sim::ModelParams& model, const SimPlan& plan,
+                                              double tolerance) {
+  sim::IntegratorParams integrator;
+  integrator.tolerance = tolerance;
+  return SimulatePlan(model, plan, integrator);
 }
 
 /// Training data in a form the residual needs: per trial, the q columns and where they are
@@ -641,8 +647,15 @@ sim::ModelParams DefaultHandRig() {
 }
 
 Trial SimulateLike(const sim::ModelParams& model, const Trial& trial, double integrator_tolerance) {
+  sim::IntegratorParams integrator;
+  integrator.tolerance = integrator_tolerance;
+  return SimulateLike(model, trial, integrator);
+}
+
+Trial SimulateLike(const sim::ModelParams& model, const Trial& trial,
+                   const sim::IntegratorParams& integrator) {
   const SimPlan plan = PlanFor(model, trial);
-  std::vector<std::vector<double>> q = SimulatePlan(model, plan, integrator_tolerance);
+  std::vector<std::vector<double>> q = SimulatePlan(model, plan, integrator);
   Trial out;
   out.time = trial.time;
   for (const auto& name : trial.NamesWithPrefix("u.")) out.AddColumn(name, trial.Column(name));

@@ -184,6 +184,9 @@ struct FullModelFit {
 /// q read at exactly the trial's times, no sensor noise). Throws std::runtime_error on an unknown
 /// channel or joint, time before 0, fewer than 2 samples, or integration failure.
 Trial SimulateLike(const sim::ModelParams& model, const Trial& trial, double integrator_tolerance);
+/// The same with every integrator setting given (method CVODES BDF unless set otherwise).
+Trial SimulateLike(const sim::ModelParams& model, const Trial& trial,
+                   const sim::IntegratorParams& integrator);
 
 /// Sensitivity ranking + multi-start local optimisation on `train` (the q.* columns; NaN samples
 /// are skipped). `progress` may be empty. Throws std::runtime_error with a one-line reason on

@@ -301,6 +301,87 @@ TEST(Integrator, SimbodyFailureNamesTimeCoordinateAndHint) {
       << message;
 }
 
+TEST(Integrator, SpeedTimeScaleLoosensOnlyTheSpeedsAndKeepsTheAnglesAccurate) {
+  // Hand rig (arm locked) with a 0.12 N·m, 5.35 Hz wrist tremor, the case that made diagnosis
+  // fits slow: at tolerance 1e-5 the steps are limited by the speeds' error. With their absolute
+  // tolerance at tolerance / t_c (t_c = 0.1 s, IntegratorParams::speed_time_scale_s) CVODES takes
+  // fewer steps, and the angles stay within a few tolerances' worth of a 1e-10 solution.
+  ModelParams p = DefaultModelParams();
+  for (int c : {kShoulderElvPlane, kShoulderElevation, kShoulderRotation, kElbowFlexion, kProSup}) {
+    p.coordinates[c].mode = CoordinateMode::kLocked;
+  }
+  p.mechanisms.tremor.enabled = true;
+  p.mechanisms.tremor.coordinate = kWristFlexion;
+  p.mechanisms.tremor.amplitude_nm = 0.12;
+  p.mechanisms.tremor.frequency_hz = 5.35;
+  const UpperLimbModel model(p);
+  StimulationSchedule stim;
+  stim.times = {0.0, 1.0, 4.0, 7.0};
+  stim.values = {
+      {0, 0, 0, 0, 0, 0}, {200, 0, 0, 0, 0, 0}, {0, 150, 0, 0, 0, 0}, {0, 0, 0, 0, 0, 0}};
+  const auto times = Times(10.0, 0.025);
+  const auto run = [&](double tolerance, double time_scale, std::vector<std::vector<double>>* q) {
+    IntegratorParams ip{IntegratorParams::Method::kCvodes, tolerance};
+    ip.speed_time_scale_s = time_scale;
+    SimTK::State s = model.MakeInitialState();
+    return IntegrateTrial(model, ip, stim, times, &s,
+                          [&](const SimTK::State& st) { q->push_back(model.GetQs(st)); });
+  };
+  std::vector<std::vector<double>> ref, plain, scaled;
+  run(1e-10, 0.0, &ref);
+  const IntegrationStats plain_stats = run(1e-5, 0.0, &plain);
+  const IntegrationStats scaled_stats = run(1e-5, 0.1, &scaled);
+  const auto worst = [&](const std::vector<std::vector<double>>& q) {
+    double w = 0.0;
+    for (std::size_t k = 0; k < ref.size(); ++k) {
+      for (int i = 0; i < kNumCoordinates; ++i) w = std::max(w, std::abs(q[k][i] - ref[k][i]));
+    }
+    return w;
+  };
+  const double e_plain = worst(plain), e_scaled = worst(scaled);
+  std::printf(
+      "tremor, tolerance 1e-5: %ld steps, max |dq| %.3g rad; t_c 0.1 s: %ld steps, %.3g rad\n",
+      plain_stats.steps, e_plain, scaled_stats.steps, e_scaled);
+  EXPECT_LT(static_cast<double>(scaled_stats.steps), 0.8 * static_cast<double>(plain_stats.steps));
+  EXPECT_LT(e_scaled, 3e-4);  // 30 tolerances; the 1° sensor noise is 0.0175 rad
+  EXPECT_LT(e_scaled, 5.0 * e_plain);
+  IntegratorParams bad{IntegratorParams::Method::kCvodes, 1e-5};
+  bad.speed_time_scale_s = -0.1;
+  SimTK::State s = model.MakeInitialState();
+  EXPECT_THROW(IntegrateTrial(model, bad, stim, times, &s, [](const SimTK::State&) {}),
+               std::invalid_argument);
+}
+
+TEST(Integrator, StepBudgetEndsASimulationThatNeedsMoreAndChangesNothingOtherwise) {
+  const UpperLimbModel model(DefaultModelParams());
+  StimulationSchedule stim;
+  stim.times = {0.0, 1.0};
+  stim.values = {{0, 0, 0, 0, 0, 0}, {180, 60, 150, 0, 100, 50}};
+  const auto times = Times(3.0, 0.05);
+  const auto run = [&](long max_steps, std::vector<std::vector<double>>* q) {
+    IntegratorParams ip{IntegratorParams::Method::kCvodes, 1e-6};
+    ip.max_steps = max_steps;
+    SimTK::State s = model.MakeInitialState();
+    return IntegrateTrial(model, ip, stim, times, &s,
+                          [&](const SimTK::State& st) { q->push_back(model.GetQs(st)); });
+  };
+  std::vector<std::vector<double>> free_run, budgeted, cut;
+  const IntegrationStats stats = run(0, &free_run);
+  run(stats.steps, &budgeted);  // exactly enough: the same steps, the same numbers
+  EXPECT_EQ(budgeted, free_run);
+  try {
+    run(stats.steps / 2, &cut);
+    FAIL() << "half the steps it needs did not stop the simulation";
+  } catch (const std::runtime_error& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("the step budget (IntegratorParams::max_steps = " +
+                           std::to_string(stats.steps / 2) + ") is used up"),
+              std::string::npos)
+        << message;
+  }
+  EXPECT_LT(cut.size(), free_run.size());
+}
+
 TEST(Integrator, ScheduleHoldsValues) {
   StimulationSchedule s;
   s.times = {1.0, 2.0};
