@@ -105,6 +105,8 @@ int main(int argc, char** argv) {
   int per = 10, clean = 20, pairs = 10, outside = 5, trials = 3, threads = 2, verbose = 0,
       effects_only = 0;
   double duration = 60.0;
+  double speed_time_scale =
+      fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().speed_time_scale_s;
   std::uint64_t first_seed = 1000;
   std::string out_path = "docs/diagnosis.md";
   std::string model = "full";  // or a reduced model (diagnose --model NAME)
@@ -115,7 +117,7 @@ int main(int argc, char** argv) {
       "usage: diagnosis_suite [--per N] [--clean N] [--pairs N] [--outside N] [--trials T]\n"
       "  [--duration S] [--mechanisms a,b,...] [--threads N] [--out FILE] [--seed S]\n"
       "  [--model full|NAME] [--protocol steps|grid] [--pair-list a+b,...] [--verbose N]\n"
-      "  [--effects-only 0|1]   (defaults: the full suite, hours of CPU)\n";
+      "  [--effects-only 0|1] [--speed-time-scale S]   (defaults: the full suite, hours of CPU)\n";
   for (int i = 1; i < argc; ++i) {
     if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
       std::fputs(usage, stdout);
@@ -148,6 +150,8 @@ int main(int argc, char** argv) {
       first_seed = std::strtoull(v.c_str(), nullptr, 10);
     else if (k == "--duration")
       duration = std::atof(v.c_str());
+    else if (k == "--speed-time-scale")
+      speed_time_scale = std::atof(v.c_str());
     else if (k == "--mechanisms")
       mechanisms = Split(v);
     else if (k == "--out")
@@ -234,6 +238,7 @@ int main(int argc, char** argv) {
   }
   fesim::diagnosis::DiagnoseOptions options;
   options.fit.threads = threads;
+  options.fit.speed_time_scale_s = speed_time_scale;
   options.model = model;
   if (model != "full") {
     for (const auto& m : fesim::diagnosis::ReducedModelMethods()) {

@@ -123,8 +123,9 @@ SpectrumPeak RefinedPeak(const std::vector<double>& r, double dt) {
 /// The options that change results, as cache-key text (not fit.threads).
 std::string OptionsText(const DiagnoseOptions& o) {
   std::string s;
-  for (const double v : {o.holdout_fraction, o.alpha, o.min_heldout_gain, o.max_structure,
-                         o.fit.relative_tolerance, o.fit.fd_step, o.fit.tolerance}) {
+  for (const double v :
+       {o.holdout_fraction, o.alpha, o.min_heldout_gain, o.max_structure, o.fit.relative_tolerance,
+        o.fit.fd_step, o.fit.tolerance, o.fit.speed_time_scale_s, o.fit.max_steps_per_s}) {
     s += ExactNumberText(v) + ",";
   }
   for (const int v : {o.max_fitted, o.max_accepted, o.baseline_iterations, o.screen_iterations,
@@ -219,10 +220,10 @@ class StageCache {
 Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measured,
                    const DiagnoseOptions& options, const DiagnoseProgress& progress) {
   const auto t0 = Clock::now();
-  auto report = [&](double f, const std::string& s) {
-    if (progress) progress(f, s);
-  };
   Diagnosis out;
+  auto report = [&](double f, const std::string& s) {
+    if (progress) progress(f, s + " [" + std::to_string(out.simulations) + " simulations]");
+  };
   LibraryContext ctx;
   MeasuredData data = PrepareMeasured(rig, measured, options.holdout_fraction);
   ctx.outputs = data.outputs;

@@ -63,9 +63,20 @@ Trial PredictOne(const sim::ModelParams& model, const std::vector<ModelParameter
     }
     input = &scaled;
   }
-  Trial out = options.simulator
-                  ? options.simulator(model, *input, options.tolerance)
-                  : identification::fullmodel::SimulateLike(model, *input, options.tolerance);
+  Trial out;
+  if (options.simulator) {
+    out = options.simulator(model, *input, options.tolerance);
+  } else {
+    sim::IntegratorParams integrator;
+    integrator.tolerance = options.tolerance;
+    integrator.speed_time_scale_s = options.speed_time_scale_s;
+    const double duration = input->time.empty() ? 0.0 : input->time.back();
+    integrator.max_steps =
+        options.max_steps_per_s > 0.0
+            ? static_cast<long>(std::ceil(options.max_steps_per_s * std::max(duration, 1.0)))
+            : 0;
+    out = identification::fullmodel::SimulateLike(model, *input, integrator);
+  }
   AddOutputDrift(params, x, &out);
   return out;
 }
@@ -140,7 +151,7 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
   std::vector<int> simulated;  // columns that need simulations (not output drifts)
   for (int c = 0; c < p; ++c) {
     const int k = first_free + c;
-    double step = options.fd_step * params[k].scale;
+    double step = options.fd_step * std::max(params[k].scale, std::abs(x(k)));
     if (x(k) + step > params[k].upper) step = -step;
     h[c] = step;
     Eigen::VectorXd xp = x;

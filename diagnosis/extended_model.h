@@ -31,7 +31,7 @@ struct ModelParameter {
   double start = 0.0;  ///< start value (also the "mechanism off" value for extensions).
   double lower = 0.0;  ///< bound.
   double upper = 0.0;  ///< bound, > lower.
-  double scale = 1.0;  ///< typical magnitude, for finite-difference steps, > 0.
+  double scale = 1.0;  ///< typical magnitude, > 0 (finite-difference steps: FitOptions::fd_step).
   /// kModel: writes the value into the model (called on a copy of the base).
   std::function<void(double, sim::ModelParams*)> set;
 };
@@ -81,9 +81,19 @@ double ViewNrmse(const DataView& view, const std::vector<Trial>& predictions);
 struct FitOptions {
   int max_iterations = 8;            ///< accepted LM steps.
   double relative_tolerance = 1e-4;  ///< LM stops when the cost falls by less than this fraction.
-  double fd_step = 1e-2;             ///< forward-difference step, × ModelParameter::scale.
-  double tolerance = 1e-6;           ///< CVODES relative/absolute accuracy.
-  int threads = 2;                   ///< simulation workers, ≥ 1.
+  /// Forward-difference step, × max(ModelParameter::scale, |x|): relative to the value once it
+  /// exceeds its typical scale (a mechanism's scale is sized for its "off" value 0; a step of
+  /// 1e-2 × scale at a fitted value 30× larger moved the outputs by less than the integration
+  /// error, and that column was mostly error: ExtendedModel.JacobianStepFollowsTheValue…).
+  double fd_step = 1e-2;
+  double tolerance = 1e-6;          ///< CVODES relative/absolute accuracy.
+  double speed_time_scale_s = 0.0;  ///< sim::IntegratorParams::speed_time_scale_s, s, ≥ 0.
+  /// Internal integrator steps per simulated second at most (sim::IntegratorParams::max_steps =
+  /// this × the trial's duration; 0: no limit). A simulation that needs more fails (LM rejects
+  /// that point; a Jacobian column is left at 0). Hand-rig trials take ≈ 100 steps/s, ≈ 440
+  /// with a 5 Hz tremor (bench/diagnosis_bench.cc BM_SimulateLike*).
+  double max_steps_per_s = 10000.0;
+  int threads = 2;  ///< simulation workers, ≥ 1.
   /// The simulation. Empty: the full model (12) by identification/fullmodel's SimulateLike;
   /// `fesim diagnose --model NAME` sets a reduced model (reduced_model.h).
   TrialSimulator simulator;

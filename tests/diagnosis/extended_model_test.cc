@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "diagnosis/candidates.h"
+#include "diagnosis/diagnose.h"
 #include "identification/fullmodel/full_model_fit.h"
 
 namespace fesim::diagnosis {
@@ -143,6 +145,55 @@ TEST(ExtendedModel, AFitFromAKnownStartIsTheFitThatSimulatesIt) {
   EXPECT_EQ(warm.cost, cold.cost);
   EXPECT_EQ(warm.residual, cold.residual);
   EXPECT_EQ(warm.simulations, cold.simulations - 2);  // r(x0) and one Jacobian column, 1 trial
+}
+
+TEST(ExtendedModel, JacobianStepFollowsTheValueSoAColumnRisesAboveTheIntegrationError) {
+  // The fatigue rate of the diagnosis library (typical scale 0.01/s, for its "off" value 0) at
+  // 0.3/s: a forward-difference step of fd_step × scale = 1e-4/s moves the wrist by micro-
+  // radians, the size of the integration error at the diagnosis' tolerance, and the column is
+  // mostly that error; the step fd_step × max(scale, |x|) = 3e-3/s is not.
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  Trial t;
+  for (int i = 0; i <= 1000; ++i) t.time.push_back(i / 50.0);
+  std::vector<double> ext(t.size());
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    ext[i] = std::fmod(t.time[i], 3.0) >= 1.0 ? 200.0 : 0.0;  // 2 s on, 1 s off
+  }
+  t.AddColumn("u.ext", ext);
+  t.AddColumn("q.wrist_flexion", std::vector<double>(t.size(), 0.0));
+  const DataView v = ViewOf(t);
+  ModelParameter rate;
+  rate.name = "fatigue.rate_per_s";
+  rate.lower = 0.0;
+  rate.upper = 1.0;
+  rate.scale = 0.01;
+  rate.set = [](double x, sim::ModelParams* m) {
+    m->mechanisms.fatigue.enabled = x > 1e-12;
+    if (x > 1e-12) m->mechanisms.fatigue.fatigue_time_s = 1.0 / x;
+  };
+  const std::vector<ModelParameter> params = {rate};
+  const double x = 0.3, h = 0.01;
+  FitOptions exact = Accurate();
+  exact.tolerance = 1e-10;
+  const auto r = [&](double value, const FitOptions& o) {
+    return StackResiduals(v, Predict(rig, params, Eigen::VectorXd::Constant(1, value), v, o));
+  };
+  const Eigen::VectorXd reference = (r(x + h, exact) - r(x - h, exact)) / (2.0 * h);
+  FitOptions o = DiagnoseOptions::DefaultFitOptions();
+  const auto error = [&](const FitOptions& opts) {
+    const Eigen::MatrixXd j =
+        ResidualJacobian(rig, params, Eigen::VectorXd::Constant(1, x), r(x, opts), v, opts);
+    return (j.col(0) - reference).norm() / reference.norm();
+  };
+  const double now = error(o);
+  o.fd_step *= rate.scale / x;  // the step fd_step × scale of before
+  const double before = error(o);
+  std::printf(
+      "fatigue-rate column vs central differences at 1e-10: %.3g (step 3e-3/s), %.3g "
+      "(1e-4/s)\n",
+      now, before);
+  EXPECT_LT(now, 0.1);           // 0.049 seen
+  EXPECT_GT(before, 5.0 * now);  // 1.44 seen
 }
 
 TEST(ExtendedModel, DriftJacobianColumnIsMinusTimeWithoutSimulating) {
