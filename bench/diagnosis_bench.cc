@@ -12,6 +12,7 @@
 
 #include "diagnosis/diagnose.h"
 #include "diagnosis/planted.h"
+#include "diagnosis/report.h"
 #include "identification/fullmodel/full_model_fit.h"
 #include "scenarios/scenario.h"
 
@@ -95,14 +96,7 @@ void Diagnose(benchmark::State& state, const std::string& mechanism) {
     if (stages) {
       for (const auto& cr : d.candidates) {
         if (!cr.applicable) continue;
-        std::string ps;
-        for (const auto& p : cr.parameters) ps += " " + p.name + "=" + std::to_string(p.value);
-        std::fprintf(stderr,
-                     "    %-40s S %9.1f dof %d padj %.2g fitted %d lr_padj %.2g gain %.4f | on "
-                     "top: S %.1f gain %.4f%s\n",
-                     cr.label.c_str(), cr.score_statistic, cr.dof, cr.p_adjusted, cr.fitted,
-                     cr.lr_p_adjusted, cr.heldout_gain, cr.score_on_accepted,
-                     cr.heldout_gain_on_accepted, ps.c_str());
+        std::fprintf(stderr, "    %s\n", fesim::diagnosis::CandidateLogLine(cr).c_str());
       }
     }
     state.SetLabel("cause " + d.cause);

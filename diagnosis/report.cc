@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "diagnosis/signatures.h"
 #include "render/plot.h"
@@ -52,6 +53,18 @@ void HeldoutResidual(const Diagnosis& d, const std::vector<Trial>& pred, const s
 }
 
 }  // namespace
+
+std::string CandidateLogLine(const CandidateResult& c) {
+  std::string params;
+  for (const auto& p : c.parameters) params += " " + p.name + "=" + std::to_string(p.value);
+  char line[320];
+  std::snprintf(line, sizeof line,
+                "%-40s S %9.1f dof %d padj %.2g fitted %d lr_padj %.2g gain %.4f | on top: S %.1f "
+                "gain %.4f",
+                c.label.c_str(), c.score_statistic, c.dof, c.p_adjusted, c.fitted ? 1 : 0,
+                c.lr_p_adjusted, c.heldout_gain, c.score_on_accepted, c.heldout_gain_on_accepted);
+  return line + params;
+}
 
 Json DiagnosisJson(const Diagnosis& d) {
   Json j = Json::Object();

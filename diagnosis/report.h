@@ -19,6 +19,10 @@ namespace fesim::diagnosis {
 /// candidate was not fitted).
 Json DiagnosisJson(const Diagnosis& d);
 
+/// One candidate's figures on one line (label, score statistic, dof, adjusted p, fitted, LR p,
+/// held-out gain, the second round's figures, fitted parameters), for logs and benchmarks.
+std::string CandidateLogLine(const CandidateResult& c);
+
 /// The Markdown report; `inputs` names the measured files and the scenario.
 std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs);
 

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <string>
 
 #include "scenarios/trial.h"
 
@@ -50,6 +51,25 @@ Diagnosis Example() {
   d.heldout_baseline = {p};
   d.heldout_extended = {t};
   return d;
+}
+
+TEST(Report, CandidateLogLineCarriesTheTestFitAndParameterFigures) {
+  CandidateResult c;
+  c.label = "tremor@wrist_flexion";
+  c.score_statistic = 15543.3;
+  c.dof = 2;
+  c.p_adjusted = 0.0;
+  c.fitted = true;
+  c.lr_p_adjusted = 1e-9;
+  c.heldout_gain = 0.3227;
+  c.parameters = {{"tremor.amplitude_nm", "N*m", 0.123268, 0.002}};
+  const std::string line = CandidateLogLine(c);
+  EXPECT_EQ(line.rfind("tremor@wrist_flexion ", 0), 0u) << line;
+  EXPECT_NE(
+      line.find("S   15543.3 dof 2 padj 0 fitted 1 lr_padj 1e-09 gain 0.3227 | on top: S nan"),
+      std::string::npos)
+      << line;
+  EXPECT_NE(line.find(" tremor.amplitude_nm=0.123268"), std::string::npos) << line;
 }
 
 TEST(Report, JsonHasExactlyTheProductKeys) {
