@@ -11,6 +11,8 @@
 //                   [--pair-list a+b,c+d,…] (the pairs planted, cycled; default: fatigue+tremor,
 //                   delay+sensor_drift, stiction+tremor, potentiation+delay,
 //                   fatigue+sensor_drift)
+//                   [--speed-time-scale S] (FitOptions::speed_time_scale_s; default 0)
+//                   [--baseline-iterations N] (DiagnoseOptions::baseline_iterations; default 4)
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -106,6 +108,7 @@ int main(int argc, char** argv) {
   int per = 10, clean = 20, pairs = 10, outside = 5, trials = 3, threads = 2, verbose = 0,
       effects_only = 0;
   double duration = 60.0;
+  int baseline_iterations = fesim::diagnosis::DiagnoseOptions().baseline_iterations;
   double speed_time_scale =
       fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().speed_time_scale_s;
   std::uint64_t first_seed = 1000;
@@ -118,7 +121,8 @@ int main(int argc, char** argv) {
       "usage: diagnosis_suite [--per N] [--clean N] [--pairs N] [--outside N] [--trials T]\n"
       "  [--duration S] [--mechanisms a,b,...] [--threads N] [--out FILE] [--seed S]\n"
       "  [--model full|NAME] [--protocol steps|grid] [--pair-list a+b,...] [--verbose N]\n"
-      "  [--effects-only 0|1] [--speed-time-scale S]   (defaults: the full suite, hours of CPU)\n";
+      "  [--effects-only 0|1] [--speed-time-scale S] [--baseline-iterations N]\n"
+      "  (defaults: the full suite, hours of CPU)\n";
   for (int i = 1; i < argc; ++i) {
     if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
       std::fputs(usage, stdout);
@@ -153,6 +157,8 @@ int main(int argc, char** argv) {
       duration = std::atof(v.c_str());
     else if (k == "--speed-time-scale")
       speed_time_scale = std::atof(v.c_str());
+    else if (k == "--baseline-iterations")
+      baseline_iterations = std::atoi(v.c_str());
     else if (k == "--mechanisms")
       mechanisms = Split(v);
     else if (k == "--out")
@@ -240,6 +246,7 @@ int main(int argc, char** argv) {
   fesim::diagnosis::DiagnoseOptions options;
   options.fit.threads = threads;
   options.fit.speed_time_scale_s = speed_time_scale;
+  options.baseline_iterations = baseline_iterations;
   options.model = model;
   if (model != "full") {
     for (const auto& m : fesim::diagnosis::ReducedModelMethods()) {
