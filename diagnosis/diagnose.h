@@ -116,7 +116,7 @@ struct DiagnoseOptions {
     f.tolerance = 1e-5;
     // Speeds held to the angles' absolute tolerance (speed_time_scale_s = 0). 0.1 s makes
     // simulations with a tremor 1.9× and clean ones 1.6× cheaper, but stiction's fitted
-    // frictions then come out 23–94 % off (5 % at 0): velocity-dependent forces need accurate
+    // frictions then come out 23–94 % off (1–8 % at 0): velocity-dependent forces need accurate
     // speeds (docs/performance.md, issue 7).
     f.relative_tolerance = 1e-3;
     return f;

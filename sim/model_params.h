@@ -166,9 +166,9 @@ struct IntegratorParams {
   /// takes 1.7× fewer steps for a 1.5× larger q error (docs/performance.md, issue 7). ≥ 0.
   double speed_time_scale_s = 0.0;
   /// CVODES methods: internal steps over the whole integration at most (0: no limit but CVODES'
-  /// 10⁶ per report interval). Used up: std::runtime_error naming the time reached. A fit that
-  /// wanders into a stiff corner (a joint limit made extremely sharp, say) then loses one
-  /// simulation in seconds instead of crawling at steps of 1e-20 s for tens of minutes.
+  /// 10⁶ per report interval). Used up: std::runtime_error naming the time reached. A fit whose
+  /// trial point makes the integration crawl then loses that simulation after a bounded amount of
+  /// work (a diagnosis fit once waited 20 minutes on one without it).
   long max_steps = 0;
 };
 
