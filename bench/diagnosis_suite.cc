@@ -12,7 +12,10 @@
 //                   delay+sensor_drift, stiction+tremor, potentiation+delay,
 //                   fatigue+sensor_drift)
 //                   [--speed-time-scale S] (FitOptions::speed_time_scale_s; default 0)
+//                   [--tolerance TOL] (FitOptions::tolerance, CVODES; default 1e-5)
+//                   [--lm-tolerance R] (FitOptions::relative_tolerance, LM's stop; default 1e-3)
 //                   [--baseline-iterations N] (DiagnoseOptions::baseline_iterations; default 4)
+//                   [--oracle ITERATIONS] (single datasets: OracleCheck below; default 0 = off)
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -23,7 +26,9 @@
 #include <string>
 #include <vector>
 
+#include "diagnosis/candidates.h"
 #include "diagnosis/diagnose.h"
+#include "diagnosis/measured.h"
 #include "diagnosis/planted.h"
 #include "diagnosis/reduced_model.h"
 #include "diagnosis/report.h"
@@ -102,15 +107,139 @@ double EffectAfterCalibration(const Case& c) {
   return std::sqrt(std::max(0.0, ms / n - s2) / s2);
 }
 
+/// --oracle N: what fits reach from the truth, to tell an identifiability limit (a fit from the
+/// truth ends as far from it, at no higher cost, as the diagnosis) from an optimisation failure
+/// (it ends much lower). On the diagnosis' training part, Σr² and values of: the true point
+/// (participant's stiffness and strength, input scales 1, planted mechanism values); N LM steps
+/// of subject ⊕ the planted candidate from there; N more steps of the baseline from the
+/// diagnosis' calibration and from the true subject values, and Σr² on the segment between the
+/// two (a barrier, or a stalled calibration?); the candidate from "off" with everything free;
+/// the profile along the candidate (held at 0 … 1.25 × the way to the planted values, subject
+/// fitted); N steps from the diagnosis' fitted values of that candidate (when it was fitted).
+/// Single-mechanism datasets of library mechanisms only.
+void OracleCheck(const fesim::Scenario& rig, const Case& c,
+                 const fesim::diagnosis::DiagnoseOptions& options, int iterations) {
+  namespace dg = fesim::diagnosis;
+  if (c.kind != "single" || c.data.planted.empty()) return;
+  const dg::MeasuredData data =
+      dg::PrepareMeasured(rig.model, c.data.trials, options.holdout_fraction);
+  dg::LibraryContext ctx;
+  ctx.outputs = data.outputs;
+  ctx.channels = data.channels;
+  ctx.tremor_frequency_hz.assign(ctx.outputs.size(), 6.0);
+  const std::vector<dg::ModelParameter> subject = dg::SubjectParameters(rig.model, ctx);
+  const std::string label = c.data.planted[0].name.substr(0, c.data.planted[0].name.find(':'));
+  const std::vector<dg::Candidate> library = dg::CandidateLibrary(rig.model, ctx);
+  const dg::Candidate* cand = nullptr;
+  for (const auto& k : library) {
+    if (k.label == label) cand = &k;
+  }
+  const dg::CandidateResult* fitted = nullptr;
+  for (const auto& cr : c.result.candidates) {
+    if (cr.label == label && cr.fitted) fitted = &cr;
+  }
+  if (!cand) return;
+  std::vector<dg::ModelParameter> params = subject;
+  params.insert(params.end(), cand->params.begin(), cand->params.end());
+  const auto ns = static_cast<Eigen::Index>(subject.size());
+  Eigen::VectorXd truth(params.size()), from_diag(params.size());
+  for (Eigen::Index k = 0; k < ns; ++k) {
+    const std::string& name = subject[k].name;
+    truth(k) = name.rfind("k.", 0) == 0   ? subject[k].start * c.data.stiffness_scale
+               : name == "strength_scale" ? c.data.strength_scale
+                                          : 1.0;
+    from_diag(k) = c.result.subject_parameters[k].value;
+  }
+  for (std::size_t p = 0; p < cand->params.size(); ++p) {
+    const auto k = ns + static_cast<Eigen::Index>(p);
+    truth(k) = from_diag(k) = cand->params[p].start;
+    for (const auto& pl : c.data.planted) {
+      if (pl.name == label + ":" + cand->params[p].name) truth(k) = pl.value;
+    }
+    if (fitted) from_diag(k) = fitted->parameters[p].value;
+  }
+  const auto cost_of = [&](const std::vector<dg::ModelParameter>& ps, const Eigen::VectorXd& x) {
+    return dg::StackResiduals(data.train, dg::Predict(rig.model, ps, x, data.train, options.fit))
+        .squaredNorm();
+  };
+  const auto cost_at = [&](const Eigen::VectorXd& x) { return cost_of(params, x); };
+  const auto show = [&](const char* what, const Eigen::VectorXd& x, double cost) {
+    std::string text;
+    for (Eigen::Index k = 0; k < x.size(); ++k) {
+      char b[96];
+      std::snprintf(b, sizeof b, "%s%s %.4g", k ? ", " : "", params[k].name.c_str(), x(k));
+      text += b;
+    }
+    std::fprintf(stderr, "    oracle %-22s cost %.6g  [%s]\n", what, cost, text.c_str());
+  };
+  const double n = static_cast<double>(data.train.Count());
+  std::fprintf(stderr, "    oracle N %.0f, N sigma^2 %.6g\n", n,
+               n * c.data.noise_rms_rad * c.data.noise_rms_rad);
+  show("truth", truth, cost_at(truth));
+  const dg::FitResult a =
+      dg::FitParameters(rig.model, params, truth, data.train, options.fit, 0, iterations);
+  show("fit from truth", a.x, a.cost);
+  // The baseline alone, fitted on from the diagnosis' calibration: is that calibration converged?
+  const std::vector<dg::ModelParameter> only_subject(params.begin(), params.begin() + ns);
+  const dg::FitResult base = dg::FitParameters(rig.model, only_subject, from_diag.head(ns),
+                                               data.train, options.fit, 0, iterations);
+  show("baseline fitted on", base.x, base.cost);
+  const dg::FitResult base_t = dg::FitParameters(rig.model, only_subject, truth.head(ns),
+                                                 data.train, options.fit, 0, iterations);
+  show("baseline from truth", base_t.x, base_t.cost);
+  {  // The cost on the segment between the two calibrations: a barrier, or a stalled fit?
+    std::string text;
+    for (const double t : {0.0, 0.001, 0.003, 0.01, 0.03, 0.1, 0.2, 0.4, 0.6, 0.8, 1.0}) {
+      char b[32];
+      std::snprintf(b, sizeof b, " %.4g", cost_of(only_subject, base.x + t * (base_t.x - base.x)));
+      text += b;
+    }
+    std::fprintf(stderr, "    oracle segment calibration -> from truth:%s\n", text.c_str());
+  }
+  // The candidate from its "off" value with everything free: the basin of the truth or not?
+  Eigen::VectorXd off = from_diag;
+  for (std::size_t p = 0; p < cand->params.size(); ++p) {
+    off(ns + static_cast<Eigen::Index>(p)) = cand->params[p].start;
+  }
+  const dg::FitResult c_off =
+      dg::FitParameters(rig.model, params, off, data.train, options.fit, 0, iterations);
+  show("fit from off, all free", c_off.x, c_off.cost);
+  // Profile along the candidate's parameters: held at fractions of the way from "off" to the
+  // planted values, the subject fitted (held parameters first: FitParameters' first_free).
+  std::vector<dg::ModelParameter> held_first(cand->params.begin(), cand->params.end());
+  held_first.insert(held_first.end(), subject.begin(), subject.end());
+  const auto nc = static_cast<Eigen::Index>(cand->params.size());
+  for (const double f : {0.0, 0.25, 0.5, 0.75, 1.0, 1.25}) {
+    Eigen::VectorXd x(params.size());
+    x.head(nc) = off.tail(nc) + f * (truth.tail(nc) - off.tail(nc));
+    x.tail(ns) = from_diag.head(ns);
+    const dg::FitResult pf = dg::FitParameters(rig.model, held_first, x, data.train, options.fit,
+                                               static_cast<int>(nc), iterations);
+    Eigen::VectorXd shown(params.size());
+    shown << pf.x.tail(ns), pf.x.head(nc);
+    char what[64];
+    std::snprintf(what, sizeof what, "profile at %.2f", f);
+    show(what, shown, pf.cost);
+  }
+  if (fitted) {
+    show("diagnosis' point", from_diag, cost_at(from_diag));
+    const dg::FitResult b =
+        dg::FitParameters(rig.model, params, from_diag, data.train, options.fit, 0, iterations);
+    show("fit from diagnosis", b.x, b.cost);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int per = 10, clean = 20, pairs = 10, outside = 5, trials = 3, threads = 2, verbose = 0,
-      effects_only = 0;
+      effects_only = 0, oracle = 0;
   double duration = 60.0;
   int baseline_iterations = fesim::diagnosis::DiagnoseOptions().baseline_iterations;
   double speed_time_scale =
       fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().speed_time_scale_s;
+  double tolerance = fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().tolerance;
+  double lm_tolerance = fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().relative_tolerance;
   std::uint64_t first_seed = 1000;
   std::string out_path = "docs/diagnosis.md";
   std::string model = "full";  // or a reduced model (diagnose --model NAME)
@@ -121,7 +250,9 @@ int main(int argc, char** argv) {
       "usage: diagnosis_suite [--per N] [--clean N] [--pairs N] [--outside N] [--trials T]\n"
       "  [--duration S] [--mechanisms a,b,...] [--threads N] [--out FILE] [--seed S]\n"
       "  [--model full|NAME] [--protocol steps|grid] [--pair-list a+b,...] [--verbose N]\n"
-      "  [--effects-only 0|1] [--speed-time-scale S] [--baseline-iterations N]\n"
+      "  [--effects-only 0|1] [--speed-time-scale S] [--baseline-iterations N] [--tolerance TOL]\n"
+      "  [--lm-tolerance R]\n"
+      "  [--oracle ITERATIONS] (single datasets: fits of the planted mechanism from the truth)\n"
       "  (defaults: the full suite, hours of CPU)\n";
   for (int i = 1; i < argc; ++i) {
     if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
@@ -151,12 +282,18 @@ int main(int argc, char** argv) {
       verbose = std::atoi(v.c_str());
     else if (k == "--effects-only")
       effects_only = std::atoi(v.c_str());
+    else if (k == "--oracle")
+      oracle = std::atoi(v.c_str());
     else if (k == "--seed")
       first_seed = std::strtoull(v.c_str(), nullptr, 10);
     else if (k == "--duration")
       duration = std::atof(v.c_str());
     else if (k == "--speed-time-scale")
       speed_time_scale = std::atof(v.c_str());
+    else if (k == "--tolerance")
+      tolerance = std::atof(v.c_str());
+    else if (k == "--lm-tolerance")
+      lm_tolerance = std::atof(v.c_str());
     else if (k == "--baseline-iterations")
       baseline_iterations = std::atoi(v.c_str());
     else if (k == "--mechanisms")
@@ -246,6 +383,8 @@ int main(int argc, char** argv) {
   fesim::diagnosis::DiagnoseOptions options;
   options.fit.threads = threads;
   options.fit.speed_time_scale_s = speed_time_scale;
+  options.fit.tolerance = tolerance;
+  options.fit.relative_tolerance = lm_tolerance;
   options.baseline_iterations = baseline_iterations;
   options.model = model;
   if (model != "full") {
@@ -334,6 +473,7 @@ int main(int argc, char** argv) {
                      p.ci95, p.unit.c_str());
       }
     }
+    if (oracle > 0) OracleCheck(case_rig, c, options, oracle);
     wall_sum += c.result.wall_s;
     wall_max = std::max(wall_max, c.result.wall_s);
     std::string planted;

@@ -194,11 +194,12 @@ std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const Libra
     c.one_sided = {true};
     add(c);
   }
-  {  // potentiation: gain g (0 = off) and rise time.
+  {  // potentiation: gain g (0 = off; up to 5: force × 6 when fully potentiated, above the
+     // planted suite's largest g = 4) and rise time.
     Candidate c;
     c.id = "potentiation";
     c.params.push_back(
-        Param("potentiation.gain", "1", 0.0, 0.0, 3.0, 0.1, [](double v, sim::ModelParams* m) {
+        Param("potentiation.gain", "1", 0.0, 0.0, 5.0, 0.1, [](double v, sim::ModelParams* m) {
           m->mechanisms.potentiation.enabled = v > 1e-12;
           m->mechanisms.potentiation.gain = v;
         }));
