@@ -24,10 +24,14 @@
 //    LR = N ln(RSS₀/RSS₁) ~ χ²_p (Bonferroni-adjusted as above, an information criterion) and
 //    held-out gain g = (x − y)/x of the held-out NRMSE. Accepted when p_adj(LR) < alpha and
 //    g > min_heldout_gain; greedily, the best g first (then refitted with the subject
-//    parameters). Then forward selection on top of the extended model, up to max_accepted
+//    parameters, unless its polished screening fit below stopped on LM's tolerance: then that
+//    is the refit). Then forward selection on top of the extended model, up to max_accepted
 //    mechanisms: the score tests of step 3 are repeated at the extended model (its residual, the
 //    Jacobian of all its parameters projected out, same Bonferroni M) for the ids not accepted
-//    yet; the best-scoring max_fitted (one joint per id) are fitted on top of it (profiled and
+//    yet, screened first with step 3's probe directions (no simulation): a candidate whose
+//    statistic with them stays insignificant at twice its value keeps that statistic, the
+//    others are tested with directions simulated on top of the extended model. The
+//    best-scoring max_fitted (one joint per id) are fitted on top of it (profiled and
 //    polished as below; start: the candidate's own screening fit when it passed its training
 //    test, else the Gauss–Newton step of the new test), and the one with the largest held-out
 //    gain over the extended model among those that pass LR (against the extended model's RSS)

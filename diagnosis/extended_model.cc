@@ -151,7 +151,7 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
   std::vector<int> simulated;  // columns that need simulations (not output drifts)
   for (int c = 0; c < p; ++c) {
     const int k = first_free + c;
-    double step = options.fd_step * std::max(params[k].scale, std::abs(x(k)));
+    double step = options.fd_step * std::max(params[k].scale, std::abs(x(k) - params[k].start));
     if (x(k) + step > params[k].upper) step = -step;
     h[c] = step;
     Eigen::VectorXd xp = x;
@@ -328,6 +328,8 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   res.jtj /= c * c;
   out.x = full(res.x);
   out.cost = res.cost;
+  out.converged = res.converged;
+  out.iterations = res.iterations;
   out.residuals = n;
   out.ci95 = Eigen::VectorXd::Constant(np, NAN);
   out.ci95.tail(p) = identification::ConfidenceHalfWidths95(res.jtj, res.cost, n);

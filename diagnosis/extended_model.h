@@ -13,6 +13,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <cmath>
 #include <functional>
 #include <string>
 #include <vector>
@@ -81,10 +82,14 @@ double ViewNrmse(const DataView& view, const std::vector<Trial>& predictions);
 struct FitOptions {
   int max_iterations = 8;            ///< accepted LM steps.
   double relative_tolerance = 1e-4;  ///< LM stops when the cost falls by less than this fraction.
-  /// Forward-difference step, × max(ModelParameter::scale, |x|): relative to the value once it
-  /// exceeds its typical scale (a mechanism's scale is sized for its "off" value 0; a step of
-  /// 1e-2 × scale at a fitted value 30× larger moved the outputs by less than the integration
-  /// error, and that column was mostly error: ExtendedModel.JacobianStepFollowsTheValue…).
+  /// Forward-difference step, × max(ModelParameter::scale, |x − start|): relative to how far the
+  /// value has moved from its start once that exceeds its typical scale. A mechanism's scale is
+  /// sized for its "off" value 0; a step of 1e-2 × scale at a fitted value 30× larger moved the
+  /// outputs by less than the integration error, and that column was mostly error
+  /// (ExtendedModel.JacobianStepFollowsTheValue…). Measured from the start, not from 0: a
+  /// location parameter such as a tremor's frequency (5.35 Hz, scale 0.1 Hz) keeps its small
+  /// step (× |x| it was 0.05 Hz, 20 rad of phase over a 60 s trial: ExtendedModel.
+  /// FrequencyStepStaysSmall…).
   double fd_step = 1e-2;
   double tolerance = 1e-6;          ///< CVODES relative/absolute accuracy.
   double speed_time_scale_s = 0.0;  ///< sim::IntegratorParams::speed_time_scale_s, s, ≥ 0.
@@ -106,8 +111,12 @@ struct FitResult {
   /// Profiled fits only: the linearised least-squares step of the profiled (held) parameters
   /// at x, δ = −(J_nᵀJ_n)⁻¹ J_nᵀ r(x), one entry per column of the nuisance Jacobian.
   Eigen::VectorXd nuisance_step;
-  long residuals = 0;        ///< N.
-  int simulations = 0;       ///< trial simulations spent.
+  long residuals = 0;   ///< N.
+  int simulations = 0;  ///< trial simulations spent.
+  /// LM's stop: a tolerance met (identification::LmConverged: the relative cost decrease or the
+  /// step fell below its tolerance), not the iteration limit or a failure to decrease.
+  bool converged = false;
+  int iterations = 0;        ///< accepted LM steps.
   Eigen::MatrixXd jacobian;  ///< ∂r/∂x of the free parameters at the last linearisation point.
   /// The raw residual y − ŷ at x and the simulated trials it came from (empty when x was not
   /// simulated in this fit). With `jacobian` (at x when the fit ends on an accepted or the start

@@ -151,7 +151,7 @@ TEST(ExtendedModel, JacobianStepFollowsTheValueSoAColumnRisesAboveTheIntegration
   // The fatigue rate of the diagnosis library (typical scale 0.01/s, for its "off" value 0) at
   // 0.3/s: a forward-difference step of fd_step × scale = 1e-4/s moves the wrist by micro-
   // radians, the size of the integration error at the diagnosis' tolerance, and the column is
-  // mostly that error; the step fd_step × max(scale, |x|) = 3e-3/s is not.
+  // mostly that error; the step fd_step × max(scale, |x − start|) = 3e-3/s is not.
   const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
   Trial t;
   for (int i = 0; i <= 1000; ++i) t.time.push_back(i / 50.0);
@@ -192,8 +192,56 @@ TEST(ExtendedModel, JacobianStepFollowsTheValueSoAColumnRisesAboveTheIntegration
       "fatigue-rate column vs central differences at 1e-10: %.3g (step 3e-3/s), %.3g "
       "(1e-4/s)\n",
       now, before);
-  EXPECT_LT(now, 0.1);           // 0.049 seen
-  EXPECT_GT(before, 5.0 * now);  // 1.44 seen
+  EXPECT_LT(now, 0.1);           // 0.012 seen
+  EXPECT_GT(before, 5.0 * now);  // 0.31 seen
+}
+
+TEST(ExtendedModel, FrequencyStepStaysSmallBecauseTheStepFollowsTheDistanceFromTheStart) {
+  // A wrist tremor at 5.35 Hz (the library's frequency: start at the residual's spectrum peak,
+  // scale 0.1 Hz), fitted to 5.38 Hz. A step relative to the value (1e-2 × 5.38 = 0.054 Hz)
+  // shifts the phase by 2π · 0.054 · 20 = 6.8 rad at the end of a 20 s trial: the difference
+  // quotient is no derivative. Relative to the distance from the start it is 1e-3 Hz (0.13 rad).
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  Trial t;
+  for (int i = 0; i <= 2000; ++i) t.time.push_back(i / 100.0);
+  t.AddColumn("u.ext", std::vector<double>(t.size(), 150.0));
+  t.AddColumn("q.wrist_flexion", std::vector<double>(t.size(), 0.0));
+  const DataView v = ViewOf(t);
+  ModelParameter f;
+  f.name = "tremor.frequency_hz";
+  f.start = 5.35;
+  f.lower = 5.2;
+  f.upper = 5.5;
+  f.scale = 0.1;
+  f.set = [](double hz, sim::ModelParams* m) {
+    m->mechanisms.tremor.enabled = true;
+    m->mechanisms.tremor.coordinate = sim::kWristFlexion;
+    m->mechanisms.tremor.amplitude_nm = 0.03;
+    m->mechanisms.tremor.frequency_hz = hz;
+  };
+  const std::vector<ModelParameter> params = {f};
+  const double x = 5.38, h = 1e-4;
+  FitOptions exact = Accurate();
+  exact.tolerance = 1e-10;
+  const auto r = [&](double value, const FitOptions& o) {
+    return StackResiduals(v, Predict(rig, params, Eigen::VectorXd::Constant(1, value), v, o));
+  };
+  const Eigen::VectorXd reference = (r(x + h, exact) - r(x - h, exact)) / (2.0 * h);
+  FitOptions o = DiagnoseOptions::DefaultFitOptions();
+  const auto error = [&](const FitOptions& opts) {
+    const Eigen::MatrixXd j =
+        ResidualJacobian(rig, params, Eigen::VectorXd::Constant(1, x), r(x, opts), v, opts);
+    return (j.col(0) - reference).norm() / reference.norm();
+  };
+  const double now = error(o);
+  o.fd_step *= x / std::max(f.scale, x - f.start);  // the step fd_step × |x| of before
+  const double relative_to_value = error(o);
+  std::printf(
+      "frequency column vs central differences at 1e-10: %.3g (step 1e-3 Hz), %.3g "
+      "(0.054 Hz)\n",
+      now, relative_to_value);
+  EXPECT_LT(now, 0.15);               // 0.051 seen
+  EXPECT_GT(relative_to_value, 0.5);  // 1.11 seen
 }
 
 TEST(ExtendedModel, DriftJacobianColumnIsMinusTimeWithoutSimulating) {
