@@ -147,6 +147,23 @@ TEST(ExtendedModel, AFitFromAKnownStartIsTheFitThatSimulatesIt) {
   EXPECT_EQ(warm.simulations, cold.simulations - 2);  // r(x0) and one Jacobian column, 1 trial
 }
 
+/// Relative error ‖J − J_ref‖ / ‖J_ref‖ of ResidualJacobian's column for the one parameter `p`
+/// at value x (options `o`) on the wrist of `v`, against central differences ±h of 1e-10
+/// simulations.
+double ColumnError(const sim::ModelParams& rig, const ModelParameter& p, const DataView& v,
+                   double x, double h, const FitOptions& o) {
+  const std::vector<ModelParameter> params = {p};
+  FitOptions exact = Accurate();
+  exact.tolerance = 1e-10;
+  const auto r = [&](double value, const FitOptions& opts) {
+    return StackResiduals(v, Predict(rig, params, Eigen::VectorXd::Constant(1, value), v, opts));
+  };
+  const Eigen::VectorXd reference = (r(x + h, exact) - r(x - h, exact)) / (2.0 * h);
+  const Eigen::MatrixXd j =
+      ResidualJacobian(rig, params, Eigen::VectorXd::Constant(1, x), r(x, o), v, o);
+  return (j.col(0) - reference).norm() / reference.norm();
+}
+
 TEST(ExtendedModel, JacobianStepFollowsTheValueSoAColumnRisesAboveTheIntegrationError) {
   // The fatigue rate of the diagnosis library (typical scale 0.01/s, for its "off" value 0) at
   // 0.3/s: a forward-difference step of fd_step × scale = 1e-4/s moves the wrist by micro-
@@ -171,23 +188,11 @@ TEST(ExtendedModel, JacobianStepFollowsTheValueSoAColumnRisesAboveTheIntegration
     m->mechanisms.fatigue.enabled = x > 1e-12;
     if (x > 1e-12) m->mechanisms.fatigue.fatigue_time_s = 1.0 / x;
   };
-  const std::vector<ModelParameter> params = {rate};
   const double x = 0.3, h = 0.01;
-  FitOptions exact = Accurate();
-  exact.tolerance = 1e-10;
-  const auto r = [&](double value, const FitOptions& o) {
-    return StackResiduals(v, Predict(rig, params, Eigen::VectorXd::Constant(1, value), v, o));
-  };
-  const Eigen::VectorXd reference = (r(x + h, exact) - r(x - h, exact)) / (2.0 * h);
   FitOptions o = DiagnoseOptions::DefaultFitOptions();
-  const auto error = [&](const FitOptions& opts) {
-    const Eigen::MatrixXd j =
-        ResidualJacobian(rig, params, Eigen::VectorXd::Constant(1, x), r(x, opts), v, opts);
-    return (j.col(0) - reference).norm() / reference.norm();
-  };
-  const double now = error(o);
+  const double now = ColumnError(rig, rate, v, x, h, o);
   o.fd_step *= rate.scale / x;  // the step fd_step × scale of before
-  const double before = error(o);
+  const double before = ColumnError(rig, rate, v, x, h, o);
   std::printf(
       "fatigue-rate column vs central differences at 1e-10: %.3g (step 3e-3/s), %.3g "
       "(1e-4/s)\n",
@@ -219,23 +224,11 @@ TEST(ExtendedModel, FrequencyStepStaysSmallBecauseTheStepFollowsTheDistanceFromT
     m->mechanisms.tremor.amplitude_nm = 0.03;
     m->mechanisms.tremor.frequency_hz = hz;
   };
-  const std::vector<ModelParameter> params = {f};
   const double x = 5.38, h = 1e-4;
-  FitOptions exact = Accurate();
-  exact.tolerance = 1e-10;
-  const auto r = [&](double value, const FitOptions& o) {
-    return StackResiduals(v, Predict(rig, params, Eigen::VectorXd::Constant(1, value), v, o));
-  };
-  const Eigen::VectorXd reference = (r(x + h, exact) - r(x - h, exact)) / (2.0 * h);
   FitOptions o = DiagnoseOptions::DefaultFitOptions();
-  const auto error = [&](const FitOptions& opts) {
-    const Eigen::MatrixXd j =
-        ResidualJacobian(rig, params, Eigen::VectorXd::Constant(1, x), r(x, opts), v, opts);
-    return (j.col(0) - reference).norm() / reference.norm();
-  };
-  const double now = error(o);
+  const double now = ColumnError(rig, f, v, x, h, o);
   o.fd_step *= x / std::max(f.scale, x - f.start);  // the step fd_step × |x| of before
-  const double relative_to_value = error(o);
+  const double relative_to_value = ColumnError(rig, f, v, x, h, o);
   std::printf(
       "frequency column vs central differences at 1e-10: %.3g (step 1e-3 Hz), %.3g "
       "(0.054 Hz)\n",
