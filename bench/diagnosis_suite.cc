@@ -14,6 +14,7 @@
 //                   [--speed-time-scale S] (FitOptions::speed_time_scale_s; default 0)
 //                   [--tolerance TOL] (FitOptions::tolerance, CVODES; default 1e-5)
 //                   [--lm-tolerance R] (FitOptions::relative_tolerance, LM's stop; default 1e-3)
+//                   [--fd-step H] (FitOptions::fd_step, difference steps; default 1e-2)
 //                   [--baseline-iterations N] (DiagnoseOptions::baseline_iterations; default 4)
 //                   [--oracle ITERATIONS] (single datasets: OracleCheck below; default 0 = off)
 #include <chrono>
@@ -240,6 +241,7 @@ int main(int argc, char** argv) {
       fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().speed_time_scale_s;
   double tolerance = fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().tolerance;
   double lm_tolerance = fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().relative_tolerance;
+  double fd_step = fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().fd_step;
   std::uint64_t first_seed = 1000;
   std::string out_path = "docs/diagnosis.md";
   std::string model = "full";  // or a reduced model (diagnose --model NAME)
@@ -251,7 +253,7 @@ int main(int argc, char** argv) {
       "  [--duration S] [--mechanisms a,b,...] [--threads N] [--out FILE] [--seed S]\n"
       "  [--model full|NAME] [--protocol steps|grid] [--pair-list a+b,...] [--verbose N]\n"
       "  [--effects-only 0|1] [--speed-time-scale S] [--baseline-iterations N] [--tolerance TOL]\n"
-      "  [--lm-tolerance R]\n"
+      "  [--lm-tolerance R] [--fd-step H]\n"
       "  [--oracle ITERATIONS] (single datasets: fits of the planted mechanism from the truth)\n"
       "  (defaults: the full suite, hours of CPU)\n";
   for (int i = 1; i < argc; ++i) {
@@ -294,6 +296,8 @@ int main(int argc, char** argv) {
       tolerance = std::atof(v.c_str());
     else if (k == "--lm-tolerance")
       lm_tolerance = std::atof(v.c_str());
+    else if (k == "--fd-step")
+      fd_step = std::atof(v.c_str());
     else if (k == "--baseline-iterations")
       baseline_iterations = std::atoi(v.c_str());
     else if (k == "--mechanisms")
@@ -385,6 +389,7 @@ int main(int argc, char** argv) {
   options.fit.speed_time_scale_s = speed_time_scale;
   options.fit.tolerance = tolerance;
   options.fit.relative_tolerance = lm_tolerance;
+  options.fit.fd_step = fd_step;
   options.baseline_iterations = baseline_iterations;
   options.model = model;
   if (model != "full") {
