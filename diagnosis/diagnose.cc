@@ -173,7 +173,7 @@ Json FitJson(const FitResult& f) {
   Json j = Json::Object();
   j.Set("x", VectorJson(f.x)).Set("ci95", VectorJson(f.ci95)).Set("cost", f.cost);
   j.Set("residuals", f.residuals).Set("simulations", f.simulations);
-  j.Set("converged", f.converged).Set("iterations", f.iterations);
+  j.Set("converged", f.converged);
   return j;
 }
 
@@ -186,8 +186,6 @@ FitResult FitFromJson(const Json& j) {
   f.simulations = static_cast<int>(Member(j, "simulations").AsNumber());
   const Json* converged = j.Find("converged");  // absent in caches written before it was kept
   f.converged = converged && converged->AsBool();
-  const Json* iterations = j.Find("iterations");
-  f.iterations = iterations ? static_cast<int>(iterations->AsNumber()) : 0;
   return f;
 }
 
@@ -510,7 +508,7 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
                 const ScoreTest st = RunScoreTest(r, it->second, J, library[c].one_sided, s2);
                 if (applicable * ChiSquareSurvival(2.0 * st.statistic, std::max(1, st.dof)) >=
                     options.alpha) {
-                  all.Set(std::to_string(c), ScoreTestJson(st).Set("screened", true));
+                  all.Set(std::to_string(c), ScoreTestJson(st));
                   continue;
                 }
               }

@@ -329,7 +329,6 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   out.x = full(res.x);
   out.cost = res.cost;
   out.converged = res.converged;
-  out.iterations = res.iterations;
   out.residuals = n;
   out.ci95 = Eigen::VectorXd::Constant(np, NAN);
   out.ci95.tail(p) = identification::ConfidenceHalfWidths95(res.jtj, res.cost, n);

@@ -13,7 +13,6 @@
 #pragma once
 
 #include <Eigen/Dense>
-#include <cmath>
 #include <functional>
 #include <string>
 #include <vector>
@@ -116,7 +115,6 @@ struct FitResult {
   /// LM's stop: a tolerance met (identification::LmConverged: the relative cost decrease or the
   /// step fell below its tolerance), not the iteration limit or a failure to decrease.
   bool converged = false;
-  int iterations = 0;        ///< accepted LM steps.
   Eigen::MatrixXd jacobian;  ///< ∂r/∂x of the free parameters at the last linearisation point.
   /// The raw residual y − ŷ at x and the simulated trials it came from (empty when x was not
   /// simulated in this fit). With `jacobian` (at x when the fit ends on an accepted or the start
