@@ -15,6 +15,8 @@
 //                   [--tolerance TOL] (FitOptions::tolerance, CVODES; default 1e-5)
 //                   [--lm-tolerance R] (FitOptions::relative_tolerance, LM's stop; default 1e-3)
 //                   [--fd-step H] (FitOptions::fd_step, difference steps; default 1e-2)
+//                   [--baseline-fd-step H] (DiagnoseOptions::baseline_fd_step, the subject
+//                   calibration's difference step; default: the library's)
 //                   [--baseline-iterations N] (DiagnoseOptions::baseline_iterations; default 4)
 //                   [--oracle ITERATIONS] (single datasets: OracleCheck below; default 0 = off)
 #include <chrono>
@@ -242,6 +244,7 @@ int main(int argc, char** argv) {
   double tolerance = fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().tolerance;
   double lm_tolerance = fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().relative_tolerance;
   double fd_step = fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().fd_step;
+  double baseline_fd_step = fesim::diagnosis::DiagnoseOptions{}.baseline_fd_step;
   std::uint64_t first_seed = 1000;
   std::string out_path = "docs/diagnosis.md";
   std::string model = "full";  // or a reduced model (diagnose --model NAME)
@@ -253,7 +256,7 @@ int main(int argc, char** argv) {
       "  [--duration S] [--mechanisms a,b,...] [--threads N] [--out FILE] [--seed S]\n"
       "  [--model full|NAME] [--protocol steps|grid] [--pair-list a+b,...] [--verbose N]\n"
       "  [--effects-only 0|1] [--speed-time-scale S] [--baseline-iterations N] [--tolerance TOL]\n"
-      "  [--lm-tolerance R] [--fd-step H]\n"
+      "  [--lm-tolerance R] [--fd-step H] [--baseline-fd-step H]\n"
       "  [--oracle ITERATIONS] (single datasets: fits of the planted mechanism from the truth)\n"
       "  (defaults: the full suite, hours of CPU)\n";
   for (int i = 1; i < argc; ++i) {
@@ -298,6 +301,8 @@ int main(int argc, char** argv) {
       lm_tolerance = std::atof(v.c_str());
     else if (k == "--fd-step")
       fd_step = std::atof(v.c_str());
+    else if (k == "--baseline-fd-step")
+      baseline_fd_step = std::atof(v.c_str());
     else if (k == "--baseline-iterations")
       baseline_iterations = std::atoi(v.c_str());
     else if (k == "--mechanisms")
@@ -390,6 +395,7 @@ int main(int argc, char** argv) {
   options.fit.tolerance = tolerance;
   options.fit.relative_tolerance = lm_tolerance;
   options.fit.fd_step = fd_step;
+  options.baseline_fd_step = baseline_fd_step;
   options.baseline_iterations = baseline_iterations;
   options.model = model;
   if (model != "full") {

@@ -123,9 +123,9 @@ SpectrumPeak RefinedPeak(const std::vector<double>& r, double dt) {
 /// The options that change results, as cache-key text (not fit.threads).
 std::string OptionsText(const DiagnoseOptions& o) {
   std::string s;
-  for (const double v :
-       {o.holdout_fraction, o.alpha, o.min_heldout_gain, o.max_structure, o.fit.relative_tolerance,
-        o.fit.fd_step, o.fit.tolerance, o.fit.speed_time_scale_s, o.fit.max_steps_per_s}) {
+  for (const double v : {o.holdout_fraction, o.alpha, o.min_heldout_gain, o.max_structure,
+                         o.fit.relative_tolerance, o.fit.fd_step, o.baseline_fd_step,
+                         o.fit.tolerance, o.fit.speed_time_scale_s, o.fit.max_steps_per_s}) {
     s += ExactNumberText(v) + ",";
   }
   for (const int v : {o.max_fitted, o.max_accepted, o.baseline_iterations, o.screen_iterations,
@@ -378,7 +378,10 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   for (std::size_t k = 0; k < subject.size(); ++k) xs0(k) = subject[k].start;
   const StageCache stages(options, &out.cached_results);
   const Json base_stage = stages.Get({"baseline"}, [&] {
-    const FitResult f = FitParameters(rig, subject, xs0, train, fo, 0, options.baseline_iterations);
+    FitOptions calibration = fo;
+    if (options.baseline_fd_step > 0.0) calibration.fd_step = options.baseline_fd_step;
+    const FitResult f =
+        FitParameters(rig, subject, xs0, train, calibration, 0, options.baseline_iterations);
     out.simulations += f.simulations;
     // The training predictions at the fitted point were simulated by the fit.
     std::vector<Trial> train_pred = f.predictions;

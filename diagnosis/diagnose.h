@@ -91,8 +91,11 @@ struct DiagnoseOptions {
   double max_structure = 0.15;     ///< structured residual variance share above which structure
                                    ///< "remains", dimensionless.
   int baseline_iterations = 4;     ///< LM steps of the subject calibration.
-  int screen_iterations = 5;       ///< LM steps of a candidate's own parameters.
-  int refit_iterations = 3;        ///< LM steps of the accepted extension with the subject.
+  /// Difference step of the subject calibration (FitOptions::fd_step for that fit only; 0:
+  /// fit.fd_step).
+  double baseline_fd_step = 0.0;
+  int screen_iterations = 5;             ///< LM steps of a candidate's own parameters.
+  int refit_iterations = 3;              ///< LM steps of the accepted extension with the subject.
   FitOptions fit = DefaultFitOptions();  ///< integrator, threads, finite differences.
   /// The simulation calibrated and extended: "full" (the full model (12)), or the name of a
   /// reduced model (reduced_model.h), which `reduced_fit` identifies on the training part first.
