@@ -84,7 +84,9 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
   const std::string out = args.Get("out", "out/diagnose");
   // Expensive stages are cached under DIR/cache as they finish: a killed run resumes.
   // Layout 3: a candidate's probe changed (score-test θ of layout 2 do not fit the library).
-  ResultCache cache(out + "/cache", FESIM_VERSION, "diagnose-cache-3");
+  // Layout 4: the second round's score tests are screened with the baseline's directions, and
+  // arm_support's probe changed (layout-3 entries would resume with what the code no longer does).
+  ResultCache cache(out + "/cache", FESIM_VERSION, "diagnose-cache-4");
   diagnosis::DiagnoseOptions options;
   options.fit.threads = static_cast<int>(threads);
   options.model = model;
