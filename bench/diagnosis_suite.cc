@@ -18,6 +18,9 @@
 //                   [--baseline-fd-step H] (DiagnoseOptions::baseline_fd_step, the subject
 //                   calibration's difference step; default: the library's)
 //                   [--baseline-iterations N] (DiagnoseOptions::baseline_iterations; default 4)
+//                   [--max-screened N] (DiagnoseOptions::max_screened; default 6)
+//                   [--only SEED,SEED,…] (run only these datasets of the command, same scales
+//                   and protocols as in the whole run)
 //                   [--oracle ITERATIONS] (single datasets: OracleCheck below; default 0 = off)
 #include <chrono>
 #include <cmath>
@@ -239,6 +242,8 @@ int main(int argc, char** argv) {
       effects_only = 0, oracle = 0;
   double duration = 60.0;
   int baseline_iterations = fesim::diagnosis::DiagnoseOptions().baseline_iterations;
+  int max_screened = fesim::diagnosis::DiagnoseOptions().max_screened;
+  std::set<std::uint64_t> only;  // --only: the datasets kept, by seed (empty: all)
   double speed_time_scale =
       fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().speed_time_scale_s;
   double tolerance = fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().tolerance;
@@ -256,6 +261,7 @@ int main(int argc, char** argv) {
       "  [--duration S] [--mechanisms a,b,...] [--threads N] [--out FILE] [--seed S]\n"
       "  [--model full|NAME] [--protocol steps|grid] [--pair-list a+b,...] [--verbose N]\n"
       "  [--effects-only 0|1] [--speed-time-scale S] [--baseline-iterations N] [--tolerance TOL]\n"
+      "  [--max-screened N] [--only SEED,SEED,...]\n"
       "  [--lm-tolerance R] [--fd-step H] [--baseline-fd-step H]\n"
       "  [--oracle ITERATIONS] (single datasets: fits of the planted mechanism from the truth)\n"
       "  (defaults: the full suite, hours of CPU)\n";
@@ -305,7 +311,11 @@ int main(int argc, char** argv) {
       baseline_fd_step = std::atof(v.c_str());
     else if (k == "--baseline-iterations")
       baseline_iterations = std::atoi(v.c_str());
-    else if (k == "--mechanisms")
+    else if (k == "--max-screened")
+      max_screened = std::atoi(v.c_str());
+    else if (k == "--only") {
+      for (const auto& part : Split(v)) only.insert(std::strtoull(part.c_str(), nullptr, 10));
+    } else if (k == "--mechanisms")
       mechanisms = Split(v);
     else if (k == "--out")
       out_path = v;
@@ -397,6 +407,7 @@ int main(int argc, char** argv) {
   options.fit.fd_step = fd_step;
   options.baseline_fd_step = baseline_fd_step;
   options.baseline_iterations = baseline_iterations;
+  options.max_screened = max_screened;
   options.model = model;
   if (model != "full") {
     for (const auto& m : fesim::diagnosis::ReducedModelMethods()) {
@@ -409,6 +420,13 @@ int main(int argc, char** argv) {
   }
   if (!protocol.empty()) {
     for (auto& c : cases) c.spec.protocol = protocol;
+  }
+  if (!only.empty()) {  // after the seeds, scales and protocols are assigned: the same datasets
+    std::vector<Case> kept;
+    for (auto& c : cases) {
+      if (only.count(c.spec.seed)) kept.push_back(std::move(c));
+    }
+    cases = std::move(kept);
   }
   const auto t0 = std::chrono::steady_clock::now();
   double wall_sum = 0.0, wall_max = 0.0;

@@ -128,8 +128,9 @@ std::string OptionsText(const DiagnoseOptions& o) {
                          o.fit.tolerance, o.fit.speed_time_scale_s, o.fit.max_steps_per_s}) {
     s += ExactNumberText(v) + ",";
   }
-  for (const int v : {o.max_fitted, o.max_accepted, o.baseline_iterations, o.screen_iterations,
-                      o.refit_iterations, o.fit.max_iterations}) {
+  for (const int v : {o.max_fitted, o.max_screened, o.max_accepted, o.baseline_iterations,
+                      o.baseline_polish_iterations, o.screen_iterations, o.refit_iterations,
+                      o.fit.max_iterations}) {
     s += std::to_string(v) + ",";
   }
   return s + o.model;
@@ -380,9 +381,18 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   const Json base_stage = stages.Get({"baseline"}, [&] {
     FitOptions calibration = fo;
     if (options.baseline_fd_step > 0.0) calibration.fd_step = options.baseline_fd_step;
-    const FitResult f =
+    FitResult f =
         FitParameters(rig, subject, xs0, train, calibration, 0, options.baseline_iterations);
     out.simulations += f.simulations;
+    if (options.baseline_fd_step > 0.0 && options.baseline_polish_iterations > 0) {
+      // Polish with the fits' own step from where the coarse one ended (its residual reused).
+      FitStart from;
+      from.residual = f.residual;
+      from.predictions = f.predictions;
+      f = FitParameters(rig, subject, f.x, train, fo, 0, options.baseline_polish_iterations,
+                        nullptr, &from);
+      out.simulations += f.simulations;
+    }
     // The training predictions at the fitted point were simulated by the fit.
     std::vector<Trial> train_pred = f.predictions;
     if (train_pred.size() != train.trials.size()) {
@@ -619,7 +629,9 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     }
     order = unique;
   }
-  if (static_cast<int>(order.size()) > options.max_fitted) order.resize(options.max_fitted);
+  // Fitted in batches of max_fitted, best-scoring first; a further batch only while none of the
+  // fitted ones passes, up to max_screened candidates in all.
+  if (static_cast<int>(order.size()) > options.max_screened) order.resize(options.max_screened);
 
   struct Fitted {
     std::vector<int> cands;
@@ -759,51 +771,51 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     ParallelFor(n_items, fo.threads, [&](std::size_t k) { texts[k] = fn(k); });
     return texts;
   };
+  std::vector<int> batch;
   const std::function<std::string(std::size_t)> screen_item = [&](std::size_t k) {
     int sims = 0;
     Json j = Json::Object();
-    j.Set("stage", extension_stage({order[k]}, screen_start(order[k]), ns,
+    j.Set("stage", extension_stage({batch[k]}, screen_start(batch[k]), ns,
                                    options.screen_iterations, &Js, rss0, &sims));
     j.Set("simulations", sims);
     return j.Dump(0);
   };
-  std::vector<Json> screened(order.size());
-  {
-    report(0.35, "fitting " + std::to_string(order.size()) + " extensions");
-    const std::vector<std::string> texts =
-        options.map ? options.map(order.size(), screen_item) : local_map(order.size(), screen_item);
-    for (std::size_t k = 0; k < order.size(); ++k) {
-      const Json j = Json::Parse(texts[k], "screening fit");
-      screened[k] = Member(j, "stage");
-      out.simulations += static_cast<int>(Member(j, "simulations").AsNumber());
-    }
-  }
-  std::vector<Fitted> round1;
-  for (std::size_t k = 0; k < order.size(); ++k) {
-    const int c = order[k];
-    report(0.35 + 0.4 * k / order.size(), "fitting extension " + library[c].label);
-    Fitted f = fitted_from({c}, screened[k]);
-    CandidateResult& cr = out.candidates[c];
-    cr.fitted = true;
-    cr.lr_p_adjusted = lr_p_adj(rss0, f.fit.cost, static_cast<int>(library[c].params.size()));
-    cr.heldout_nrmse = f.heldout_nrmse;
-    cr.heldout_gain = (out.baseline_heldout_nrmse - f.heldout_nrmse) / out.baseline_heldout_nrmse;
-    for (std::size_t p = 0; p < library[c].params.size(); ++p) {
-      cr.parameters.push_back({library[c].params[p].name, library[c].params[p].unit,
-                               f.fit.x(ns + p), f.fit.ci95(ns + p)});
-    }
-    round1.push_back(std::move(f));
-  }
   auto passes = [&](const CandidateResult& cr) {
     return cr.fitted && cr.lr_p_adjusted < options.alpha &&
            cr.heldout_gain > options.min_heldout_gain;
   };
+  std::vector<Fitted> round1;
   int best = -1;
-  for (std::size_t k = 0; k < round1.size(); ++k) {
-    const CandidateResult& cr = out.candidates[round1[k].cands[0]];
-    if (passes(cr) &&
-        (best < 0 || cr.heldout_gain > out.candidates[round1[best].cands[0]].heldout_gain)) {
-      best = static_cast<int>(k);
+  for (std::size_t first = 0; first < order.size() && best < 0; first += batch.size()) {
+    batch.assign(order.begin() + static_cast<std::ptrdiff_t>(first),
+                 order.begin() + static_cast<std::ptrdiff_t>(std::min(
+                                     order.size(), first + std::max(1, options.max_fitted))));
+    report(0.35, "fitting " + std::to_string(batch.size()) + " extensions");
+    const std::vector<std::string> texts =
+        options.map ? options.map(batch.size(), screen_item) : local_map(batch.size(), screen_item);
+    for (std::size_t k = 0; k < batch.size(); ++k) {
+      const int c = batch[k];
+      const Json j = Json::Parse(texts[k], "screening fit");
+      out.simulations += static_cast<int>(Member(j, "simulations").AsNumber());
+      report(0.35 + 0.4 * k / batch.size(), "fitting extension " + library[c].label);
+      Fitted f = fitted_from({c}, Member(j, "stage"));
+      CandidateResult& cr = out.candidates[c];
+      cr.fitted = true;
+      cr.lr_p_adjusted = lr_p_adj(rss0, f.fit.cost, static_cast<int>(library[c].params.size()));
+      cr.heldout_nrmse = f.heldout_nrmse;
+      cr.heldout_gain = (out.baseline_heldout_nrmse - f.heldout_nrmse) / out.baseline_heldout_nrmse;
+      for (std::size_t p = 0; p < library[c].params.size(); ++p) {
+        cr.parameters.push_back({library[c].params[p].name, library[c].params[p].unit,
+                                 f.fit.x(ns + p), f.fit.ci95(ns + p)});
+      }
+      round1.push_back(std::move(f));
+    }
+    for (std::size_t k = 0; k < round1.size(); ++k) {
+      const CandidateResult& cr = out.candidates[round1[k].cands[0]];
+      if (passes(cr) &&
+          (best < 0 || cr.heldout_gain > out.candidates[round1[best].cands[0]].heldout_gain)) {
+        best = static_cast<int>(k);
+      }
     }
   }
   std::vector<int> accepted;

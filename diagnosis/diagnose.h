@@ -83,8 +83,10 @@
 namespace fesim::diagnosis {
 
 struct DiagnoseOptions {
-  double holdout_fraction = 0.3;   ///< one trial: held-out tail share, (0, 0.8].
-  int max_fitted = 3;              ///< candidates fitted in the first round, ≥ 1.
+  double holdout_fraction = 0.3;  ///< one trial: held-out tail share, (0, 0.8].
+  int max_fitted = 3;             ///< candidates fitted per batch (and on top), ≥ 1.
+  /// First round: candidates fitted at most, in batches of max_fitted while none passes, ≥ 1.
+  int max_screened = 6;
   int max_accepted = 2;            ///< mechanisms accepted at most, ≥ 1.
   double alpha = 0.01;             ///< family-wise false-alarm level over the candidates.
   double min_heldout_gain = 0.02;  ///< smallest held-out NRMSE gain accepted, dimensionless.
@@ -94,6 +96,8 @@ struct DiagnoseOptions {
   /// Difference step of the subject calibration (FitOptions::fd_step for that fit only; 0:
   /// fit.fd_step).
   double baseline_fd_step = 0.0;
+  /// With baseline_fd_step: LM steps at fit.fd_step from where the coarse calibration ended.
+  int baseline_polish_iterations = 2;
   int screen_iterations = 5;             ///< LM steps of a candidate's own parameters.
   int refit_iterations = 3;              ///< LM steps of the accepted extension with the subject.
   FitOptions fit = DefaultFitOptions();  ///< integrator, threads, finite differences.

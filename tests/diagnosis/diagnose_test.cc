@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <string>
@@ -58,10 +59,9 @@ PlantedSpec ElbowSpec(const std::vector<std::string>& mechanisms, std::uint64_t 
   return spec;
 }
 
-Case DiagnosedOn(const Scenario& rig, const PlantedSpec& spec) {
+Case DiagnosedOn(const Scenario& rig, const PlantedSpec& spec, DiagnoseOptions o = {}) {
   Case r;
   r.data = MakePlantedDataset(rig, spec);
-  DiagnoseOptions o;
   o.fit.threads = 2;
   r.result = Diagnose(rig.model, r.data.trials, o);
   return r;
@@ -118,6 +118,45 @@ TEST(DiagnosePlanted, FatigueIsNamedOnLaterHeldOutDataWithItsRate) {
   ExpectFound(r, "fatigue");
   const std::string k = "fatigue:fatigue.rate_per_s";
   EXPECT_NEAR(Fitted(r, k), Planted(r, k), kParameterRelTol * Planted(r, k));
+}
+
+TEST(DiagnosePlanted, FurtherCandidatesAreFittedInBatchesWhileNoneOfTheFittedPasses) {
+  // One candidate per batch: the significant candidates (one joint per id) are fitted in the
+  // order of their score statistic until one passes both tests, and no further.
+  DiagnoseOptions o;
+  o.max_fitted = 1;
+  o.max_screened = 6;
+  const Case r = DiagnosedOn(Rig(), Spec({"crosstalk"}, 28, "steps"), o);
+  std::vector<const CandidateResult*> ranked;
+  std::set<std::string> ids;
+  for (const auto& cr : r.result.candidates) {
+    if (cr.applicable && cr.p_adjusted < o.alpha) ranked.push_back(&cr);
+  }
+  std::stable_sort(ranked.begin(), ranked.end(), [](const auto* a, const auto* b) {
+    return a->score_statistic > b->score_statistic;
+  });
+  std::vector<const CandidateResult*> unique;
+  for (const auto* cr : ranked) {
+    if (ids.insert(cr->id).second) unique.push_back(cr);
+  }
+  const auto passes = [&](const CandidateResult& cr) {
+    return cr.fitted && cr.lr_p_adjusted < o.alpha && cr.heldout_gain > o.min_heldout_gain;
+  };
+  std::size_t first_pass = unique.size();
+  for (std::size_t k = 0; k < unique.size(); ++k) {
+    if (passes(*unique[k])) {
+      first_pass = k;
+      break;
+    }
+  }
+  ASSERT_LT(first_pass, unique.size()) << "nothing passed";
+  std::size_t fitted = 0;
+  for (const auto& cr : r.result.candidates) fitted += cr.fitted ? 1 : 0;
+  EXPECT_EQ(fitted, first_pass + 1);
+  for (std::size_t k = 0; k <= first_pass; ++k) EXPECT_TRUE(unique[k]->fitted) << unique[k]->label;
+  // This dataset's best-scoring candidate is not the planted one and fails: a second batch ran.
+  EXPECT_GE(first_pass, 1u) << unique[0]->label;
+  ExpectFound(r, "crosstalk");
 }
 
 TEST(DiagnosePlanted, CrosstalkIsNamedWithItsFraction) {
