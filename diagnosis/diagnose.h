@@ -21,7 +21,7 @@
 // 4. Extension. The best `max_fitted` candidates with p_adj < alpha (one joint per id) are fitted
 //    (their own parameters from θ, the subject parameters held; while none of those fitted
 //    passes, the next `max_fitted` by score, up to `max_screened` in all: default-suite crosstalk
-//    seed 1041 ranked 5th behind candidates that fail), and scored: training likelihood
+//    seed 1041 ranked 4th behind candidates that fail), and scored: training likelihood
 //    ratio
 //    LR = N ln(RSS₀/RSS₁) ~ χ²_p (Bonferroni-adjusted as above, an information criterion) and
 //    held-out gain g = (x − y)/x of the held-out NRMSE. Accepted when p_adj(LR) < alpha and
