@@ -129,8 +129,7 @@ std::string OptionsText(const DiagnoseOptions& o) {
     s += ExactNumberText(v) + ",";
   }
   for (const int v : {o.max_fitted, o.max_screened, o.max_accepted, o.baseline_iterations,
-                      o.baseline_polish_iterations, o.screen_iterations, o.refit_iterations,
-                      o.fit.max_iterations}) {
+                      o.screen_iterations, o.refit_iterations, o.fit.max_iterations}) {
     s += std::to_string(v) + ",";
   }
   return s + o.model;
@@ -381,18 +380,9 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   const Json base_stage = stages.Get({"baseline"}, [&] {
     FitOptions calibration = fo;
     if (options.baseline_fd_step > 0.0) calibration.fd_step = options.baseline_fd_step;
-    FitResult f =
+    const FitResult f =
         FitParameters(rig, subject, xs0, train, calibration, 0, options.baseline_iterations);
     out.simulations += f.simulations;
-    if (options.baseline_fd_step > 0.0 && options.baseline_polish_iterations > 0) {
-      // Polish with the fits' own step from where the coarse one ended (its residual reused).
-      FitStart from;
-      from.residual = f.residual;
-      from.predictions = f.predictions;
-      f = FitParameters(rig, subject, f.x, train, fo, 0, options.baseline_polish_iterations,
-                        nullptr, &from);
-      out.simulations += f.simulations;
-    }
     // The training predictions at the fitted point were simulated by the fit.
     std::vector<Trial> train_pred = f.predictions;
     if (train_pred.size() != train.trials.size()) {
@@ -790,14 +780,16 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     batch.assign(order.begin() + static_cast<std::ptrdiff_t>(first),
                  order.begin() + static_cast<std::ptrdiff_t>(std::min(
                                      order.size(), first + std::max(1, options.max_fitted))));
-    report(0.35, "fitting " + std::to_string(batch.size()) + " extensions");
+    // Progress over the candidates that may be fitted (monotone across batches).
+    const auto progress = [&](std::size_t k) { return 0.35 + 0.4 * k / order.size(); };
+    report(progress(first), "fitting " + std::to_string(batch.size()) + " extensions");
     const std::vector<std::string> texts =
         options.map ? options.map(batch.size(), screen_item) : local_map(batch.size(), screen_item);
     for (std::size_t k = 0; k < batch.size(); ++k) {
       const int c = batch[k];
       const Json j = Json::Parse(texts[k], "screening fit");
       out.simulations += static_cast<int>(Member(j, "simulations").AsNumber());
-      report(0.35 + 0.4 * k / batch.size(), "fitting extension " + library[c].label);
+      report(progress(first + k), "fitting extension " + library[c].label);
       Fitted f = fitted_from({c}, Member(j, "stage"));
       CandidateResult& cr = out.candidates[c];
       cr.fitted = true;

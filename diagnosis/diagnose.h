@@ -98,8 +98,6 @@ struct DiagnoseOptions {
   /// Difference step of the subject calibration (FitOptions::fd_step for that fit only; 0:
   /// fit.fd_step).
   double baseline_fd_step = 0.0;
-  /// With baseline_fd_step: LM steps at fit.fd_step from where the coarse calibration ended.
-  int baseline_polish_iterations = 2;
   int screen_iterations = 5;             ///< LM steps of a candidate's own parameters.
   int refit_iterations = 3;              ///< LM steps of the accepted extension with the subject.
   FitOptions fit = DefaultFitOptions();  ///< integrator, threads, finite differences.
