@@ -15,10 +15,13 @@
 //                   [--tolerance TOL] (FitOptions::tolerance, CVODES; default 1e-5)
 //                   [--lm-tolerance R] (FitOptions::relative_tolerance, LM's stop; default 1e-3)
 //                   [--fd-step H] (FitOptions::fd_step, difference steps; default 1e-2)
-//                   [--baseline-fd-step H] (DiagnoseOptions::baseline_fd_step, the subject
-//                   calibration's difference step; default: the library's)
+//                   [--baseline-fd-steps H,H,…] (DiagnoseOptions::baseline_fd_steps, the
+//                   subject calibrations' difference steps, 0: --fd-step; default: the
+//                   library's)
 //                   [--baseline-iterations N] (DiagnoseOptions::baseline_iterations; default 4)
 //                   [--max-screened N] (DiagnoseOptions::max_screened; default 6)
+//                   [--batches-while-structured 0|1] (DiagnoseOptions::
+//                   batches_while_structured; default 1)
 //                   [--only SEED,SEED,…] (run only these datasets of the command, same scales
 //                   and protocols as in the whole run)
 //                   [--oracle ITERATIONS] (single datasets: OracleCheck below; default 0 = off)
@@ -243,13 +246,14 @@ int main(int argc, char** argv) {
   double duration = 60.0;
   int baseline_iterations = fesim::diagnosis::DiagnoseOptions().baseline_iterations;
   int max_screened = fesim::diagnosis::DiagnoseOptions().max_screened;
+  bool batches_while_structured = fesim::diagnosis::DiagnoseOptions().batches_while_structured;
   std::set<std::uint64_t> only;  // --only: the datasets kept, by seed (empty: all)
   double speed_time_scale =
       fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().speed_time_scale_s;
   double tolerance = fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().tolerance;
   double lm_tolerance = fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().relative_tolerance;
   double fd_step = fesim::diagnosis::DiagnoseOptions::DefaultFitOptions().fd_step;
-  double baseline_fd_step = fesim::diagnosis::DiagnoseOptions{}.baseline_fd_step;
+  std::vector<double> baseline_fd_steps = fesim::diagnosis::DiagnoseOptions{}.baseline_fd_steps;
   std::uint64_t first_seed = 1000;
   std::string out_path = "docs/diagnosis.md";
   std::string model = "full";  // or a reduced model (diagnose --model NAME)
@@ -261,8 +265,8 @@ int main(int argc, char** argv) {
       "  [--duration S] [--mechanisms a,b,...] [--threads N] [--out FILE] [--seed S]\n"
       "  [--model full|NAME] [--protocol steps|grid] [--pair-list a+b,...] [--verbose N]\n"
       "  [--effects-only 0|1] [--speed-time-scale S] [--baseline-iterations N] [--tolerance TOL]\n"
-      "  [--max-screened N] [--only SEED,SEED,...]\n"
-      "  [--lm-tolerance R] [--fd-step H] [--baseline-fd-step H]\n"
+      "  [--max-screened N] [--batches-while-structured 0|1] [--only SEED,SEED,...]\n"
+      "  [--lm-tolerance R] [--fd-step H] [--baseline-fd-steps H,...]\n"
       "  [--oracle ITERATIONS] (single datasets: fits of the planted mechanism from the truth)\n"
       "  (defaults: the full suite, hours of CPU)\n";
   for (int i = 1; i < argc; ++i) {
@@ -307,12 +311,15 @@ int main(int argc, char** argv) {
       lm_tolerance = std::atof(v.c_str());
     else if (k == "--fd-step")
       fd_step = std::atof(v.c_str());
-    else if (k == "--baseline-fd-step")
-      baseline_fd_step = std::atof(v.c_str());
-    else if (k == "--baseline-iterations")
+    else if (k == "--baseline-fd-steps") {
+      baseline_fd_steps.clear();
+      for (const auto& part : Split(v)) baseline_fd_steps.push_back(std::atof(part.c_str()));
+    } else if (k == "--baseline-iterations")
       baseline_iterations = std::atoi(v.c_str());
     else if (k == "--max-screened")
       max_screened = std::atoi(v.c_str());
+    else if (k == "--batches-while-structured")
+      batches_while_structured = std::atoi(v.c_str()) != 0;
     else if (k == "--only") {
       for (const auto& part : Split(v)) only.insert(std::strtoull(part.c_str(), nullptr, 10));
     } else if (k == "--mechanisms")
@@ -405,9 +412,10 @@ int main(int argc, char** argv) {
   options.fit.tolerance = tolerance;
   options.fit.relative_tolerance = lm_tolerance;
   options.fit.fd_step = fd_step;
-  options.baseline_fd_step = baseline_fd_step;
+  options.baseline_fd_steps = baseline_fd_steps;
   options.baseline_iterations = baseline_iterations;
   options.max_screened = max_screened;
+  options.batches_while_structured = batches_while_structured;
   options.model = model;
   if (model != "full") {
     for (const auto& m : fesim::diagnosis::ReducedModelMethods()) {

@@ -207,6 +207,10 @@ std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const Libra
     c.params.push_back(
         Param("potentiation.rise_time_s", "s", rise, 0.5, 60.0, rise,
               [](double v, sim::ModelParams* m) { m->mechanisms.potentiation.rise_time_s = v; }));
+    // At the shortest rise time p ≈ 1 within a second of any stimulation and decays over
+    // T_decay = 60 s: a constant gain 1 + g on the active force, i.e. strength_scale (default
+    // suite crosstalk seed 1042: rise time 0.5 s, gain 0.14, standing in for the calibration).
+    c.params.back().collapses_at = 0.5;
     c.probes = {ProbeAt(c.params, 0, 0.1)};
     c.one_sided = {true};
     add(c);

@@ -123,15 +123,17 @@ SpectrumPeak RefinedPeak(const std::vector<double>& r, double dt) {
 /// The options that change results, as cache-key text (not fit.threads).
 std::string OptionsText(const DiagnoseOptions& o) {
   std::string s;
-  for (const double v : {o.holdout_fraction, o.alpha, o.min_heldout_gain, o.max_structure,
-                         o.fit.relative_tolerance, o.fit.fd_step, o.baseline_fd_step,
-                         o.fit.tolerance, o.fit.speed_time_scale_s, o.fit.max_steps_per_s}) {
+  for (const double v :
+       {o.holdout_fraction, o.alpha, o.min_heldout_gain, o.max_structure, o.fit.relative_tolerance,
+        o.fit.fd_step, o.fit.tolerance, o.fit.speed_time_scale_s, o.fit.max_steps_per_s}) {
     s += ExactNumberText(v) + ",";
   }
+  s += o.batches_while_structured ? "bs," : "b,";
   for (const int v : {o.max_fitted, o.max_screened, o.max_accepted, o.baseline_iterations,
                       o.screen_iterations, o.refit_iterations, o.fit.max_iterations}) {
     s += std::to_string(v) + ",";
   }
+  for (const double v : o.baseline_fd_steps) s += "h" + ExactNumberText(v) + ",";
   return s + o.model;
 }
 
@@ -378,10 +380,13 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   for (std::size_t k = 0; k < subject.size(); ++k) xs0(k) = subject[k].start;
   const StageCache stages(options, &out.cached_results);
   const Json base_stage = stages.Get({"baseline"}, [&] {
-    FitOptions calibration = fo;
-    if (options.baseline_fd_step > 0.0) calibration.fd_step = options.baseline_fd_step;
-    const FitResult f =
-        FitParameters(rig, subject, xs0, train, calibration, 0, options.baseline_iterations);
+    // One calibration per difference step, side by side (each with its simulations on
+    // fit.threads threads again); the lowest Σr² is kept. A coarse step steps over the small
+    // bumps of Σr² on the elbow rig, where the fine one stalls (docs/diagnosis.md, session 10).
+    const std::vector<double>& steps = options.baseline_fd_steps;
+    std::size_t kept = 0;
+    const FitResult f = FitOverDifferenceSteps(rig, subject, xs0, train, fo, steps,
+                                               options.baseline_iterations, nullptr, &kept);
     out.simulations += f.simulations;
     // The training predictions at the fitted point were simulated by the fit.
     std::vector<Trial> train_pred = f.predictions;
@@ -391,7 +396,9 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     }
     const std::vector<Trial> held_pred = Predict(rig, subject, f.x, held, fo);
     out.simulations += static_cast<int>(held.trials.size());
-    Eigen::MatrixXd jacobian = f.jacobian;
+    // The score tests and the profiled fits take the Jacobian at the fits' own step.
+    const bool own_step = steps[kept] <= 0.0 || steps[kept] == fo.fd_step;
+    Eigen::MatrixXd jacobian = own_step ? f.jacobian : Eigen::MatrixXd();
     const Eigen::VectorXd r = StackResiduals(train, train_pred);
     if (jacobian.rows() != r.size()) {
       jacobian = ResidualJacobian(rig, subject, f.x, r, train, fo, &out.simulations);
@@ -771,12 +778,37 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     return j.Dump(0);
   };
   auto passes = [&](const CandidateResult& cr) {
-    return cr.fitted && cr.lr_p_adjusted < options.alpha &&
+    return cr.fitted && cr.collapsed.empty() && cr.lr_p_adjusted < options.alpha &&
            cr.heldout_gain > options.min_heldout_gain;
+  };
+  // Largest structured variance share of the held-out residual over the outputs (and per output).
+  auto structure_of = [&](const std::vector<Trial>& pred, std::vector<double>* per_output) {
+    double worst = 0.0;
+    for (const auto& o : ctx.outputs) {
+      double s_out = 0.0;
+      for (std::size_t t = 0; t < held.trials.size(); ++t) {
+        const auto& y = held.trials[t].Column(o);
+        const auto& yh = pred[t].Column(o);
+        std::vector<double> r(y.size());
+        for (std::size_t i = 0; i < y.size(); ++i) r[i] = y[i] - yh[i];
+        s_out = std::max(s_out, StructuredVarianceFraction(Masked(held, t, o, r)));
+      }
+      per_output->push_back(s_out);
+      worst = std::max(worst, s_out);
+    }
+    return worst;
   };
   std::vector<Fitted> round1;
   int best = -1;
-  for (std::size_t first = 0; first < order.size() && best < 0; first += batch.size()) {
+  // A further batch runs while nothing passes, or (batches_while_structured) while the best that
+  // passes leaves structure in the held-out residual that it did not explain.
+  const auto search_on = [&] {
+    if (best < 0) return true;
+    std::vector<double> unused;
+    return options.batches_while_structured &&
+           structure_of(round1[best].heldout_pred, &unused) > options.max_structure;
+  };
+  for (std::size_t first = 0; first < order.size() && search_on(); first += batch.size()) {
     batch.assign(order.begin() + static_cast<std::ptrdiff_t>(first),
                  order.begin() + static_cast<std::ptrdiff_t>(std::min(
                                      order.size(), first + std::max(1, options.max_fitted))));
@@ -799,6 +831,11 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
       for (std::size_t p = 0; p < library[c].params.size(); ++p) {
         cr.parameters.push_back({library[c].params[p].name, library[c].params[p].unit,
                                  f.fit.x(ns + p), f.fit.ci95(ns + p)});
+      }
+      cr.collapsed = CollapsedParameter(library[c].params, f.fit.x, ns);
+      if (!cr.collapsed.empty()) {
+        cr.evidence += (cr.evidence.empty() ? "" : "; ") + cr.collapsed +
+                       " fitted at its bound, where the mechanism is a subject parameter";
       }
       round1.push_back(std::move(f));
     }
@@ -962,7 +999,13 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
         const double p = lr_p_adj(rss1, f.fit.cost, static_cast<int>(library[c].params.size()));
         out.candidates[c].heldout_gain_on_accepted = g;
         on_top_reference[c] = current.heldout_nrmse;
-        if (p < options.alpha && g > options.min_heldout_gain && (pick < 0 || g > pick_gain)) {
+        const bool collapsed =
+            !CollapsedParameter(
+                 library[c].params, f.fit.x,
+                 f.fit.x.size() - static_cast<Eigen::Index>(library[c].params.size()))
+                 .empty();
+        if (!collapsed && p < options.alpha && g > options.min_heldout_gain &&
+            (pick < 0 || g > pick_gain)) {
           pick = static_cast<int>(k);
           pick_gain = g;
         }
@@ -1036,22 +1079,6 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
 
   // 5. Verdict.
   report(0.95, "verdict");
-  auto structure_of = [&](const std::vector<Trial>& pred, std::vector<double>* per_output) {
-    double worst = 0.0;
-    for (const auto& o : ctx.outputs) {
-      double s_out = 0.0;
-      for (std::size_t t = 0; t < held.trials.size(); ++t) {
-        const auto& y = held.trials[t].Column(o);
-        const auto& yh = pred[t].Column(o);
-        std::vector<double> r(y.size());
-        for (std::size_t i = 0; i < y.size(); ++i) r[i] = y[i] - yh[i];
-        s_out = std::max(s_out, StructuredVarianceFraction(Masked(held, t, o, r)));
-      }
-      per_output->push_back(s_out);
-      worst = std::max(worst, s_out);
-    }
-    return worst;
-  };
   std::vector<double> s_base, s_ext;
   const double structure_base = structure_of(out.heldout_baseline, &s_base);
   if (accepted.empty()) {
@@ -1089,7 +1116,9 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     double g_alt = 0.0;
     for (std::size_t c = 0; c < out.candidates.size(); ++c) {
       const CandidateResult& cr = out.candidates[c];
-      if (cr.fitted && cr.id != id && std::isfinite(cr.heldout_gain) && !cr.accepted) {
+      // A fit collapsed into a subject parameter is no alternative mechanism.
+      if (cr.fitted && cr.id != id && std::isfinite(cr.heldout_gain) && !cr.accepted &&
+          cr.collapsed.empty()) {
         double g = cr.heldout_gain;
         if (std::isfinite(cr.heldout_gain_on_accepted)) {
           g -= std::max(0.0, cr.heldout_gain_on_accepted) * on_top_reference[c] /

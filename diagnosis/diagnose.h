@@ -25,7 +25,10 @@
 //    ratio
 //    LR = N ln(RSS₀/RSS₁) ~ χ²_p (Bonferroni-adjusted as above, an information criterion) and
 //    held-out gain g = (x − y)/x of the held-out NRMSE. Accepted when p_adj(LR) < alpha and
-//    g > min_heldout_gain; greedily, the best g first (then refitted with the subject
+//    g > min_heldout_gain, unless a parameter of its fit ended where the mechanism collapses into
+//    a subject parameter (ModelParameter::collapses_at: potentiation's shortest rise time, a
+//    constant gain that stood in for the calibration on default-suite crosstalk seed 1042);
+//    greedily, the best g first (then refitted with the subject
 //    parameters, unless its polished screening fit below stopped on LM's tolerance: then that
 //    is the refit). Then forward selection on top of the extended model, up to max_accepted
 //    mechanisms: the score tests of step 3 are repeated at the extended model (its residual, the
@@ -89,15 +92,19 @@ struct DiagnoseOptions {
   int max_fitted = 3;             ///< candidates fitted per batch (and on top), ≥ 1.
   /// First round: candidates fitted at most, in batches of max_fitted while none passes, ≥ 1.
   int max_screened = 6;
+  /// First round: a further batch also while the best candidate that passes leaves structure
+  /// (StructuredVarianceFraction > max_structure on some output) in the held-out residual.
+  bool batches_while_structured = true;
   int max_accepted = 2;            ///< mechanisms accepted at most, ≥ 1.
   double alpha = 0.01;             ///< family-wise false-alarm level over the candidates.
   double min_heldout_gain = 0.02;  ///< smallest held-out NRMSE gain accepted, dimensionless.
   double max_structure = 0.15;     ///< structured residual variance share above which structure
                                    ///< "remains", dimensionless.
   int baseline_iterations = 4;     ///< LM steps of the subject calibration.
-  /// Difference step of the subject calibration (FitOptions::fd_step for that fit only; 0:
-  /// fit.fd_step).
-  double baseline_fd_step = 0.0;
+  /// Difference steps of the subject calibration (FitOptions::fd_step for that fit only; 0:
+  /// fit.fd_step), non-empty: one calibration from the nominal start per entry, side by side;
+  /// the lowest training Σr² is kept.
+  std::vector<double> baseline_fd_steps = {0.0};
   int screen_iterations = 5;             ///< LM steps of a candidate's own parameters.
   int refit_iterations = 3;              ///< LM steps of the accepted extension with the subject.
   FitOptions fit = DefaultFitOptions();  ///< integrator, threads, finite differences.
@@ -158,7 +165,10 @@ struct CandidateResult {
   /// fitted there).
   double score_on_accepted = NAN, heldout_gain_on_accepted = NAN;
   std::vector<NamedValue> parameters;  ///< fitted extension parameters.
-  std::string evidence;                ///< signature figures, one line.
+  /// The parameter whose fit ended at its ModelParameter::collapses_at bound, where the
+  /// mechanism is one the subject parameters already describe: not accepted ("": none).
+  std::string collapsed;
+  std::string evidence;  ///< signature figures, one line.
 };
 
 /// Residual summaries of one output (training part unless stated).

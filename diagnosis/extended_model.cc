@@ -348,4 +348,50 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   return out;
 }
 
+FitResult FitOverDifferenceSteps(const sim::ModelParams& base,
+                                 const std::vector<ModelParameter>& params,
+                                 const Eigen::VectorXd& x0, const DataView& view,
+                                 const FitOptions& options, const std::vector<double>& fd_steps,
+                                 int max_iterations, std::vector<double>* costs,
+                                 std::size_t* kept) {
+  if (fd_steps.empty() || std::any_of(fd_steps.begin(), fd_steps.end(),
+                                      [](double h) { return !(h >= 0.0 && h < 1.0); })) {
+    throw std::invalid_argument(
+        "FitOverDifferenceSteps: fd_steps must be non-empty, each in [0, 1)");
+  }
+  std::vector<FitResult> fits(fd_steps.size());
+  ParallelFor(fd_steps.size(), options.threads, [&](std::size_t k) {
+    FitOptions o = options;
+    if (fd_steps[k] > 0.0) o.fd_step = fd_steps[k];
+    fits[k] = FitParameters(base, params, x0, view, o, 0, max_iterations);
+  });
+  std::size_t best = 0;
+  int simulations = 0;
+  if (costs) costs->clear();
+  for (std::size_t k = 0; k < fits.size(); ++k) {
+    simulations += fits[k].simulations;
+    if (costs) costs->push_back(fits[k].cost);
+    if (fits[k].cost < fits[best].cost) best = k;
+  }
+  if (kept) *kept = best;
+  FitResult out = std::move(fits[best]);
+  out.simulations = simulations;
+  return out;
+}
+
+std::string CollapsedParameter(const std::vector<ModelParameter>& params, const Eigen::VectorXd& x,
+                               Eigen::Index offset) {
+  if (offset < 0 || offset + static_cast<Eigen::Index>(params.size()) > x.size()) {
+    throw std::invalid_argument("CollapsedParameter: offset out of range");
+  }
+  for (std::size_t k = 0; k < params.size(); ++k) {
+    const ModelParameter& p = params[k];
+    if (std::isfinite(p.collapses_at) && std::abs(x(offset + static_cast<Eigen::Index>(k)) -
+                                                  p.collapses_at) <= 1e-3 * (p.upper - p.lower)) {
+      return p.name;
+    }
+  }
+  return "";
+}
+
 }  // namespace fesim::diagnosis

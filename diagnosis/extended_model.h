@@ -13,6 +13,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <cmath>
 #include <functional>
 #include <string>
 #include <vector>
@@ -32,9 +33,18 @@ struct ModelParameter {
   double lower = 0.0;  ///< bound.
   double upper = 0.0;  ///< bound, > lower.
   double scale = 1.0;  ///< typical magnitude, > 0 (finite-difference steps: FitOptions::fd_step).
+  /// A bound at which the mechanism collapses into what the subject parameters already describe
+  /// (potentiation's shortest rise time: a constant extra gain on the active force); NaN: none.
+  /// A candidate fit that ends there is not accepted (diagnose.h step 4).
+  double collapses_at = NAN;
   /// kModel: writes the value into the model (called on a copy of the base).
   std::function<void(double, sim::ModelParams*)> set;
 };
+
+/// The name of the first of `params` (their values x(offset), x(offset + 1), …) that sits at its
+/// collapses_at bound (within 1e-3 of its range), or "" when none does.
+std::string CollapsedParameter(const std::vector<ModelParameter>& params, const Eigen::VectorXd& x,
+                               Eigen::Index offset);
 
 /// The data one fit or evaluation sees: trials simulated from t = 0, and per trial the samples
 /// that count (training segment or held-out segment). Outputs are the q.* columns named here.
@@ -150,6 +160,20 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
                         const Eigen::VectorXd& x0, const DataView& view, const FitOptions& options,
                         int first_free = 0, int max_iterations = 0,
                         const Eigen::MatrixXd* nuisance = nullptr, const FitStart* start = nullptr);
+
+/// FitParameters of all `params` from x0 once per difference step in `fd_steps` (0:
+/// options.fd_step; each in [0, 1), non-empty), side by side on options.threads threads (each
+/// fit's simulations on options.threads threads again): the fit with the lowest cost (the first
+/// of equal ones); `costs` (optional) receives every fit's cost, in the order of fd_steps, and
+/// `kept` the index of the one returned. Its simulations count all the fits'. Several steps make a
+/// calibration that a local bump of Σr² stops at one step scale go on at another (the elbow
+/// rig's subject calibration, docs/diagnosis.md).
+FitResult FitOverDifferenceSteps(const sim::ModelParams& base,
+                                 const std::vector<ModelParameter>& params,
+                                 const Eigen::VectorXd& x0, const DataView& view,
+                                 const FitOptions& options, const std::vector<double>& fd_steps,
+                                 int max_iterations, std::vector<double>* costs = nullptr,
+                                 std::size_t* kept = nullptr);
 
 /// Forward-difference Jacobian ∂r/∂x_k (N × (p − first_free)) for the columns k ≥ first_free
 /// at x with residual r0; one simulation per column and trial, in parallel, except kOutputDrift

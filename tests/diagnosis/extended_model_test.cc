@@ -2,8 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 
 #include "diagnosis/candidates.h"
 #include "diagnosis/diagnose.h"
@@ -115,6 +117,39 @@ TEST(ExtendedModel, FitRecoversAStiffnessAndHeldParametersStay) {
   EXPECT_EQ(g.x(0), k_nominal);
   EXPECT_TRUE(std::isnan(g.ci95(0)));
   EXPECT_GT(g.cost, 10 * f.cost);  // a drift cannot stand in for the stiffness
+}
+
+TEST(ExtendedModel, FitOverDifferenceStepsKeepsTheLowestCostOfTheFitsAtEachStep) {
+  // Two LM steps from a stiffness 40 % low at two difference steps: the result is exactly the
+  // single fit at the step whose cost is lower, with the simulations of both.
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  const double k_nominal = rig.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad;
+  sim::ModelParams truth = rig;
+  truth.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad = 1.3 * k_nominal;
+  const DataView v = ViewOf(StepTrial(truth));
+  FitOptions o;
+  o.threads = 2;
+  o.tolerance = 1e-7;
+  const std::vector<ModelParameter> params = {Stiffness(k_nominal)};
+  const Eigen::VectorXd x0 = Eigen::VectorXd::Constant(1, 0.6 * k_nominal);
+  const std::vector<double> steps = {0.0, 0.3};
+  std::vector<double> costs;
+  std::size_t kept = 9;
+  const FitResult best = FitOverDifferenceSteps(rig, params, x0, v, o, steps, 2, &costs, &kept);
+  ASSERT_EQ(costs.size(), 2u);
+  FitOptions coarse = o;
+  coarse.fd_step = 0.3;
+  const FitResult fine_fit = FitParameters(rig, params, x0, v, o, 0, 2);
+  const FitResult coarse_fit = FitParameters(rig, params, x0, v, coarse, 0, 2);
+  EXPECT_EQ(costs[0], fine_fit.cost);
+  EXPECT_EQ(costs[1], coarse_fit.cost);
+  EXPECT_NE(fine_fit.cost, coarse_fit.cost);  // the step changes the fit
+  EXPECT_EQ(kept, fine_fit.cost <= coarse_fit.cost ? 0u : 1u);
+  EXPECT_EQ(best.cost, std::min(fine_fit.cost, coarse_fit.cost));
+  EXPECT_EQ(best.x(0), kept == 0 ? fine_fit.x(0) : coarse_fit.x(0));
+  EXPECT_EQ(best.simulations, fine_fit.simulations + coarse_fit.simulations);
+  EXPECT_THROW(FitOverDifferenceSteps(rig, params, x0, v, o, {}, 2), std::invalid_argument);
+  EXPECT_THROW(FitOverDifferenceSteps(rig, params, x0, v, o, {0.0, 1.0}, 2), std::invalid_argument);
 }
 
 TEST(ExtendedModel, AFitFromAKnownStartIsTheFitThatSimulatesIt) {
@@ -266,6 +301,26 @@ TEST(ExtendedModel, DriftJacobianColumnIsMinusTimeWithoutSimulating) {
   EXPECT_NEAR((J.col(1) - fd).cwiseAbs().maxCoeff(), 0.0, 1e-8);
   EXPECT_DOUBLE_EQ(J(0, 1), -v.trials[0].time[20]);
   EXPECT_GT(J.col(0).norm(), 0.0);
+}
+
+TEST(ExtendedModel, CollapsedParameterIsTheOneAtItsCollapseBound) {
+  ModelParameter gain = Stiffness(1.0), rise = Stiffness(1.0);
+  gain.name = "gain";
+  rise.name = "rise";
+  rise.lower = 0.5;
+  rise.upper = 60.5;
+  rise.collapses_at = 0.5;
+  const std::vector<ModelParameter> params = {gain, rise};
+  Eigen::VectorXd x(3);
+  x << 7.0, 0.2, 0.5;  // a subject value first, then the two from offset 1
+  EXPECT_EQ(CollapsedParameter(params, x, 1), "rise");
+  x(2) = 0.5 + 0.05;  // within 1e-3 of the 60 range
+  EXPECT_EQ(CollapsedParameter(params, x, 1), "rise");
+  x(2) = 0.5 + 0.07;
+  EXPECT_EQ(CollapsedParameter(params, x, 1), "");
+  x(1) = 0.2;  // gain at its own lower bound: it has no collapse value
+  EXPECT_EQ(CollapsedParameter(params, x, 1), "");
+  EXPECT_THROW(CollapsedParameter(params, x, 2), std::invalid_argument);
 }
 
 TEST(ExtendedModel, NrmseIsZeroForAPerfectPredictionAndSkipsUnusedSamples) {
