@@ -43,6 +43,26 @@ DataView ViewOf(const Trial& t) {
   return v;
 }
 
+/// The hand rig's wrist, 30 % stiffer in the data than in the rig: a one-parameter fit case
+/// (k_nominal the rig's stiffness, options at 1e-7 on two threads).
+struct StiffWristCase {
+  sim::ModelParams rig;
+  double k_nominal = 0.0;
+  DataView view;
+  FitOptions options;
+};
+StiffWristCase StiffWrist() {
+  StiffWristCase w;
+  w.rig = identification::fullmodel::DefaultHandRig();
+  w.k_nominal = w.rig.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad;
+  sim::ModelParams truth = w.rig;
+  truth.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad = 1.3 * w.k_nominal;
+  w.view = ViewOf(StepTrial(truth));
+  w.options.threads = 2;
+  w.options.tolerance = 1e-7;
+  return w;
+}
+
 ModelParameter Stiffness(double nominal) {
   ModelParameter p;
   p.name = "k.wrist_flexion";
@@ -89,14 +109,11 @@ TEST(ExtendedModel, DriftAddsValueTimesTimeAndInputScaleZeroSilencesTheInput) {
 }
 
 TEST(ExtendedModel, FitRecoversAStiffnessAndHeldParametersStay) {
-  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
-  const double k_nominal = rig.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad;
-  sim::ModelParams truth = rig;
-  truth.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad = 1.3 * k_nominal;
-  const DataView v = ViewOf(StepTrial(truth));
-  FitOptions o;
-  o.threads = 2;
-  o.tolerance = 1e-7;
+  const StiffWristCase w = StiffWrist();
+  const sim::ModelParams& rig = w.rig;
+  const double k_nominal = w.k_nominal;
+  const DataView& v = w.view;
+  const FitOptions& o = w.options;
   const FitResult f =
       FitParameters(rig, {Stiffness(k_nominal)}, Eigen::VectorXd::Constant(1, k_nominal), v, o);
   constexpr double kRelTol = 0.01;
@@ -122,25 +139,19 @@ TEST(ExtendedModel, FitRecoversAStiffnessAndHeldParametersStay) {
 TEST(ExtendedModel, FitOverDifferenceStepsKeepsTheLowestCostOfTheFitsAtEachStep) {
   // Two LM steps from a stiffness 40 % low at two difference steps: the result is exactly the
   // single fit at the step whose cost is lower, with the simulations of both.
-  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
-  const double k_nominal = rig.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad;
-  sim::ModelParams truth = rig;
-  truth.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad = 1.3 * k_nominal;
-  const DataView v = ViewOf(StepTrial(truth));
-  FitOptions o;
-  o.threads = 2;
-  o.tolerance = 1e-7;
-  const std::vector<ModelParameter> params = {Stiffness(k_nominal)};
-  const Eigen::VectorXd x0 = Eigen::VectorXd::Constant(1, 0.6 * k_nominal);
+  const StiffWristCase w = StiffWrist();
+  const std::vector<ModelParameter> params = {Stiffness(w.k_nominal)};
+  const Eigen::VectorXd x0 = Eigen::VectorXd::Constant(1, 0.6 * w.k_nominal);
   const std::vector<double> steps = {0.0, 0.3};
   std::vector<double> costs;
   std::size_t kept = 9;
-  const FitResult best = FitOverDifferenceSteps(rig, params, x0, v, o, steps, 2, &costs, &kept);
+  const FitResult best =
+      FitOverDifferenceSteps(w.rig, params, x0, w.view, w.options, steps, 2, &costs, &kept);
   ASSERT_EQ(costs.size(), 2u);
-  FitOptions coarse = o;
+  FitOptions coarse = w.options;
   coarse.fd_step = 0.3;
-  const FitResult fine_fit = FitParameters(rig, params, x0, v, o, 0, 2);
-  const FitResult coarse_fit = FitParameters(rig, params, x0, v, coarse, 0, 2);
+  const FitResult fine_fit = FitParameters(w.rig, params, x0, w.view, w.options, 0, 2);
+  const FitResult coarse_fit = FitParameters(w.rig, params, x0, w.view, coarse, 0, 2);
   EXPECT_EQ(costs[0], fine_fit.cost);
   EXPECT_EQ(costs[1], coarse_fit.cost);
   EXPECT_NE(fine_fit.cost, coarse_fit.cost);  // the step changes the fit
@@ -148,21 +159,20 @@ TEST(ExtendedModel, FitOverDifferenceStepsKeepsTheLowestCostOfTheFitsAtEachStep)
   EXPECT_EQ(best.cost, std::min(fine_fit.cost, coarse_fit.cost));
   EXPECT_EQ(best.x(0), kept == 0 ? fine_fit.x(0) : coarse_fit.x(0));
   EXPECT_EQ(best.simulations, fine_fit.simulations + coarse_fit.simulations);
-  EXPECT_THROW(FitOverDifferenceSteps(rig, params, x0, v, o, {}, 2), std::invalid_argument);
-  EXPECT_THROW(FitOverDifferenceSteps(rig, params, x0, v, o, {0.0, 1.0}, 2), std::invalid_argument);
+  EXPECT_THROW(FitOverDifferenceSteps(w.rig, params, x0, w.view, w.options, {}, 2),
+               std::invalid_argument);
+  EXPECT_THROW(FitOverDifferenceSteps(w.rig, params, x0, w.view, w.options, {0.0, 1.0}, 2),
+               std::invalid_argument);
 }
 
 TEST(ExtendedModel, AFitFromAKnownStartIsTheFitThatSimulatesIt) {
   // A fit continued from where another ended, given that fit's end residual, Jacobian and
   // predictions (FitStart), returns the same numbers and skips the 1 + p start simulations.
-  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
-  const double k_nominal = rig.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad;
-  sim::ModelParams truth = rig;
-  truth.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad = 1.3 * k_nominal;
-  const DataView v = ViewOf(StepTrial(truth));
-  FitOptions o;
-  o.threads = 2;
-  o.tolerance = 1e-7;
+  const StiffWristCase w = StiffWrist();
+  const sim::ModelParams& rig = w.rig;
+  const double k_nominal = w.k_nominal;
+  const DataView& v = w.view;
+  FitOptions o = w.options;
   o.relative_tolerance = 0.0;  // no early stop: both continuations take the same steps
   const std::vector<ModelParameter> params = {Stiffness(k_nominal)};
   const FitResult first =
