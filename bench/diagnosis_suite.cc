@@ -181,7 +181,7 @@ void OracleCheck(const fesim::Scenario& rig, const Case& c,
     }
     std::fprintf(stderr, "    oracle %-22s cost %.6g  [%s]\n", what, cost, text.c_str());
   };
-  const double n = static_cast<double>(data.train.Count());
+  const auto n = static_cast<double>(data.train.Count());
   std::fprintf(stderr, "    oracle N %.0f, N sigma^2 %.6g\n", n,
                n * c.data.noise_rms_rad * c.data.noise_rms_rad);
   show("truth", truth, cost_at(truth));
