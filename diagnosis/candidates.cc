@@ -398,13 +398,6 @@ std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const Libra
           Param("support.weight_compensation_n", "N", cuff.force_n, 0.0,
                 cuff.force_n + 2.0 * weight, 0.1 * weight,
                 [cuff](double v, sim::ModelParams* m) { SetForearmSupportForce(cuff, v, m); }));
-      // The score test is local: a probe of 2 % of the forearm weight stays where the outputs
-      // are linear in the force. At 10 % (twice the suite's smallest planted support) the Σr²
-      // profile over the force was past its minimum (a seed-1093 elbow-rig calibration:
-      // minimum near 5 %, back at the zero-force value by 10 %), and the secant pointed the
-      // one-sided test the wrong way (dof 0, never fitted; docs/diagnosis.md, session 9).
-      c.probes = {ProbeAt(c.params, 0, cuff.force_n + 0.02 * weight)};
-      c.one_sided = {cuff.force_n == 0.0};  // no support: only a lifting force can appear
       if (!rig.bands.empty()) {
         std::vector<double> k;
         for (const auto& b : rig.bands) k.push_back(b.stiffness_n_per_m);
@@ -414,6 +407,16 @@ std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const Libra
                                      m->bands[i].stiffness_n_per_m = v * k[i];
                                    }
                                  }));
+      }
+      // The score test is local: a probe of 2 % of the forearm weight stays where the outputs
+      // are linear in the force. At 10 % (twice the suite's smallest planted support) the Σr²
+      // profile over the force was past its minimum (a seed-1093 elbow-rig calibration:
+      // minimum near 5 %, back at the zero-force value by 10 %), and the secant pointed the
+      // one-sided test the wrong way (dof 0, never fitted; docs/diagnosis.md, session 9).
+      // (Probes after the parameters: each is a full vector over them.)
+      c.probes = {ProbeAt(c.params, 0, cuff.force_n + 0.02 * weight)};
+      c.one_sided = {cuff.force_n == 0.0};  // no support: only a lifting force can appear
+      if (c.params.size() > 1) {
         c.probes.push_back(ProbeAt(c.params, 1, 1.2));
         c.one_sided.push_back(false);
       }

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "identification/fullmodel/full_model_fit.h"
+#include "scenarios/scenario.h"
 #include "sim/default_model.h"
 #include "sim/mechanisms.h"
 
@@ -54,6 +55,34 @@ TEST(Candidates, EveryMechanismIdIsInTheLibraryAndArmSupportIsNotTestableOnTheHa
       EXPECT_FALSE(c.applicable);
     }
   }
+}
+
+TEST(Candidates, EveryProbeIsAPointOverAllTheCandidatesParametersOnARigWithBands) {
+  // scenarios/default.yaml: elbow and shoulder free, an elastic band and a forearm support of
+  // 10 N, so arm_support has two parameters (force, band stiffness scale) and two probes.
+  const Scenario sc = LoadScenario(std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/default.yaml");
+  ASSERT_FALSE(sc.model.bands.empty());
+  LibraryContext ctx;
+  ctx.outputs = {"q.elbow_flexion"};
+  for (const auto& ch : sc.model.channels) ctx.channels.push_back(ch.name);
+  ctx.tremor_frequency_hz = {6.0};
+  int checked = 0;
+  for (const auto& c : CandidateLibrary(sc.model, ctx)) {
+    if (!c.applicable) continue;
+    ASSERT_EQ(c.one_sided.size(), c.probes.size()) << c.label;
+    for (const auto& p : c.probes) {
+      ASSERT_EQ(p.size(), static_cast<Eigen::Index>(c.params.size())) << c.label;
+    }
+    const Eigen::VectorXd x = c.start_from_step(Eigen::VectorXd::Ones(c.probes.size()));
+    EXPECT_EQ(x.size(), static_cast<Eigen::Index>(c.params.size())) << c.label;
+    if (c.id == "arm_support") {
+      ASSERT_EQ(c.params.size(), 2u);
+      EXPECT_EQ(c.params[1].name, "support.band_stiffness_scale");
+      EXPECT_FALSE(c.one_sided[0]);  // the rig's support can be weaker than it says
+    }
+    ++checked;
+  }
+  EXPECT_GT(checked, 5);
 }
 
 TEST(Candidates, StartValuesLeaveTheModelAsItIs) {
