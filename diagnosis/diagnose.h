@@ -20,14 +20,15 @@
 //    (signatures.h: spectrum peak, trend, lag, velocity/posture correlation) fill `evidence`.
 // 4. Extension. The best `max_fitted` candidates with p_adj < alpha (one joint per id) are fitted
 //    (their own parameters from θ, the subject parameters held; while none of those fitted
-//    passes, the next `max_fitted` by score, up to `max_screened` in all: default-suite crosstalk
-//    seed 1041 ranked 4th behind candidates that fail), and scored: training likelihood
-//    ratio
-//    LR = N ln(RSS₀/RSS₁) ~ χ²_p (Bonferroni-adjusted as above, an information criterion) and
-//    held-out gain g = (x − y)/x of the held-out NRMSE. Accepted when p_adj(LR) < alpha and
-//    g > min_heldout_gain, unless a parameter of its fit ended where the mechanism collapses into
-//    a subject parameter (ModelParameter::collapses_at: potentiation's shortest rise time, a
-//    constant gain that stood in for the calibration on default-suite crosstalk seed 1042);
+//    passes, or the best that passes leaves structure in the held-out residual
+//    (batches_while_structured), the next `max_fitted` by score, up to `max_screened` in all:
+//    default-suite crosstalk seed 1041 ranked 4th behind candidates that fail, and on the grid
+//    4th–5th behind moment_arm_posture, which passed with structure left), and scored: training
+//    likelihood ratio LR = N ln(RSS₀/RSS₁) ~ χ²_p (Bonferroni-adjusted as above, an information
+//    criterion) and held-out gain g = (x − y)/x of the held-out NRMSE. Accepted when p_adj(LR) <
+//    alpha and g > min_heldout_gain, unless a parameter of its fit ended where the mechanism
+//    collapses into a subject parameter (ModelParameter::collapses_at: potentiation's shortest rise
+//    time, a constant gain that stood in for the calibration on default-suite crosstalk seed 1042);
 //    greedily, the best g first (then refitted with the subject
 //    parameters, unless its polished screening fit below stopped on LM's tolerance: then that
 //    is the refit). Then forward selection on top of the extended model, up to max_accepted
