@@ -626,8 +626,8 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     }
     order = unique;
   }
-  // Fitted in batches of max_fitted, best-scoring first; a further batch only while none of the
-  // fitted ones passes, up to max_screened candidates in all.
+  // Fitted in batches of max_fitted, best-scoring first, up to max_screened candidates in all
+  // (when a further batch runs: search_on below).
   if (static_cast<int>(order.size()) > options.max_screened) order.resize(options.max_screened);
 
   struct Fitted {
@@ -781,7 +781,8 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     return cr.fitted && cr.collapsed.empty() && cr.lr_p_adjusted < options.alpha &&
            cr.heldout_gain > options.min_heldout_gain;
   };
-  // Largest structured variance share of the held-out residual over the outputs (and per output).
+  // Largest structured variance share of the held-out residual over the outputs (and per output,
+  // when per_output is given).
   auto structure_of = [&](const std::vector<Trial>& pred, std::vector<double>* per_output) {
     double worst = 0.0;
     for (const auto& o : ctx.outputs) {
@@ -793,7 +794,7 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
         for (std::size_t i = 0; i < y.size(); ++i) r[i] = y[i] - yh[i];
         s_out = std::max(s_out, StructuredVarianceFraction(Masked(held, t, o, r)));
       }
-      per_output->push_back(s_out);
+      if (per_output) per_output->push_back(s_out);
       worst = std::max(worst, s_out);
     }
     return worst;
@@ -804,9 +805,8 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   // passes leaves structure in the held-out residual that it did not explain.
   const auto search_on = [&] {
     if (best < 0) return true;
-    std::vector<double> unused;
     return options.batches_while_structured &&
-           structure_of(round1[best].heldout_pred, &unused) > options.max_structure;
+           structure_of(round1[best].heldout_pred, nullptr) > options.max_structure;
   };
   for (std::size_t first = 0; first < order.size() && search_on(); first += batch.size()) {
     batch.assign(order.begin() + static_cast<std::ptrdiff_t>(first),
