@@ -680,9 +680,10 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     if (first_free != 0) s.jacobian.resize(0, 0);  // the Jacobian of all parameters only
     return s;
   };
+  // fd_step > 0: the fit's difference step instead of fo.fd_step.
   auto extension_stage = [&](const std::vector<int>& cands, const Eigen::VectorXd& x0,
                              int first_free, int iterations, const Eigen::MatrixXd* held_jacobian,
-                             double rss_held, int* sims) {
+                             double rss_held, int* sims, double fd_step = 0.0) {
     std::vector<ModelParameter> params = subject;
     std::vector<std::string> stage = {"extension"};
     for (int c : cands) {
@@ -696,9 +697,16 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     stage.push_back("iterations=" + std::to_string(iterations));
     const bool profiled = first_free > 0 && held_jacobian && held_jacobian->cols() == first_free;
     stage.push_back(profiled ? "profiled, rss_held=" + ExactNumberText(rss_held) : "held");
+    FitOptions fo_step = fo;
+    if (fd_step > 0.0) {
+      fo_step.fd_step = fd_step;
+      stage.push_back("fd_step=" + ExactNumberText(fd_step));
+    }
     return stages.Get(stage, [&] {
-      const FitStart start = known_start(cands, x0, first_free);
-      FitResult fit = FitParameters(rig, params, x0, train, fo, first_free, iterations,
+      FitStart start = known_start(cands, x0, first_free);
+      // A Jacobian known at x0 is one of fo.fd_step (remember_end keeps only those).
+      if (fd_step > 0.0) start.jacobian.resize(0, 0);
+      FitResult fit = FitParameters(rig, params, x0, train, fo_step, first_free, iterations,
                                     profiled ? held_jacobian : nullptr, &start);
       bool all_free = !profiled && first_free == 0;
       // Polish only a profiled fit that explains something (its training LR test against the
@@ -713,10 +721,10 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
         }
         // The linearised step is poor when the held parameters must move far (a strong
         // mechanism the baseline absorbed): polish everything together from there.
-        fit = FitParameters(rig, params, x1, train, fo, 0, options.refit_iterations);
+        fit = FitParameters(rig, params, x1, train, fo_step, 0, options.refit_iterations);
         all_free = true;
       }
-      remember_end(cands, fit, all_free);
+      remember_end(cands, fit, all_free && fd_step <= 0.0);
       *sims += fit.simulations + static_cast<int>(held.trials.size());
       Json j = Json::Object();
       j.Set("fit", FitJson(fit)).Set("all_free", all_free);
@@ -748,9 +756,9 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   };
   auto fit_extension = [&](const std::vector<int>& cands, const Eigen::VectorXd& x0, int first_free,
                            int iterations, const Eigen::MatrixXd* held_jacobian = nullptr,
-                           double rss_held = 0.0) {
+                           double rss_held = 0.0, double fd_step = 0.0) {
     return fitted_from(cands, extension_stage(cands, x0, first_free, iterations, held_jacobian,
-                                              rss_held, &out.simulations));
+                                              rss_held, &out.simulations, fd_step));
   };
   const int ns = static_cast<int>(subject.size());
 
@@ -1075,6 +1083,78 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     const bool screened = cause.fitted && cause.lr_p_adjusted < options.alpha;
     first_lr_p = screened ? cause.lr_p_adjusted : accept_p[accepted[0]];
     first_gain = screened ? cause.heldout_gain : accept_gain[accepted[0]];
+    // Step 5's refit at the accepted mechanisms' further difference steps (Candidate::
+    // refit_fd_steps), from the extended model's fit and from the lowest of the scanned starts
+    // (Candidate::refit_scan_*) when that is lower; the lowest Σr² is kept.
+    std::set<double> steps;
+    std::vector<Eigen::VectorXd> scan;
+    Eigen::Index at = ns;
+    for (int c : accepted) {
+      const Candidate& cand = library[c];
+      steps.insert(cand.refit_fd_steps.begin(), cand.refit_fd_steps.end());
+      if (cand.refit_scan_param >= 0) {
+        const auto k = at + cand.refit_scan_param;
+        const ModelParameter& par = cand.params[static_cast<std::size_t>(cand.refit_scan_param)];
+        for (const double factor : cand.refit_scan_factors) {
+          Eigen::VectorXd x = current.fit.x;
+          x(k) = std::clamp(x(k) * factor, par.lower, par.upper);
+          scan.push_back(x);
+        }
+      }
+      at += static_cast<Eigen::Index>(cand.params.size());
+    }
+    std::vector<Eigen::VectorXd> starts = {current.fit.x};
+    if (!scan.empty()) {
+      report(0.92, "scanning " + std::to_string(scan.size()) + " starts of the refit");
+      std::vector<std::string> scan_stage = {"refit_scan"};
+      for (int c : accepted) scan_stage.push_back(std::to_string(c) + ":" + library[c].label);
+      std::string x_text = "x=";
+      for (Eigen::Index k = 0; k < current.fit.x.size(); ++k) {
+        x_text += ExactNumberText(current.fit.x(k)) + ",";
+      }
+      scan_stage.push_back(x_text);
+      std::vector<ModelParameter> ext_params = subject;
+      for (int c : accepted) ext_params = Join(ext_params, library[c].params);
+      const Json costs = stages.Get(scan_stage, [&] {
+        Json j = Json::Array();
+        for (const auto& x : scan) {
+          double cost = INFINITY;
+          try {
+            cost = StackResiduals(train, Predict(rig, ext_params, x, train, fo)).squaredNorm();
+          } catch (const std::runtime_error&) {
+            // not simulable there: not a start
+          }
+          out.simulations += static_cast<int>(train.trials.size());
+          j.Push(std::isfinite(cost) ? Json(cost) : Json());
+        }
+        return j;
+      });
+      std::size_t lowest = scan.size();
+      double lowest_cost = INFINITY;
+      std::string text =
+          "refit starts scanned: Σr² " + ExactNumberText(current.fit.cost) + " at the fit;";
+      for (std::size_t k = 0; k < scan.size(); ++k) {
+        const Json& v = costs.Items()[k];
+        text += " " + (v.IsNull() ? std::string("-") : ExactNumberText(v.AsNumber()));
+        if (!v.IsNull() && v.AsNumber() < lowest_cost) {
+          lowest = k;
+          lowest_cost = v.AsNumber();
+        }
+      }
+      report(0.92, text);
+      if (lowest < scan.size()) starts.push_back(scan[lowest]);
+    }
+    for (std::size_t s = 0; s < starts.size(); ++s) {
+      for (const double h : steps) {
+        report(0.93, "refitting the extended model at difference step " + ExactNumberText(h));
+        Fitted f = fit_extension(accepted, starts[s], 0, options.refit_iterations, nullptr, 0.0, h);
+        if (f.fit.cost < current.fit.cost) current = std::move(f);
+      }
+      if (s > 0) {  // a scanned start: also at the default step
+        Fitted f = fit_extension(accepted, starts[s], 0, options.refit_iterations);
+        if (f.fit.cost < current.fit.cost) current = std::move(f);
+      }
+    }
   }
 
   // 5. Verdict.
