@@ -25,6 +25,9 @@
 //                   [--only SEED,SEED,…] (run only these datasets of the command, same scales
 //                   and protocols as in the whole run)
 //                   [--oracle ITERATIONS] (single datasets: OracleCheck below; default 0 = off)
+//                   [--identifiable ITERATIONS] (single and clean datasets:
+//                   EffectFromTrueCalibration below, on each dataset's line and in the rates
+//                   table; default 0 = off)
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -69,6 +72,8 @@ struct Case {
   /// Pairs: RMS of measured(both) − measured(the other alone) / noise RMS for each mechanism: its
   /// effect on top of the other (the noise is the same draw and cancels).
   std::vector<double> marginal_effect;
+  /// --identifiable: EffectFromTrueCalibration (NaN: not computed).
+  double identifiable = NAN;
   Diagnosis result;
 };
 
@@ -114,6 +119,37 @@ double EffectAfterCalibration(const Case& c) {
   const double s2 = c.data.noise_rms_rad * c.data.noise_rms_rad;
   if (n == 0 || !(s2 > 0.0)) return NAN;
   return std::sqrt(std::max(0.0, ms / n - s2) / s2);
+}
+
+/// The part of the planted effect that no subject calibration absorbs, over the noise RMS:
+/// √max(0, Σr²/N − σ²)/σ of the baseline (the subject parameters alone) fitted by `iterations`
+/// LM steps from the participant's true values on the diagnosis' training part. A mechanism the
+/// subject parameters can mimic (e.g. a weight-compensation force at the forearm's centre of mass:
+/// statically strength and stiffness × 1/(1 − f)) has a large effect before calibration and a
+/// small one here; unlike EffectAfterCalibration this does not depend on the diagnosis'
+/// calibration converging. Single-mechanism and clean datasets.
+double EffectFromTrueCalibration(const fesim::Scenario& rig, const Case& c,
+                                 const fesim::diagnosis::DiagnoseOptions& options, int iterations) {
+  namespace dg = fesim::diagnosis;
+  const dg::MeasuredData data =
+      dg::PrepareMeasured(rig.model, c.data.trials, options.holdout_fraction);
+  dg::LibraryContext ctx;
+  ctx.outputs = data.outputs;
+  ctx.channels = data.channels;
+  const std::vector<dg::ModelParameter> subject = dg::SubjectParameters(rig.model, ctx);
+  Eigen::VectorXd truth(static_cast<Eigen::Index>(subject.size()));
+  for (std::size_t k = 0; k < subject.size(); ++k) {
+    const std::string& name = subject[k].name;
+    truth(static_cast<Eigen::Index>(k)) = name.rfind("k.", 0) == 0
+                                              ? subject[k].start * c.data.stiffness_scale
+                                          : name == "strength_scale" ? c.data.strength_scale
+                                                                     : 1.0;
+  }
+  const dg::FitResult fit =
+      dg::FitParameters(rig.model, subject, truth, data.train, options.fit, 0, iterations);
+  const double s2 = c.data.noise_rms_rad * c.data.noise_rms_rad;
+  const auto n = static_cast<double>(data.train.Count());
+  return std::sqrt(std::max(0.0, fit.cost / n - s2) / s2);
 }
 
 /// --oracle N: what fits reach from the truth, to tell an identifiability limit (a fit from the
@@ -242,7 +278,7 @@ void OracleCheck(const fesim::Scenario& rig, const Case& c,
 
 int main(int argc, char** argv) {
   int per = 10, clean = 20, pairs = 10, outside = 5, trials = 3, threads = 2, verbose = 0,
-      effects_only = 0, oracle = 0;
+      effects_only = 0, oracle = 0, identifiable = 0;
   double duration = 60.0;
   int baseline_iterations = fesim::diagnosis::DiagnoseOptions().baseline_iterations;
   int max_screened = fesim::diagnosis::DiagnoseOptions().max_screened;
@@ -268,6 +304,9 @@ int main(int argc, char** argv) {
       "  [--max-screened N] [--batches-while-structured 0|1] [--only SEED,SEED,...]\n"
       "  [--lm-tolerance R] [--fd-step H] [--baseline-fd-steps H,...]\n"
       "  [--oracle ITERATIONS] (single datasets: fits of the planted mechanism from the truth)\n"
+      "  [--identifiable ITERATIONS] (single and clean datasets: the effect left after "
+      "calibrating\n"
+      "      the subject from the participant's true values; default 0 = off)\n"
       "  (defaults: the full suite, hours of CPU)\n";
   for (int i = 1; i < argc; ++i) {
     if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
@@ -299,6 +338,8 @@ int main(int argc, char** argv) {
       effects_only = std::atoi(v.c_str());
     else if (k == "--oracle")
       oracle = std::atoi(v.c_str());
+    else if (k == "--identifiable")
+      identifiable = std::atoi(v.c_str());
     else if (k == "--seed")
       first_seed = std::strtoull(v.c_str(), nullptr, 10);
     else if (k == "--duration")
@@ -463,13 +504,18 @@ int main(int argc, char** argv) {
       }
       alone += ")";
     }
+    if (identifiable > 0 && (c.kind == "single" || c.kind == "clean")) {
+      c.identifiable = EffectFromTrueCalibration(case_rig, c, options, identifiable);
+    }
     if (effects_only) {
       std::string planted;
       for (const auto& m : c.spec.mechanisms) planted += (planted.empty() ? "" : "+") + m;
-      std::fprintf(stderr, "%s scale %.1f %s seed %llu effect/noise %.2f%s\n",
+      std::fprintf(stderr,
+                   "%s scale %.1f %s seed %llu effect/noise %.2f%s, from the true "
+                   "calibration %.2f\n",
                    planted.empty() ? "none" : planted.c_str(), c.spec.effect_scale,
                    c.spec.protocol.c_str(), static_cast<unsigned long long>(c.spec.seed),
-                   c.data.effect_rms_rad / c.data.noise_rms_rad, alone.c_str());
+                   c.data.effect_rms_rad / c.data.noise_rms_rad, alone.c_str(), c.identifiable);
       continue;
     }
     const auto tc = std::chrono::steady_clock::now();
@@ -517,15 +563,21 @@ int main(int argc, char** argv) {
     for (const auto& m : c.spec.mechanisms) planted += (planted.empty() ? "" : "+") + m;
     std::string found;
     for (const auto& m : c.result.mechanisms) found += (found.empty() ? "" : "+") + m;
+    std::string ident;
+    if (std::isfinite(c.identifiable)) {
+      char b[64];
+      std::snprintf(b, sizeof b, ", from the true calibration %.2f", c.identifiable);
+      ident = b;
+    }
     std::fprintf(stderr,
                  "[%zu/%zu] %-8s planted %-32s scale %.1f %-5s seed %llu effect/noise %.2f%s -> "
-                 "%s (%s) conf %.2f gain %.3f  %.1f s, after calibration %.2f\n",
+                 "%s (%s) conf %.2f gain %.3f  %.1f s, after calibration %.2f%s\n",
                  i + 1, cases.size(), c.kind.c_str(), planted.empty() ? "none" : planted.c_str(),
                  c.spec.effect_scale, c.spec.protocol.c_str(),
                  static_cast<unsigned long long>(c.spec.seed),
                  c.data.effect_rms_rad / c.data.noise_rms_rad, alone.c_str(),
                  c.result.cause.c_str(), found.c_str(), c.result.confidence, c.result.gain,
-                 c.result.wall_s, EffectAfterCalibration(c));
+                 c.result.wall_s, EffectAfterCalibration(c), ident.c_str());
   }
   const double total_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -608,7 +660,7 @@ int main(int argc, char** argv) {
   md +=
       "## Rates\n\n| planted | datasets | right cause | rate | held-out gain > 0 when right | "
       "parameter rel. error (median, max) | effect RMS / noise RMS | after calibration "
-      "|\n|---|---|---|---|---|---|---|---|\n";
+      "| from the true calibration |\n|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& r : rows) {
     if (!totals[r]) continue;
     auto e = perr[r];
@@ -618,13 +670,17 @@ int main(int argc, char** argv) {
       std::snprintf(buf, sizeof buf, "%.2f, %.2f", e[e.size() / 2], e.back());
       es = buf;
     }
-    double eff_min = 1e9, eff_max = 0, cal_min = 1e9, cal_max = 0;
+    double eff_min = 1e9, eff_max = 0, cal_min = 1e9, cal_max = 0, id_min = 1e9, id_max = -1;
     for (const auto& c : cases) {
       const std::string truth =
           c.kind == "clean" ? "none" : (c.kind == "single" ? c.spec.mechanisms[0] : "");
       if (truth != r) continue;
       cal_min = std::min(cal_min, EffectAfterCalibration(c));
       cal_max = std::max(cal_max, EffectAfterCalibration(c));
+      if (std::isfinite(c.identifiable)) {
+        id_min = std::min(id_min, c.identifiable);
+        id_max = std::max(id_max, c.identifiable);
+      }
       if (r == "none") continue;
       eff_min = std::min(eff_min, c.data.effect_rms_rad / c.data.noise_rms_rad);
       eff_max = std::max(eff_max, c.data.effect_rms_rad / c.data.noise_rms_rad);
@@ -636,9 +692,14 @@ int main(int argc, char** argv) {
     }
     std::snprintf(buf, sizeof buf, "%.2f–%.2f", cal_min, cal_max);
     const std::string cal = buf;
-    std::snprintf(buf, sizeof buf, "| %s | %d | %d | %.0f %% | %d/%d | %s | %s | %s |\n", r.c_str(),
-                  totals[r], correct[r], 100.0 * correct[r] / totals[r], gain_ok[r], correct[r],
-                  es.c_str(), eff.c_str(), cal.c_str());
+    std::string ident = "-";
+    if (id_max >= 0.0) {
+      std::snprintf(buf, sizeof buf, "%.2f–%.2f", id_min, id_max);
+      ident = buf;
+    }
+    std::snprintf(buf, sizeof buf, "| %s | %d | %d | %.0f %% | %d/%d | %s | %s | %s | %s |\n",
+                  r.c_str(), totals[r], correct[r], 100.0 * correct[r] / totals[r], gain_ok[r],
+                  correct[r], es.c_str(), eff.c_str(), cal.c_str(), ident.c_str());
     md += buf;
   }
   std::snprintf(buf, sizeof buf,
