@@ -59,6 +59,17 @@ PlantedSpec ElbowSpec(const std::vector<std::string>& mechanisms, std::uint64_t 
   return spec;
 }
 
+/// A default-suite data set (bench/diagnosis_suite.cc): three 60 s trials on the hand rig.
+PlantedSpec SuiteSpec(const std::string& mechanism, double scale, const std::string& protocol,
+                      std::uint64_t seed) {
+  PlantedSpec spec;
+  spec.mechanisms = {mechanism};
+  spec.effect_scale = scale;
+  spec.protocol = protocol;
+  spec.seed = seed;
+  return spec;
+}
+
 Case DiagnosedOn(const Scenario& rig, const PlantedSpec& spec, DiagnoseOptions o = {}) {
   Case r;
   r.data = MakePlantedDataset(rig, spec);
@@ -164,11 +175,7 @@ TEST(DiagnosePlanted, GridCrosstalkIsFoundInAFurtherBatchWhileTheFirstPassLeaves
   // 4th by score; moment_arm_posture@wrist passes in the first batch but leaves the held-out
   // residual structured. Without batches_while_structured it is the (wrong) name; with it the
   // second batch fits crosstalk, whose held-out gain is larger (docs/diagnosis.md, session 10).
-  PlantedSpec spec;
-  spec.mechanisms = {"crosstalk"};
-  spec.effect_scale = 1.5;
-  spec.protocol = "grid";
-  spec.seed = 1048;
+  const PlantedSpec spec = SuiteSpec("crosstalk", 1.5, "grid", 1048);
   DiagnoseOptions first_pass_only;
   first_pass_only.batches_while_structured = false;
   const Case stop = DiagnosedOn(Rig(), spec, first_pass_only);
@@ -266,12 +273,7 @@ TEST(DiagnosePlanted, StictionStaticExcessIsFoundFromAScannedStartOfTheRefit) {
   // default difference step stopped with F_s − F_c 40 % low (0.0237 N·m for 0.0396) while the
   // Coulomb level was within 10 %. The refit from the scanned static excess × 1.5 (its Σr² 0.8 %
   // above the fit's) ends within 6 % (Candidate::refit_scan_*, docs/diagnosis.md, session 11).
-  PlantedSpec spec;
-  spec.mechanisms = {"stiction"};
-  spec.effect_scale = 1.0;
-  spec.protocol = "grid";
-  spec.seed = 1104;
-  const Case r = DiagnosedOn(Rig(), spec);
+  const Case r = DiagnosedOn(Rig(), SuiteSpec("stiction", 1.0, "grid", 1104));
   ExpectFound(r, "stiction");
   for (const std::string k : {"stiction@wrist_flexion:friction.coulomb_nm",
                               "stiction@wrist_flexion:friction.static_excess_nm"}) {
