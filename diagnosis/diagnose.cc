@@ -328,6 +328,74 @@ class StageCache {
   mutable std::mutex mutex_;
 };
 
+/// Step 4's last refit (diagnose.h): its difference steps (Candidate::refit_fd_steps of the
+/// accepted candidates) and starts — the fit `fit` itself, then the scanned point
+/// (Candidate::refit_scan_*) of lowest training Σr², whatever its Σr² against the fit's. The scan's
+/// costs are a stage of `stages`; `text` (empty without a scan) lists them for the progress report.
+struct RefitPlan {
+  std::set<double> steps;
+  std::vector<Eigen::VectorXd> starts;
+  std::string text;
+};
+RefitPlan PlanRefit(const sim::ModelParams& rig, const std::vector<Candidate>& library,
+                    const std::vector<ModelParameter>& subject, const std::vector<int>& accepted,
+                    const FitResult& fit, const DataView& train, const FitOptions& fo,
+                    const StageCache& stages, int* simulations) {
+  RefitPlan plan;
+  plan.starts = {fit.x};
+  std::vector<Eigen::VectorXd> scan;
+  std::vector<ModelParameter> ext_params = subject;
+  std::vector<std::string> stage = {"refit_scan"};
+  auto at = static_cast<Eigen::Index>(subject.size());
+  for (int c : accepted) {
+    const Candidate& cand = library[c];
+    ext_params = Join(ext_params, cand.params);
+    stage.push_back(std::to_string(c) + ":" + cand.label);
+    plan.steps.insert(cand.refit_fd_steps.begin(), cand.refit_fd_steps.end());
+    if (cand.refit_scan_param >= 0) {
+      const auto k = at + cand.refit_scan_param;
+      const ModelParameter& par = cand.params[static_cast<std::size_t>(cand.refit_scan_param)];
+      for (const double factor : cand.refit_scan_factors) {
+        Eigen::VectorXd x = fit.x;
+        x(k) = std::clamp(x(k) * factor, par.lower, par.upper);
+        scan.push_back(x);
+      }
+    }
+    at += static_cast<Eigen::Index>(cand.params.size());
+  }
+  if (scan.empty()) return plan;
+  std::string x_text = "x=";
+  for (Eigen::Index k = 0; k < fit.x.size(); ++k) x_text += ExactNumberText(fit.x(k)) + ",";
+  stage.push_back(x_text);
+  const Json costs = stages.Get(stage, [&] {
+    Json j = Json::Array();
+    for (const auto& x : scan) {
+      double cost = INFINITY;
+      try {
+        cost = StackResiduals(train, Predict(rig, ext_params, x, train, fo)).squaredNorm();
+      } catch (const std::runtime_error&) {
+        // not simulable there: not a start
+      }
+      *simulations += static_cast<int>(train.trials.size());
+      j.Push(std::isfinite(cost) ? Json(cost) : Json());
+    }
+    return j;
+  });
+  std::size_t lowest = scan.size();
+  double lowest_cost = INFINITY;
+  plan.text = "refit starts scanned: Σr² " + ExactNumberText(fit.cost) + " at the fit;";
+  for (std::size_t k = 0; k < scan.size(); ++k) {
+    const Json& v = costs.Items()[k];
+    plan.text += " " + (v.IsNull() ? std::string("-") : ExactNumberText(v.AsNumber()));
+    if (!v.IsNull() && v.AsNumber() < lowest_cost) {
+      lowest = k;
+      lowest_cost = v.AsNumber();
+    }
+  }
+  if (lowest < scan.size()) plan.starts.push_back(scan[lowest]);
+  return plan;
+}
+
 }  // namespace
 
 Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measured,
@@ -1083,67 +1151,14 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     const bool screened = cause.fitted && cause.lr_p_adjusted < options.alpha;
     first_lr_p = screened ? cause.lr_p_adjusted : accept_p[accepted[0]];
     first_gain = screened ? cause.heldout_gain : accept_gain[accepted[0]];
-    // Step 5's refit at the accepted mechanisms' further difference steps (Candidate::
-    // refit_fd_steps), from the extended model's fit and from the lowest of the scanned starts
-    // (Candidate::refit_scan_*) when that is lower; the lowest Σr² is kept.
-    std::set<double> steps;
-    std::vector<Eigen::VectorXd> scan;
-    Eigen::Index at = ns;
-    for (int c : accepted) {
-      const Candidate& cand = library[c];
-      steps.insert(cand.refit_fd_steps.begin(), cand.refit_fd_steps.end());
-      if (cand.refit_scan_param >= 0) {
-        const auto k = at + cand.refit_scan_param;
-        const ModelParameter& par = cand.params[static_cast<std::size_t>(cand.refit_scan_param)];
-        for (const double factor : cand.refit_scan_factors) {
-          Eigen::VectorXd x = current.fit.x;
-          x(k) = std::clamp(x(k) * factor, par.lower, par.upper);
-          scan.push_back(x);
-        }
-      }
-      at += static_cast<Eigen::Index>(cand.params.size());
-    }
-    std::vector<Eigen::VectorXd> starts = {current.fit.x};
-    if (!scan.empty()) {
-      report(0.92, "scanning " + std::to_string(scan.size()) + " starts of the refit");
-      std::vector<std::string> scan_stage = {"refit_scan"};
-      for (int c : accepted) scan_stage.push_back(std::to_string(c) + ":" + library[c].label);
-      std::string x_text = "x=";
-      for (Eigen::Index k = 0; k < current.fit.x.size(); ++k) {
-        x_text += ExactNumberText(current.fit.x(k)) + ",";
-      }
-      scan_stage.push_back(x_text);
-      std::vector<ModelParameter> ext_params = subject;
-      for (int c : accepted) ext_params = Join(ext_params, library[c].params);
-      const Json costs = stages.Get(scan_stage, [&] {
-        Json j = Json::Array();
-        for (const auto& x : scan) {
-          double cost = INFINITY;
-          try {
-            cost = StackResiduals(train, Predict(rig, ext_params, x, train, fo)).squaredNorm();
-          } catch (const std::runtime_error&) {
-            // not simulable there: not a start
-          }
-          out.simulations += static_cast<int>(train.trials.size());
-          j.Push(std::isfinite(cost) ? Json(cost) : Json());
-        }
-        return j;
-      });
-      std::size_t lowest = scan.size();
-      double lowest_cost = INFINITY;
-      std::string text =
-          "refit starts scanned: Σr² " + ExactNumberText(current.fit.cost) + " at the fit;";
-      for (std::size_t k = 0; k < scan.size(); ++k) {
-        const Json& v = costs.Items()[k];
-        text += " " + (v.IsNull() ? std::string("-") : ExactNumberText(v.AsNumber()));
-        if (!v.IsNull() && v.AsNumber() < lowest_cost) {
-          lowest = k;
-          lowest_cost = v.AsNumber();
-        }
-      }
-      report(0.92, text);
-      if (lowest < scan.size()) starts.push_back(scan[lowest]);
-    }
+    // The last refit (diagnose.h step 4) at the accepted mechanisms' further difference steps
+    // (Candidate::refit_fd_steps), from the extended model's fit and from the lowest of the
+    // scanned starts (Candidate::refit_scan_*); the lowest Σr² is kept.
+    const RefitPlan plan = PlanRefit(rig, library, subject, accepted, current.fit, train, fo,
+                                     stages, &out.simulations);
+    if (!plan.text.empty()) report(0.92, plan.text);
+    const std::vector<Eigen::VectorXd>& starts = plan.starts;
+    const std::set<double>& steps = plan.steps;
     for (std::size_t s = 0; s < starts.size(); ++s) {
       for (const double h : steps) {
         report(0.93, "refitting the extended model at difference step " + ExactNumberText(h));
