@@ -121,6 +121,21 @@ double EffectAfterCalibration(const Case& c) {
   return std::sqrt(std::max(0.0, ms / n - s2) / s2);
 }
 
+/// The participant's true values of the subject parameters (candidates.h SubjectParameters):
+/// joint stiffness × the drawn stiffness scale, the drawn strength scale, input scales 1.
+Eigen::VectorXd TrueSubjectValues(const std::vector<fesim::diagnosis::ModelParameter>& subject,
+                                  const Case& c) {
+  Eigen::VectorXd truth(static_cast<Eigen::Index>(subject.size()));
+  for (std::size_t k = 0; k < subject.size(); ++k) {
+    const std::string& name = subject[k].name;
+    truth(static_cast<Eigen::Index>(k)) = name.rfind("k.", 0) == 0
+                                              ? subject[k].start * c.data.stiffness_scale
+                                          : name == "strength_scale" ? c.data.strength_scale
+                                                                     : 1.0;
+  }
+  return truth;
+}
+
 /// The part of the planted effect that no subject calibration absorbs, over the noise RMS:
 /// √max(0, Σr²/N − σ²)/σ of the baseline (the subject parameters alone) fitted by `iterations`
 /// LM steps from the participant's true values on the diagnosis' training part. A mechanism the
@@ -137,16 +152,8 @@ double EffectFromTrueCalibration(const fesim::Scenario& rig, const Case& c,
   ctx.outputs = data.outputs;
   ctx.channels = data.channels;
   const std::vector<dg::ModelParameter> subject = dg::SubjectParameters(rig.model, ctx);
-  Eigen::VectorXd truth(static_cast<Eigen::Index>(subject.size()));
-  for (std::size_t k = 0; k < subject.size(); ++k) {
-    const std::string& name = subject[k].name;
-    truth(static_cast<Eigen::Index>(k)) = name.rfind("k.", 0) == 0
-                                              ? subject[k].start * c.data.stiffness_scale
-                                          : name == "strength_scale" ? c.data.strength_scale
-                                                                     : 1.0;
-  }
-  const dg::FitResult fit =
-      dg::FitParameters(rig.model, subject, truth, data.train, options.fit, 0, iterations);
+  const dg::FitResult fit = dg::FitParameters(rig.model, subject, TrueSubjectValues(subject, c),
+                                              data.train, options.fit, 0, iterations);
   const double s2 = c.data.noise_rms_rad * c.data.noise_rms_rad;
   const auto n = static_cast<double>(data.train.Count());
   return std::sqrt(std::max(0.0, fit.cost / n - s2) / s2);
@@ -188,13 +195,8 @@ void OracleCheck(const fesim::Scenario& rig, const Case& c,
   params.insert(params.end(), cand->params.begin(), cand->params.end());
   const auto ns = static_cast<Eigen::Index>(subject.size());
   Eigen::VectorXd truth(params.size()), from_diag(params.size());
-  for (Eigen::Index k = 0; k < ns; ++k) {
-    const std::string& name = subject[k].name;
-    truth(k) = name.rfind("k.", 0) == 0   ? subject[k].start * c.data.stiffness_scale
-               : name == "strength_scale" ? c.data.strength_scale
-                                          : 1.0;
-    from_diag(k) = c.result.subject_parameters[k].value;
-  }
+  truth.head(ns) = TrueSubjectValues(subject, c);
+  for (Eigen::Index k = 0; k < ns; ++k) from_diag(k) = c.result.subject_parameters[k].value;
   for (std::size_t p = 0; p < cand->params.size(); ++p) {
     const auto k = ns + static_cast<Eigen::Index>(p);
     truth(k) = from_diag(k) = cand->params[p].start;
@@ -504,18 +506,20 @@ int main(int argc, char** argv) {
       }
       alone += ")";
     }
+    std::string ident;
     if (identifiable > 0 && (c.kind == "single" || c.kind == "clean")) {
       c.identifiable = EffectFromTrueCalibration(case_rig, c, options, identifiable);
+      char b[64];
+      std::snprintf(b, sizeof b, ", from the true calibration %.2f", c.identifiable);
+      ident = b;
     }
     if (effects_only) {
       std::string planted;
       for (const auto& m : c.spec.mechanisms) planted += (planted.empty() ? "" : "+") + m;
-      std::fprintf(stderr,
-                   "%s scale %.1f %s seed %llu effect/noise %.2f%s, from the true "
-                   "calibration %.2f\n",
+      std::fprintf(stderr, "%s scale %.1f %s seed %llu effect/noise %.2f%s%s\n",
                    planted.empty() ? "none" : planted.c_str(), c.spec.effect_scale,
                    c.spec.protocol.c_str(), static_cast<unsigned long long>(c.spec.seed),
-                   c.data.effect_rms_rad / c.data.noise_rms_rad, alone.c_str(), c.identifiable);
+                   c.data.effect_rms_rad / c.data.noise_rms_rad, alone.c_str(), ident.c_str());
       continue;
     }
     const auto tc = std::chrono::steady_clock::now();
@@ -563,12 +567,6 @@ int main(int argc, char** argv) {
     for (const auto& m : c.spec.mechanisms) planted += (planted.empty() ? "" : "+") + m;
     std::string found;
     for (const auto& m : c.result.mechanisms) found += (found.empty() ? "" : "+") + m;
-    std::string ident;
-    if (std::isfinite(c.identifiable)) {
-      char b[64];
-      std::snprintf(b, sizeof b, ", from the true calibration %.2f", c.identifiable);
-      ident = b;
-    }
     std::fprintf(stderr,
                  "[%zu/%zu] %-8s planted %-32s scale %.1f %-5s seed %llu effect/noise %.2f%s -> "
                  "%s (%s) conf %.2f gain %.3f  %.1f s, after calibration %.2f%s\n",

@@ -48,11 +48,14 @@
 //    candidates from the baseline's ranking and, through the cache text, lost the Jacobian it
 //    meant to profile with, so its fits froze the subject parameters and the first mechanism:
 //    run C's and session 5's pair misses, docs/diagnosis.md.)
-//    Last, when an accepted mechanism lists further difference steps (Candidate::
-//    refit_fd_steps: stiction), the extended model is refitted from its fit once per step
-//    (refit_iterations LM steps each) and the lowest Σr² is kept: its parameters, held-out
-//    NRMSE and gain are reported. (Stiction's static excess stalled 22–42 % off on 5 of the 10
-//    default-suite datasets at the default step; docs/diagnosis.md, session 10.)
+//    Last, when an accepted mechanism lists further difference steps or scanned starts
+//    (Candidate::refit_fd_steps, refit_scan_*: stiction), the extended model is refitted
+//    (refit_iterations LM steps each) from its fit at each step, and from the scanned point of
+//    lowest training Σr² (one parameter × each factor) at each step and the default one; the
+//    lowest Σr² of all is kept: its parameters, held-out NRMSE and gain are reported (the names
+//    accepted do not change). (Stiction's static excess stalled 22–42 % off on 5 of the 10
+//    default-suite datasets at the default step; within 8 % on 10/10 with this refit;
+//    docs/diagnosis.md, sessions 10–11.)
 //    During a candidate's own fit (screening) the subject parameters are profiled, not frozen:
 //    re-optimised to first order through their baseline Jacobian J_s (variable projection,
 //    FitParameters' `nuisance`), so the fit minimises ‖(I − P_s) r‖² like the score test; then,
