@@ -165,6 +165,34 @@ std::vector<ModelParameter> SubjectParameters(const sim::ModelParams& rig,
   return out;
 }
 
+std::vector<Eigen::VectorXd> SubjectStarts(const std::vector<ModelParameter>& subject,
+                                           const LibraryContext& ctx) {
+  Eigen::VectorXd nominal(static_cast<Eigen::Index>(subject.size()));
+  for (std::size_t k = 0; k < subject.size(); ++k) {
+    nominal(static_cast<Eigen::Index>(k)) = subject[k].start;
+  }
+  std::vector<Eigen::VectorXd> out = {nominal};
+  bool arm_output = false;
+  for (const auto& o : ctx.outputs)
+    arm_output |= sim::CoordinateIndex(o.substr(2)) <= sim::kElbowFlexion;
+  if (!ctx.reduced_model.empty() || !arm_output) return out;
+  for (const double stiffness : {0.8, 1.25}) {
+    for (const double strength : {0.8, 1.25}) {
+      Eigen::VectorXd x = nominal;
+      for (std::size_t k = 0; k < subject.size(); ++k) {
+        const std::string& name = subject[k].name;
+        const double f = name.rfind("k.", 0) == 0   ? stiffness
+                         : name == "strength_scale" ? strength
+                                                    : 1.0;
+        x(static_cast<Eigen::Index>(k)) =
+            std::clamp(f * subject[k].start, subject[k].lower, subject[k].upper);
+      }
+      out.push_back(x);
+    }
+  }
+  return out;
+}
+
 std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const LibraryContext& ctx) {
   std::vector<Candidate> out;
   const std::vector<std::string>& reducible = ReducedModelMechanisms();
@@ -416,6 +444,12 @@ std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const Libra
       // (Probes after the parameters: each is a full vector over them.)
       c.probes = {ProbeAt(c.params, 0, cuff.force_n + 0.02 * weight)};
       c.one_sided = {cuff.force_n == 0.0};  // no support: only a lifting force can appear
+      // Profile starts over the force (10, 30, 50 % of the forearm's weight on top of the rig's):
+      // the force's Σr² valley runs through the strength–stiffness trade-off, which a fit from
+      // the calibration (where F_w = 0 was absorbed) does not follow (session 12).
+      for (const double f : {0.1, 0.3, 0.5}) {
+        c.profile_starts.push_back(ProbeAt(c.params, 0, cuff.force_n + f * weight));
+      }
       if (c.params.size() > 1) {
         c.probes.push_back(ProbeAt(c.params, 1, 1.2));
         c.one_sided.push_back(false);

@@ -74,6 +74,16 @@ struct Candidate {
   /// step), whose Σr² has steps a local fit does not see across.
   int refit_scan_param = -1;
   std::vector<double> refit_scan_factors;
+  /// Profile starts of the screening (full vectors over `params`; empty: none). With the
+  /// candidate held at each, the subject parameters are fitted (baseline_iterations LM steps)
+  /// from every subject start (SubjectStarts) and from the calibration; everything is then fitted
+  /// together (screen_iterations LM steps) from the lowest of those, and the screening keeps that
+  /// fit when its Σr² is below the profiled screening's (diagnose.h step 4). For a mechanism the
+  /// subject parameters mimic along a curved, multimodal valley that the profiled fit's
+  /// linearisation at the calibration does not follow (arm_support: a lifting force f · W at the
+  /// forearm's centre of mass is statically strength and stiffness × 1/(1 − f);
+  /// docs/diagnosis.md, session 12).
+  std::vector<Eigen::VectorXd> profile_starts;
   bool applicable = true;
   std::string not_applicable_reason;
 };
@@ -99,6 +109,17 @@ std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const Libra
 /// [0.3, 3]). A reduced model has no joints or muscles: u_scale.<channel> only.
 std::vector<ModelParameter> SubjectParameters(const sim::ModelParams& rig,
                                               const LibraryContext& ctx);
+
+/// Starts of the subject calibration (full vectors over `subject`, SubjectParameters' order):
+/// the nominal values first; when an output is the elbow or a shoulder coordinate (the forearm's
+/// weight acts on it) also the four corners k.* × {0.8, 1.25}, strength_scale × {0.8, 1.25} (all
+/// joints' stiffness together; input scales 1) — the range of the planted suite's participants
+/// (planted.h). There the weight trades off against strength and stiffness (statically
+/// f · W ≡ both × 1/(1 − f)), and Σr² over them has several valleys: on default elbow-rig
+/// datasets the calibration from the nominal values stopped at 3–20 × the Σr² reached from a
+/// corner (docs/diagnosis.md, session 12). On the hand rig the nominal start alone.
+std::vector<Eigen::VectorXd> SubjectStarts(const std::vector<ModelParameter>& subject,
+                                           const LibraryContext& ctx);
 
 /// Nominal torque scale of a joint, T_j = max(k_j, 0.05) · 1 rad, N·m.
 double JointTorqueScale(const sim::ModelParams& rig, int coordinate);

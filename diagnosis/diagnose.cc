@@ -396,6 +396,60 @@ RefitPlan PlanRefit(const sim::ModelParams& rig, const std::vector<Candidate>& l
   return plan;
 }
 
+/// The start of a candidate's fit from its profile starts (Candidate::profile_starts, diagnose.h
+/// step 4): with the candidate held at each, the subject parameters fitted `iterations` LM steps
+/// from each of `subject_starts` (side by side on fo.threads threads); the lowest Σr² as subject ⊕
+/// candidate values (empty when none simulates). A stage of `stages`; its simulations are added
+/// to *simulations.
+Eigen::VectorXd LowestProfileStart(const sim::ModelParams& rig,
+                                   const std::vector<ModelParameter>& subject,
+                                   const std::vector<Eigen::VectorXd>& subject_starts,
+                                   const Candidate& cand, int index, const DataView& train,
+                                   const FitOptions& fo, int iterations, const StageCache& stages,
+                                   int* simulations) {
+  const auto nc = static_cast<Eigen::Index>(cand.params.size());
+  const std::vector<ModelParameter> held_first = Join(cand.params, subject);
+  std::vector<std::string> stage = {"profile_start", std::to_string(index) + ":" + cand.label,
+                                    "iterations=" + std::to_string(iterations)};
+  for (const auto& x : subject_starts) {
+    std::string text = "x=";
+    for (Eigen::Index k = 0; k < x.size(); ++k) text += ExactNumberText(x(k)) + ",";
+    stage.push_back(text);
+  }
+  const Json j = stages.Get(stage, [&] {
+    const std::size_t n_starts = subject_starts.size();
+    std::vector<FitResult> fits(n_starts * cand.profile_starts.size());
+    std::vector<char> ok(fits.size(), 0);
+    ParallelFor(fits.size(), fo.threads, [&](std::size_t k) {
+      Eigen::VectorXd x0(nc + static_cast<Eigen::Index>(subject.size()));
+      x0 << cand.profile_starts[k / n_starts], subject_starts[k % n_starts];
+      try {
+        fits[k] = FitParameters(rig, held_first, x0, train, fo, static_cast<int>(nc), iterations);
+        ok[k] = 1;
+      } catch (const std::runtime_error&) {
+        // not simulable with the candidate there: not a start
+      }
+    });
+    Eigen::VectorXd best;
+    double best_cost = INFINITY;
+    int n_sims = 0;
+    for (std::size_t k = 0; k < fits.size(); ++k) {
+      if (!ok[k]) continue;
+      n_sims += fits[k].simulations;
+      if (fits[k].cost < best_cost) {
+        best_cost = fits[k].cost;
+        best = Concat(fits[k].x.tail(fits[k].x.size() - nc), fits[k].x.head(nc));
+      }
+    }
+    Json r = Json::Object();
+    r.Set("x", best.size() ? VectorJson(best) : Json()).Set("simulations", n_sims);
+    return r;
+  });
+  *simulations += static_cast<int>(Member(j, "simulations").AsNumber());
+  const Json& x = Member(j, "x");
+  return x.IsNull() ? Eigen::VectorXd() : VectorFromJson(x);
+}
+
 }  // namespace
 
 Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measured,
@@ -444,39 +498,41 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   // 2. Baseline calibration of the subject parameters.
   report(0.0, "calibrating subject parameters");
   const std::vector<ModelParameter> subject = SubjectParameters(rig, ctx);
-  Eigen::VectorXd xs0(subject.size());
-  for (std::size_t k = 0; k < subject.size(); ++k) xs0(k) = subject[k].start;
+  const std::vector<Eigen::VectorXd> subject_starts = SubjectStarts(subject, ctx);
   const StageCache stages(options, &out.cached_results);
-  const Json base_stage = stages.Get({"baseline"}, [&] {
-    // One calibration per difference step, side by side (each with its simulations on
-    // fit.threads threads again); the lowest Σr² is kept. A coarse step steps over the small
-    // bumps of Σr² on the elbow rig, where the fine one stalls (docs/diagnosis.md, session 10).
-    const std::vector<double>& steps = options.baseline_fd_steps;
-    std::size_t kept = 0;
-    const FitResult f = FitOverDifferenceSteps(rig, subject, xs0, train, fo, steps,
-                                               options.baseline_iterations, nullptr, &kept);
-    out.simulations += f.simulations;
-    // The training predictions at the fitted point were simulated by the fit.
-    std::vector<Trial> train_pred = f.predictions;
-    if (train_pred.size() != train.trials.size()) {
-      train_pred = Predict(rig, subject, f.x, train, fo);
-      out.simulations += static_cast<int>(train.trials.size());
-    }
-    const std::vector<Trial> held_pred = Predict(rig, subject, f.x, held, fo);
-    out.simulations += static_cast<int>(held.trials.size());
-    // The score tests and the profiled fits take the Jacobian at the fits' own step.
-    const bool own_step = steps[kept] <= 0.0 || steps[kept] == fo.fd_step;
-    Eigen::MatrixXd jacobian = own_step ? f.jacobian : Eigen::MatrixXd();
-    const Eigen::VectorXd r = StackResiduals(train, train_pred);
-    if (jacobian.rows() != r.size()) {
-      jacobian = ResidualJacobian(rig, subject, f.x, r, train, fo, &out.simulations);
-    }
-    Json j = Json::Object();
-    j.Set("fit", FitJson(f)).Set("jacobian", MatrixJson(jacobian));
-    j.Set("train_predictions", TrialsToJson(train_pred));
-    j.Set("heldout_predictions", TrialsToJson(held_pred));
-    return j;
-  });
+  const Json base_stage =
+      stages.Get({"baseline", "starts=" + std::to_string(subject_starts.size())}, [&] {
+        // One calibration per start and difference step, side by side (each with its simulations on
+        // fit.threads threads again); the lowest Σr² is kept. A coarse step steps over the small
+        // bumps of Σr² on the elbow rig, where the fine one stalls (docs/diagnosis.md, session 10);
+        // the starts reach its other valleys (SubjectStarts; session 12).
+        const std::vector<double>& steps = options.baseline_fd_steps;
+        std::size_t kept = 0;
+        const FitResult f = FitOverStarts(rig, subject, subject_starts, train, fo, steps,
+                                          options.baseline_iterations, nullptr, &kept);
+        out.simulations += f.simulations;
+        // The training predictions at the fitted point were simulated by the fit.
+        std::vector<Trial> train_pred = f.predictions;
+        if (train_pred.size() != train.trials.size()) {
+          train_pred = Predict(rig, subject, f.x, train, fo);
+          out.simulations += static_cast<int>(train.trials.size());
+        }
+        const std::vector<Trial> held_pred = Predict(rig, subject, f.x, held, fo);
+        out.simulations += static_cast<int>(held.trials.size());
+        // The score tests and the profiled fits take the Jacobian at the fits' own step.
+        const double step = steps[kept % steps.size()];
+        const bool own_step = step <= 0.0 || step == fo.fd_step;
+        Eigen::MatrixXd jacobian = own_step ? f.jacobian : Eigen::MatrixXd();
+        const Eigen::VectorXd r = StackResiduals(train, train_pred);
+        if (jacobian.rows() != r.size()) {
+          jacobian = ResidualJacobian(rig, subject, f.x, r, train, fo, &out.simulations);
+        }
+        Json j = Json::Object();
+        j.Set("fit", FitJson(f)).Set("jacobian", MatrixJson(jacobian));
+        j.Set("train_predictions", TrialsToJson(train_pred));
+        j.Set("heldout_predictions", TrialsToJson(held_pred));
+        return j;
+      });
   const FitResult base_fit = FitFromJson(Member(base_stage, "fit"));
   for (std::size_t k = 0; k < subject.size(); ++k) {
     out.subject_parameters.push_back(
@@ -845,11 +901,27 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     return texts;
   };
   std::vector<int> batch;
+  // Profile starts (Candidate::profile_starts) from the subject starts and the calibration.
+  std::vector<Eigen::VectorXd> profile_subject_starts = subject_starts;
+  profile_subject_starts.push_back(base_fit.x);
   const std::function<std::string(std::size_t)> screen_item = [&](std::size_t k) {
     int sims = 0;
+    const int c = batch[k];
+    Json stage =
+        extension_stage({c}, screen_start(c), ns, options.screen_iterations, &Js, rss0, &sims);
+    if (!library[c].profile_starts.empty()) {
+      const Eigen::VectorXd x =
+          LowestProfileStart(rig, subject, profile_subject_starts, library[c], c, train, fo,
+                             options.baseline_iterations, stages, &sims);
+      if (x.size()) {
+        Json alt = extension_stage({c}, x, 0, options.screen_iterations, nullptr, 0.0, &sims);
+        if (FitFromJson(Member(alt, "fit")).cost < FitFromJson(Member(stage, "fit")).cost) {
+          stage = std::move(alt);
+        }
+      }
+    }
     Json j = Json::Object();
-    j.Set("stage", extension_stage({batch[k]}, screen_start(batch[k]), ns,
-                                   options.screen_iterations, &Js, rss0, &sims));
+    j.Set("stage", stage);
     j.Set("simulations", sims);
     return j.Dump(0);
   };

@@ -8,7 +8,9 @@
 //    segments — the first (1 − holdout_fraction) of the record trains, the rest is held out, so
 //    time-dependent effects are judged later in time than the fit.
 // 2. Baseline. The subject parameters (candidates.h: joint stiffness k_j, per-channel input
-//    scale) are fitted by bounded LM on the training part (extended_model.h).
+//    scale) are fitted by bounded LM on the training part (extended_model.h), from each of
+//    SubjectStarts (the nominal values; on an elbow / shoulder output also the strength–stiffness
+//    corners, where the forearm's weight makes Σr² multimodal), the lowest Σr² kept.
 // 3. Signatures. For every candidate the residual signature is a score (Lagrange multiplier)
 //    test of "mechanism off": with r the training residual, D the change of the residual along
 //    the candidate's probe directions and D̃ = (I − J_s (J_sᵀJ_s)⁻¹ J_sᵀ) D its part that the
@@ -56,6 +58,10 @@
 //    accepted do not change). (Stiction's static excess stalled 22–42 % off on 5 of the 10
 //    default-suite datasets at the default step; within 8 % on 10/10 with this refit;
 //    docs/diagnosis.md, sessions 10–11.)
+//    A candidate with profile starts (Candidate::profile_starts: arm_support's force at 10, 30,
+//    50 % of the forearm weight) is also fitted from the lowest of the subject fits with it held
+//    there (from every subject start and the calibration), all parameters free; the screening
+//    keeps the lower Σr² of that and the profiled fit (session 12: arm_support 0/10 → 9/10).
 //    During a candidate's own fit (screening) the subject parameters are profiled, not frozen:
 //    re-optimised to first order through their baseline Jacobian J_s (variable projection,
 //    FitParameters' `nuisance`), so the fit minimises ‖(I − P_s) r‖² like the score test; then,

@@ -348,22 +348,21 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   return out;
 }
 
-FitResult FitOverDifferenceSteps(const sim::ModelParams& base,
-                                 const std::vector<ModelParameter>& params,
-                                 const Eigen::VectorXd& x0, const DataView& view,
-                                 const FitOptions& options, const std::vector<double>& fd_steps,
-                                 int max_iterations, std::vector<double>* costs,
-                                 std::size_t* kept) {
+FitResult FitOverStarts(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
+                        const std::vector<Eigen::VectorXd>& starts, const DataView& view,
+                        const FitOptions& options, const std::vector<double>& fd_steps,
+                        int max_iterations, std::vector<double>* costs, std::size_t* kept) {
   if (fd_steps.empty() || std::any_of(fd_steps.begin(), fd_steps.end(),
                                       [](double h) { return !(h >= 0.0 && h < 1.0); })) {
-    throw std::invalid_argument(
-        "FitOverDifferenceSteps: fd_steps must be non-empty, each in [0, 1)");
+    throw std::invalid_argument("FitOverStarts: fd_steps must be non-empty, each in [0, 1)");
   }
-  std::vector<FitResult> fits(fd_steps.size());
-  ParallelFor(fd_steps.size(), options.threads, [&](std::size_t k) {
+  if (starts.empty()) throw std::invalid_argument("FitOverStarts: no start");
+  const std::size_t n_steps = fd_steps.size();
+  std::vector<FitResult> fits(starts.size() * n_steps);
+  ParallelFor(fits.size(), options.threads, [&](std::size_t k) {
     FitOptions o = options;
-    if (fd_steps[k] > 0.0) o.fd_step = fd_steps[k];
-    fits[k] = FitParameters(base, params, x0, view, o, 0, max_iterations);
+    if (fd_steps[k % n_steps] > 0.0) o.fd_step = fd_steps[k % n_steps];
+    fits[k] = FitParameters(base, params, starts[k / n_steps], view, o, 0, max_iterations);
   });
   std::size_t best = 0;
   int simulations = 0;
@@ -377,6 +376,15 @@ FitResult FitOverDifferenceSteps(const sim::ModelParams& base,
   FitResult out = std::move(fits[best]);
   out.simulations = simulations;
   return out;
+}
+
+FitResult FitOverDifferenceSteps(const sim::ModelParams& base,
+                                 const std::vector<ModelParameter>& params,
+                                 const Eigen::VectorXd& x0, const DataView& view,
+                                 const FitOptions& options, const std::vector<double>& fd_steps,
+                                 int max_iterations, std::vector<double>* costs,
+                                 std::size_t* kept) {
+  return FitOverStarts(base, params, {x0}, view, options, fd_steps, max_iterations, costs, kept);
 }
 
 std::string CollapsedParameter(const std::vector<ModelParameter>& params, const Eigen::VectorXd& x,

@@ -161,13 +161,22 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
                         int first_free = 0, int max_iterations = 0,
                         const Eigen::MatrixXd* nuisance = nullptr, const FitStart* start = nullptr);
 
-/// FitParameters of all `params` from x0 once per difference step in `fd_steps` (0:
-/// options.fd_step; each in [0, 1), non-empty), side by side on options.threads threads (each
-/// fit's simulations on options.threads threads again): the fit with the lowest cost (the first
-/// of equal ones); `costs` (optional) receives every fit's cost, in the order of fd_steps, and
-/// `kept` the index of the one returned. Its simulations count all the fits'. Several steps make a
-/// calibration that a local bump of Σr² stops at one step scale go on at another (the elbow
-/// rig's subject calibration, docs/diagnosis.md).
+/// FitParameters of all `params` from every start in `starts` (non-empty) once per difference
+/// step in `fd_steps` (0: options.fd_step; each in [0, 1), non-empty), side by side on
+/// options.threads threads (each fit's simulations on options.threads threads again): the fit
+/// with the lowest cost (the first of equal ones); `costs` (optional) receives every fit's cost
+/// and `kept` the index of the one returned, both in the order start-major (fit s · |fd_steps| +
+/// h: start s, step h). Its simulations count all the fits'. Several steps make a calibration that
+/// a local bump of Σr² stops at one step scale go on at another; several starts reach valleys a
+/// local fit from one start does not (the elbow rig's subject calibration, docs/diagnosis.md,
+/// sessions 10 and 12).
+FitResult FitOverStarts(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
+                        const std::vector<Eigen::VectorXd>& starts, const DataView& view,
+                        const FitOptions& options, const std::vector<double>& fd_steps,
+                        int max_iterations, std::vector<double>* costs = nullptr,
+                        std::size_t* kept = nullptr);
+
+/// FitOverStarts from x0 alone.
 FitResult FitOverDifferenceSteps(const sim::ModelParams& base,
                                  const std::vector<ModelParameter>& params,
                                  const Eigen::VectorXd& x0, const DataView& view,

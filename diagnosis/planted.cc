@@ -162,7 +162,7 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
       }
     } else if (id == "arm_support") {
       SetViaLibrary(id, "support.weight_compensation_n",
-                    ForearmSupportCuff(truth).force_n + 0.05 * s * ForearmWeightN(truth), ctx,
+                    ForearmSupportCuff(truth).force_n + 0.25 * s * ForearmWeightN(truth), ctx,
                     &truth, &out.planted);
     } else if (id == "outside") {
       wander_rad = 1.5 * s * kPi / 180.0;

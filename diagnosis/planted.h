@@ -30,7 +30,11 @@
 //   sensor_drift   0.0005 s rad/s on every angle channel
 //   arm_support    (rigs with an elbow / shoulder output, e.g. scenarios/elbow_support_rig.yaml
 //                  with channels bic, tri) the forearm weight-compensation force raised by
-//                  0.05 s × the forearm weight (candidates.h; u_max 180 µs there)
+//                  0.25 s × the forearm weight (candidates.h; u_max 240 µs in the suite). At
+//                  0.05 s the effect left after fitting the subject parameters from the
+//                  participant's true values was below the noise on 9 of the 10 default datasets
+//                  (a lifting force is statically a stronger, stiffer subject); at 0.25 s it is
+//                  1.2–4.8 × noise (docs/diagnosis.md, sessions 11–12)
 //   outside        (not in the library) a 0.1 Hz sinusoidal baseline wander of 1.5° s on every
 //                  angle channel (a breathing / strap-movement artefact)
 #pragma once

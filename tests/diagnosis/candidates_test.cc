@@ -134,6 +134,36 @@ TEST(Candidates, StictionExcessIsAddedToTheCoulombLevelAndJointTorquesScaleWithS
                                           "strength_scale", "u_scale.ext", "u_scale.flex"}));
 }
 
+TEST(Candidates, SubjectStartsAreTheNominalValuesAndOnAnElbowOutputTheStrengthStiffnessCorners) {
+  const sim::ModelParams rig = sim::DefaultModelParams();
+  const auto hand = SubjectParameters(rig, HandContext());
+  const auto hand_starts = SubjectStarts(hand, HandContext());
+  ASSERT_EQ(hand_starts.size(), 1u);
+  for (std::size_t k = 0; k < hand.size(); ++k) EXPECT_EQ(hand_starts[0](k), hand[k].start);
+  LibraryContext elbow;
+  elbow.outputs = {"q.elbow_flexion"};
+  elbow.channels = {"bic", "tri"};
+  elbow.tremor_frequency_hz = {6.0};
+  const auto subject = SubjectParameters(rig, elbow);
+  ASSERT_EQ(subject.size(), 4u);  // k.elbow_flexion, strength_scale, u_scale.bic, u_scale.tri
+  const auto starts = SubjectStarts(subject, elbow);
+  ASSERT_EQ(starts.size(), 5u);
+  std::set<std::pair<double, double>> corners;
+  for (std::size_t s = 1; s < starts.size(); ++s) {
+    corners.insert({starts[s](0) / subject[0].start, starts[s](1)});
+    EXPECT_EQ(starts[s](2), 1.0);
+    EXPECT_EQ(starts[s](3), 1.0);
+  }
+  EXPECT_EQ(corners, (std::set<std::pair<double, double>>{
+                         {0.8, 0.8}, {0.8, 1.25}, {1.25, 0.8}, {1.25, 1.25}}));
+  // arm_support's profile starts: 10, 30, 50 % of the forearm weight.
+  for (const auto& c : CandidateLibrary(rig, elbow)) {
+    if (c.id != "arm_support") continue;
+    ASSERT_EQ(c.profile_starts.size(), 3u);
+    EXPECT_NEAR(c.profile_starts[1](0), 0.3 * ForearmWeightN(rig), 1e-12);
+  }
+}
+
 TEST(Candidates, ArmSupportLiftsTheForearmByItsStaticTorqueOnTheElbowRig) {
   // Elbow free, everything else held, no stimulation: at equilibrium k (q_rest − q) equals the
   // gravity torque of the forearm and hand minus the support torque F_w · r_⊥ (the cuff at the

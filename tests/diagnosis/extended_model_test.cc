@@ -165,6 +165,35 @@ TEST(ExtendedModel, FitOverDifferenceStepsKeepsTheLowestCostOfTheFitsAtEachStep)
                std::invalid_argument);
 }
 
+TEST(ExtendedModel, FitOverStartsKeepsTheLowestCostOfTheFitsFromEachStartAndStep) {
+  // One LM step from a stiffness 40 % low and from one 5 % high, at two difference steps: the
+  // result is exactly the single fit of lowest cost (start-major index), with all simulations.
+  const StiffWristCase w = StiffWrist();
+  const std::vector<ModelParameter> params = {Stiffness(w.k_nominal)};
+  const std::vector<Eigen::VectorXd> starts = {Eigen::VectorXd::Constant(1, 0.6 * w.k_nominal),
+                                               Eigen::VectorXd::Constant(1, 1.05 * w.k_nominal)};
+  const std::vector<double> steps = {0.0, 0.3};
+  std::vector<double> costs;
+  std::size_t kept = 9;
+  const FitResult best =
+      FitOverStarts(w.rig, params, starts, w.view, w.options, steps, 1, &costs, &kept);
+  ASSERT_EQ(costs.size(), 4u);
+  int simulations = 0;
+  for (std::size_t k = 0; k < 4; ++k) {
+    FitOptions o = w.options;
+    if (steps[k % 2] > 0.0) o.fd_step = steps[k % 2];
+    const FitResult f = FitParameters(w.rig, params, starts[k / 2], w.view, o, 0, 1);
+    EXPECT_EQ(costs[k], f.cost) << k;
+    simulations += f.simulations;
+  }
+  EXPECT_EQ(best.cost, *std::min_element(costs.begin(), costs.end()));
+  EXPECT_EQ(best.cost, costs[kept]);
+  EXPECT_GE(kept, 2u);  // one step from 5 % high ends lower than one from 40 % low
+  EXPECT_EQ(best.simulations, simulations);
+  EXPECT_THROW(FitOverStarts(w.rig, params, {}, w.view, w.options, steps, 1),
+               std::invalid_argument);
+}
+
 TEST(ExtendedModel, AFitFromAKnownStartIsTheFitThatSimulatesIt) {
   // A fit continued from where another ended, given that fit's end residual, Jacobian and
   // predictions (FitStart), returns the same numbers and skips the 1 + p start simulations.
