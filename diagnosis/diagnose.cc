@@ -199,6 +199,27 @@ bool DriftOnly(const Candidate& c) {
   });
 }
 
+/// Largest structured variance share (StructuredVarianceFraction) of the held-out residual
+/// y − ŷ over the outputs; per output (appended in the order of `outputs`) when per_output is
+/// given. NaN gaps of the held-out data are masked.
+double HeldoutStructure(const DataView& held, const std::vector<std::string>& outputs,
+                        const std::vector<Trial>& pred, std::vector<double>* per_output) {
+  double worst = 0.0;
+  for (const auto& o : outputs) {
+    double s_out = 0.0;
+    for (std::size_t t = 0; t < held.trials.size(); ++t) {
+      const auto& y = held.trials[t].Column(o);
+      const auto& yh = pred[t].Column(o);
+      std::vector<double> r(y.size());
+      for (std::size_t i = 0; i < y.size(); ++i) r[i] = y[i] - yh[i];
+      s_out = std::max(s_out, StructuredVarianceFraction(Masked(held, t, o, r)));
+    }
+    if (per_output) per_output->push_back(s_out);
+    worst = std::max(worst, s_out);
+  }
+  return worst;
+}
+
 /// What the probe simulations of the score tests need.
 struct ProbeContext {
   const sim::ModelParams& rig;
@@ -929,23 +950,8 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
     return cr.fitted && cr.collapsed.empty() && cr.lr_p_adjusted < options.alpha &&
            cr.heldout_gain > options.min_heldout_gain;
   };
-  // Largest structured variance share of the held-out residual over the outputs (and per output,
-  // when per_output is given).
-  auto structure_of = [&](const std::vector<Trial>& pred, std::vector<double>* per_output) {
-    double worst = 0.0;
-    for (const auto& o : ctx.outputs) {
-      double s_out = 0.0;
-      for (std::size_t t = 0; t < held.trials.size(); ++t) {
-        const auto& y = held.trials[t].Column(o);
-        const auto& yh = pred[t].Column(o);
-        std::vector<double> r(y.size());
-        for (std::size_t i = 0; i < y.size(); ++i) r[i] = y[i] - yh[i];
-        s_out = std::max(s_out, StructuredVarianceFraction(Masked(held, t, o, r)));
-      }
-      if (per_output) per_output->push_back(s_out);
-      worst = std::max(worst, s_out);
-    }
-    return worst;
+  const auto structure_of = [&](const std::vector<Trial>& pred, std::vector<double>* per_output) {
+    return HeldoutStructure(held, ctx.outputs, pred, per_output);
   };
   std::vector<Fitted> round1;
   int best = -1;
