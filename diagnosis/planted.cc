@@ -217,4 +217,22 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
   return out;
 }
 
+std::vector<std::string> PlantedProtocols(const std::string& id) {
+  if (id == "spasticity") return {"steps"};
+  return {"steps", "grid"};
+}
+
+PlantedDataset MakePlantedDatasetAtLeast(const Scenario& rig, PlantedSpec* spec, double min_ratio,
+                                         double max_scale, int max_regenerations) {
+  PlantedDataset data = MakePlantedDataset(rig, *spec);
+  for (int k = 0; k < max_regenerations && min_ratio > 0.0; ++k) {
+    const double ratio = data.effect_rms_rad / data.noise_rms_rad;
+    if (ratio >= min_ratio || spec->effect_scale >= max_scale) break;
+    const double grow = ratio > 0.0 ? 1.05 * min_ratio / ratio : 2.0;
+    spec->effect_scale = std::min(max_scale, spec->effect_scale * grow);
+    data = MakePlantedDataset(rig, *spec);
+  }
+  return data;
+}
+
 }  // namespace fesim::diagnosis

@@ -71,4 +71,21 @@ struct PlantedDataset {
 /// stimulation is replaced by the protocol). Throws std::invalid_argument on an unknown id.
 PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec);
 
+/// The protocols on which mechanism `id`'s planted effect can reach the noise RMS: "steps" and
+/// "grid", except spasticity — "steps" only (on the grid the wrist exceeds the 0.5 rad/s reflex
+/// threshold in 1–2 % of the samples and the effect stays at 0.2–0.25 × noise whatever the gain,
+/// docs/diagnosis.md session 10).
+std::vector<std::string> PlantedProtocols(const std::string& id);
+
+/// MakePlantedDataset with spec->effect_scale raised until the effect RMS is at least
+/// `min_ratio` × the noise RMS (the floor "effect RMS equals noise RMS" at 1): while
+/// below, s ← s · 1.05 · min_ratio / ratio (the effect grows about linearly with s for small
+/// effects) and the data set is simulated again with the same seed — the same participant,
+/// protocol and noise — at most `max_regenerations` times and never above `max_scale`. A data
+/// set at or above the floor is returned as generated. On return spec->effect_scale is the
+/// returned data set's scale; the caller checks its ratio (a mechanism whose effect saturates
+/// can stay below). min_ratio ≤ 0: MakePlantedDataset.
+PlantedDataset MakePlantedDatasetAtLeast(const Scenario& rig, PlantedSpec* spec, double min_ratio,
+                                         double max_scale = 8.0, int max_regenerations = 5);
+
 }  // namespace fesim::diagnosis

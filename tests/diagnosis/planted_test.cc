@@ -67,5 +67,39 @@ TEST(Planted, PostureAndVelocityEffectsAtScaleOneReachTheNoiseOnBothProtocols) {
   }
 }
 
+TEST(Planted, AnEffectBelowTheFloorIsRaisedToItWithTheSameParticipantAndProtocol) {
+  const Scenario rig = Rig();
+  PlantedSpec spec;
+  spec.mechanisms = {"delay"};
+  spec.trials = 1;
+  spec.duration_s = 20.0;
+  spec.seed = 7;
+  spec.effect_scale = 0.2;  // δ = 14 ms: well below the 1° noise
+  const PlantedDataset low = MakePlantedDataset(rig, spec);
+  ASSERT_LT(low.effect_rms_rad, 0.8 * low.noise_rms_rad);
+  PlantedSpec raised = spec;
+  const PlantedDataset d = MakePlantedDatasetAtLeast(rig, &raised, 1.0);
+  EXPECT_GE(d.effect_rms_rad, d.noise_rms_rad);
+  EXPECT_LT(d.effect_rms_rad, 1.6 * d.noise_rms_rad);  // raised to the floor, not far past it
+  EXPECT_GT(raised.effect_scale, spec.effect_scale);
+  ASSERT_EQ(d.planted.size(), 1u);
+  EXPECT_NEAR(d.planted[0].value, 0.07 * raised.effect_scale, 1e-12);  // the spec's scale
+  EXPECT_EQ(d.stiffness_scale, low.stiffness_scale);
+  EXPECT_EQ(d.strength_scale, low.strength_scale);
+  EXPECT_EQ(d.trials[0].Column("u.ext"), low.trials[0].Column("u.ext"));
+  // At or above the floor: returned as generated.
+  PlantedSpec again = raised;
+  const PlantedDataset same = MakePlantedDatasetAtLeast(rig, &again, 1.0);
+  EXPECT_EQ(again.effect_scale, raised.effect_scale);
+  EXPECT_EQ(same.effect_rms_rad, d.effect_rms_rad);
+  // Capped: never above max_scale, even when the floor is not reached.
+  PlantedSpec capped = spec;
+  const PlantedDataset c = MakePlantedDatasetAtLeast(rig, &capped, 1.0, 0.3);
+  EXPECT_EQ(capped.effect_scale, 0.3);
+  EXPECT_LT(c.effect_rms_rad, c.noise_rms_rad);
+  EXPECT_EQ(PlantedProtocols("spasticity"), std::vector<std::string>{"steps"});
+  EXPECT_EQ(PlantedProtocols("delay"), (std::vector<std::string>{"steps", "grid"}));
+}
+
 }  // namespace
 }  // namespace fesim::diagnosis
