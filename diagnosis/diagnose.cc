@@ -419,47 +419,93 @@ RefitPlan PlanRefit(const sim::ModelParams& rig, const std::vector<Candidate>& l
 
 /// The start of a candidate's fit from its profile starts (Candidate::profile_starts, diagnose.h
 /// step 4): with the candidate held at each, the subject parameters fitted `iterations` LM steps
-/// from each of `subject_starts` (side by side on fo.threads threads); the lowest Σr² as subject ⊕
-/// candidate values (empty when none simulates). A stage of `stages`; its simulations are added
-/// to *simulations.
+/// from each of `subject_starts` (side by side on fo.threads threads). When the profile starts
+/// differ in one parameter and the lowest Σr² is at an inner one, the profile is refined twice at
+/// the vertex of the parabola through the lowest and its neighbours (ParabolaVertex; held fits
+/// from those three points' subject values): steps of 10 % of the forearm weight left seed 1095
+/// 20 % off the planted force where the all-free fit stopped (docs/diagnosis.md, session 13).
+/// Returns the lowest Σr² as subject ⊕ candidate values (empty when none simulates). A stage of
+/// `stages`; its simulations are added to *simulations.
 Eigen::VectorXd LowestProfileStart(const sim::ModelParams& rig,
                                    const std::vector<ModelParameter>& subject,
                                    const std::vector<Eigen::VectorXd>& subject_starts,
                                    const Candidate& cand, int index, const DataView& train,
                                    const FitOptions& fo, int iterations, const StageCache& stages,
                                    int* simulations) {
+  constexpr int kVertexRounds = 2;
   const auto nc = static_cast<Eigen::Index>(cand.params.size());
   const std::vector<ModelParameter> held_first = Join(cand.params, subject);
   std::vector<std::string> stage = {"profile_start", std::to_string(index) + ":" + cand.label,
-                                    "iterations=" + std::to_string(iterations)};
+                                    "iterations=" + std::to_string(iterations),
+                                    "vertex_rounds=" + std::to_string(kVertexRounds)};
   for (const auto& x : subject_starts) {
     std::string text = "x=";
     for (Eigen::Index k = 0; k < x.size(); ++k) text += ExactNumberText(x(k)) + ",";
     stage.push_back(text);
   }
+  // The one candidate parameter the profile starts vary (-1: none or several).
+  Eigen::Index varied = -1;
+  for (Eigen::Index k = 0; k < nc; ++k) {
+    for (const auto& p : cand.profile_starts) {
+      if (p(k) != cand.profile_starts[0](k)) varied = varied < 0 || varied == k ? k : nc;
+    }
+  }
+  if (varied == nc) varied = -1;
   const Json j = stages.Get(stage, [&] {
-    const std::size_t n_starts = subject_starts.size();
-    std::vector<FitResult> fits(n_starts * cand.profile_starts.size());
-    std::vector<char> ok(fits.size(), 0);
-    ParallelFor(fits.size(), fo.threads, [&](std::size_t k) {
-      Eigen::VectorXd x0(nc + static_cast<Eigen::Index>(subject.size()));
-      x0 << cand.profile_starts[k / n_starts], subject_starts[k % n_starts];
-      try {
-        fits[k] = FitParameters(rig, held_first, x0, train, fo, static_cast<int>(nc), iterations);
-        ok[k] = 1;
-      } catch (const std::runtime_error&) {
-        // not simulable with the candidate there: not a start
+    int n_sims = 0;
+    // Held fits from x0s (held-first layout); the lowest Σr² as (cost, x), cost ∞ when none ran.
+    const auto lowest_of = [&](const std::vector<Eigen::VectorXd>& x0s) {
+      std::vector<FitResult> fits(x0s.size());
+      std::vector<char> ok(fits.size(), 0);
+      ParallelFor(fits.size(), fo.threads, [&](std::size_t k) {
+        try {
+          fits[k] =
+              FitParameters(rig, held_first, x0s[k], train, fo, static_cast<int>(nc), iterations);
+          ok[k] = 1;
+        } catch (const std::runtime_error&) {
+          // not simulable with the candidate there: not a start
+        }
+      });
+      std::pair<double, Eigen::VectorXd> best = {INFINITY, Eigen::VectorXd()};
+      for (std::size_t k = 0; k < fits.size(); ++k) {
+        if (!ok[k]) continue;
+        n_sims += fits[k].simulations;
+        if (fits[k].cost < best.first) best = {fits[k].cost, fits[k].x};
       }
-    });
+      return best;
+    };
+    std::vector<std::pair<double, Eigen::VectorXd>> profile;  // per profile start, held-first
+    for (const auto& p : cand.profile_starts) {
+      std::vector<Eigen::VectorXd> x0s;
+      for (const auto& s : subject_starts) x0s.push_back(Concat(p, s));
+      profile.push_back(lowest_of(x0s));
+    }
+    for (int round = 0; round < kVertexRounds && varied >= 0; ++round) {
+      std::vector<std::pair<double, Eigen::VectorXd>> done;
+      for (const auto& pt : profile) {
+        if (std::isfinite(pt.first)) done.push_back(pt);
+      }
+      std::sort(done.begin(), done.end(),
+                [&](const auto& a, const auto& b) { return a.second(varied) < b.second(varied); });
+      std::size_t m = 0;
+      for (std::size_t k = 0; k < done.size(); ++k) {
+        if (done[k].first < done[m].first) m = k;
+      }
+      if (m == 0 || m + 1 >= done.size()) break;
+      const auto &p0 = done[m - 1], &p1 = done[m], &p2 = done[m + 1];
+      const double v = ParabolaVertex(p0.second(varied), p0.first, p1.second(varied), p1.first,
+                                      p2.second(varied), p2.first);
+      if (!(v > p0.second(varied) && v < p2.second(varied))) break;
+      std::vector<Eigen::VectorXd> x0s = {p0.second, p1.second, p2.second};
+      for (auto& x : x0s) x(varied) = v;
+      profile.push_back(lowest_of(x0s));
+    }
     Eigen::VectorXd best;
     double best_cost = INFINITY;
-    int n_sims = 0;
-    for (std::size_t k = 0; k < fits.size(); ++k) {
-      if (!ok[k]) continue;
-      n_sims += fits[k].simulations;
-      if (fits[k].cost < best_cost) {
-        best_cost = fits[k].cost;
-        best = Concat(fits[k].x.tail(fits[k].x.size() - nc), fits[k].x.head(nc));
+    for (const auto& pt : profile) {
+      if (pt.first < best_cost) {
+        best_cost = pt.first;
+        best = Concat(pt.second.tail(pt.second.size() - nc), pt.second.head(nc));
       }
     }
     Json r = Json::Object();

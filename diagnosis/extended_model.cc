@@ -348,6 +348,11 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   return out;
 }
 
+double ParabolaVertex(double f0, double c0, double f1, double c1, double f2, double c2) {
+  const double a = (f1 - f0) * (c1 - c2), b = (f1 - f2) * (c1 - c0);
+  return f1 - 0.5 * ((f1 - f0) * a - (f1 - f2) * b) / (a - b);
+}
+
 FitResult FitOverStarts(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
                         const std::vector<Eigen::VectorXd>& starts, const DataView& view,
                         const FitOptions& options, const std::vector<double>& fd_steps,

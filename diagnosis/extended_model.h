@@ -176,6 +176,12 @@ FitResult FitOverStarts(const sim::ModelParams& base, const std::vector<ModelPar
                         int max_iterations, std::vector<double>* costs = nullptr,
                         std::size_t* kept = nullptr);
 
+/// The vertex of the parabola through (f0, c0), (f1, c1), (f2, c2), f0 < f1 < f2, c1 < c0 and
+/// c1 < c2: the minimiser of the quadratic interpolant, inside (f0, f2) — one step of successive
+/// parabolic interpolation (Press et al., Numerical Recipes, 3rd ed., eq. 10.3.1). Refines a
+/// profile of Σr² sampled on a grid of a mechanism parameter (diagnose.cc, LowestProfileStart).
+double ParabolaVertex(double f0, double c0, double f1, double c1, double f2, double c2);
+
 /// FitOverStarts from x0 alone.
 FitResult FitOverDifferenceSteps(const sim::ModelParams& base,
                                  const std::vector<ModelParameter>& params,

@@ -165,6 +165,20 @@ TEST(ExtendedModel, FitOverDifferenceStepsKeepsTheLowestCostOfTheFitsAtEachStep)
                std::invalid_argument);
 }
 
+TEST(ExtendedModel, ParabolaVertexIsTheMinimumOfAQuadraticFromThreeSamples) {
+  // c = 2 (f − 1.3)² + 5, sampled unevenly around its minimum: exact.
+  const auto c = [](double f) { return 2.0 * (f - 1.3) * (f - 1.3) + 5.0; };
+  EXPECT_NEAR(ParabolaVertex(1.0, c(1.0), 1.5, c(1.5), 2.5, c(2.5)), 1.3, 1e-12);
+  EXPECT_NEAR(ParabolaVertex(0.2, c(0.2), 1.2, c(1.2), 1.4, c(1.4)), 1.3, 1e-12);
+  // Not a quadratic (|f − 0.37|^1.5 + 1, the profile's shape is not known): inside the bracket
+  // and nearer the minimum than the bracket's lowest sample.
+  const auto d = [](double f) { return std::pow(std::abs(f - 0.37), 1.5) + 1.0; };
+  const double v = ParabolaVertex(0.25, d(0.25), 0.35, d(0.35), 0.5, d(0.5));
+  EXPECT_GT(v, 0.25);
+  EXPECT_LT(v, 0.5);
+  EXPECT_LT(std::abs(v - 0.37), std::abs(0.35 - 0.37));
+}
+
 TEST(ExtendedModel, FitOverStartsKeepsTheLowestCostOfTheFitsFromEachStartAndStep) {
   // One LM step from a stiffness 40 % low and from one 5 % high, at two difference steps: the
   // result is exactly the single fit of lowest cost (start-major index), with all simulations.
