@@ -76,7 +76,9 @@ struct Candidate {
   std::vector<double> refit_scan_factors;
   /// Profile starts of the screening (full vectors over `params`; empty: none). With the
   /// candidate held at each, the subject parameters are fitted (baseline_iterations LM steps)
-  /// from every subject start (SubjectStarts) and from the calibration; everything is then fitted
+  /// from every subject start (SubjectStarts) and from the calibration (when the starts differ
+  /// in one parameter and the lowest is an inner one, two more profile points at the parabola's
+  /// vertex, ParabolaVertex); everything is then fitted
   /// together (screen_iterations LM steps) from the lowest of those, and the screening keeps that
   /// fit when its Σr² is below the profiled screening's (diagnose.h step 4). For a mechanism the
   /// subject parameters mimic along a curved, multimodal valley that the profiled fit's

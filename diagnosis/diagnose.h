@@ -58,10 +58,12 @@
 //    accepted do not change). (Stiction's static excess stalled 22–42 % off on 5 of the 10
 //    default-suite datasets at the default step; within 8 % on 10/10 with this refit;
 //    docs/diagnosis.md, sessions 10–11.)
-//    A candidate with profile starts (Candidate::profile_starts: arm_support's force at 10, 30,
-//    50 % of the forearm weight) is also fitted from the lowest of the subject fits with it held
-//    there (from every subject start and the calibration), all parameters free; the screening
-//    keeps the lower Σr² of that and the profiled fit (session 12: arm_support 0/10 → 9/10).
+//    A candidate with profile starts (Candidate::profile_starts: arm_support's force at 10, 20,
+//    …, 50 % of the forearm weight) is also fitted from the lowest of the subject fits with it
+//    held there (from every subject start and the calibration; when the lowest is an inner
+//    profile point, two more at the vertex of the parabola through it and its neighbours), all
+//    parameters free; the screening keeps the lower Σr² of that and the profiled fit (sessions
+//    12–13: arm_support 0/10 → 9/10 → 10/10).
 //    During a candidate's own fit (screening) the subject parameters are profiled, not frozen:
 //    re-optimised to first order through their baseline Jacobian J_s (variable projection,
 //    FitParameters' `nuisance`), so the fit minimises ‖(I − P_s) r‖² like the score test; then,
