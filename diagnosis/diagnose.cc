@@ -477,6 +477,7 @@ Eigen::VectorXd LowestProfileStart(const sim::ModelParams& rig,
     std::vector<std::pair<double, Eigen::VectorXd>> profile;  // per profile start, held-first
     for (const auto& p : cand.profile_starts) {
       std::vector<Eigen::VectorXd> x0s;
+      x0s.reserve(subject_starts.size());
       for (const auto& s : subject_starts) x0s.push_back(Concat(p, s));
       profile.push_back(lowest_of(x0s));
     }
