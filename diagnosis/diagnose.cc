@@ -445,16 +445,23 @@ Eigen::VectorXd LowestProfileStart(const sim::ModelParams& rig,
   }
   // The one candidate parameter the profile starts vary (-1: none or several).
   Eigen::Index varied = -1;
+  int n_varied = 0;
   for (Eigen::Index k = 0; k < nc; ++k) {
-    for (const auto& p : cand.profile_starts) {
-      if (p(k) != cand.profile_starts[0](k)) varied = varied < 0 || varied == k ? k : nc;
+    const bool differs =
+        std::any_of(cand.profile_starts.begin(), cand.profile_starts.end(),
+                    [&](const Eigen::VectorXd& p) { return p(k) != cand.profile_starts[0](k); });
+    if (differs) {
+      varied = k;
+      ++n_varied;
     }
   }
-  if (varied == nc) varied = -1;
+  if (n_varied != 1) varied = -1;
   const Json j = stages.Get(stage, [&] {
     int n_sims = 0;
-    // Held fits from x0s (held-first layout); the lowest Σr² as (cost, x), cost ∞ when none ran.
-    const auto lowest_of = [&](const std::vector<Eigen::VectorXd>& x0s) {
+    // Held fits from x0s (held-first layout), all side by side; per group of `group` consecutive
+    // starts the lowest Σr² as (cost, x), cost ∞ when none of the group ran.
+    using Point = std::pair<double, Eigen::VectorXd>;
+    const auto lowest_of = [&](const std::vector<Eigen::VectorXd>& x0s, std::size_t group) {
       std::vector<FitResult> fits(x0s.size());
       std::vector<char> ok(fits.size(), 0);
       ParallelFor(fits.size(), fo.threads, [&](std::size_t k) {
@@ -466,23 +473,22 @@ Eigen::VectorXd LowestProfileStart(const sim::ModelParams& rig,
           // not simulable with the candidate there: not a start
         }
       });
-      std::pair<double, Eigen::VectorXd> best = {INFINITY, Eigen::VectorXd()};
+      std::vector<Point> best(fits.size() / group, Point{INFINITY, Eigen::VectorXd()});
       for (std::size_t k = 0; k < fits.size(); ++k) {
         if (!ok[k]) continue;
         n_sims += fits[k].simulations;
-        if (fits[k].cost < best.first) best = {fits[k].cost, fits[k].x};
+        if (fits[k].cost < best[k / group].first) best[k / group] = {fits[k].cost, fits[k].x};
       }
       return best;
     };
-    std::vector<std::pair<double, Eigen::VectorXd>> profile;  // per profile start, held-first
+    std::vector<Eigen::VectorXd> x0s;  // profile-start-major
+    x0s.reserve(cand.profile_starts.size() * subject_starts.size());
     for (const auto& p : cand.profile_starts) {
-      std::vector<Eigen::VectorXd> x0s;
-      x0s.reserve(subject_starts.size());
       for (const auto& s : subject_starts) x0s.push_back(Concat(p, s));
-      profile.push_back(lowest_of(x0s));
     }
+    std::vector<Point> profile = lowest_of(x0s, subject_starts.size());  // per profile start
     for (int round = 0; round < kVertexRounds && varied >= 0; ++round) {
-      std::vector<std::pair<double, Eigen::VectorXd>> done;
+      std::vector<Point> done;
       for (const auto& pt : profile) {
         if (std::isfinite(pt.first)) done.push_back(pt);
       }
@@ -497,9 +503,9 @@ Eigen::VectorXd LowestProfileStart(const sim::ModelParams& rig,
       const double v = ParabolaVertex(p0.second(varied), p0.first, p1.second(varied), p1.first,
                                       p2.second(varied), p2.first);
       if (!(v > p0.second(varied) && v < p2.second(varied))) break;
-      std::vector<Eigen::VectorXd> x0s = {p0.second, p1.second, p2.second};
-      for (auto& x : x0s) x(varied) = v;
-      profile.push_back(lowest_of(x0s));
+      std::vector<Eigen::VectorXd> at_vertex = {p0.second, p1.second, p2.second};
+      for (auto& x : at_vertex) x(varied) = v;
+      profile.push_back(lowest_of(at_vertex, at_vertex.size())[0]);
     }
     Eigen::VectorXd best;
     double best_cost = INFINITY;

@@ -136,35 +136,6 @@ TEST(ExtendedModel, FitRecoversAStiffnessAndHeldParametersStay) {
   EXPECT_GT(g.cost, 10 * f.cost);  // a drift cannot stand in for the stiffness
 }
 
-TEST(ExtendedModel, FitOverDifferenceStepsKeepsTheLowestCostOfTheFitsAtEachStep) {
-  // Two LM steps from a stiffness 40 % low at two difference steps: the result is exactly the
-  // single fit at the step whose cost is lower, with the simulations of both.
-  const StiffWristCase w = StiffWrist();
-  const std::vector<ModelParameter> params = {Stiffness(w.k_nominal)};
-  const Eigen::VectorXd x0 = Eigen::VectorXd::Constant(1, 0.6 * w.k_nominal);
-  const std::vector<double> steps = {0.0, 0.3};
-  std::vector<double> costs;
-  std::size_t kept = 9;
-  const FitResult best =
-      FitOverDifferenceSteps(w.rig, params, x0, w.view, w.options, steps, 2, &costs, &kept);
-  ASSERT_EQ(costs.size(), 2u);
-  FitOptions coarse = w.options;
-  coarse.fd_step = 0.3;
-  const FitResult fine_fit = FitParameters(w.rig, params, x0, w.view, w.options, 0, 2);
-  const FitResult coarse_fit = FitParameters(w.rig, params, x0, w.view, coarse, 0, 2);
-  EXPECT_EQ(costs[0], fine_fit.cost);
-  EXPECT_EQ(costs[1], coarse_fit.cost);
-  EXPECT_NE(fine_fit.cost, coarse_fit.cost);  // the step changes the fit
-  EXPECT_EQ(kept, fine_fit.cost <= coarse_fit.cost ? 0u : 1u);
-  EXPECT_EQ(best.cost, std::min(fine_fit.cost, coarse_fit.cost));
-  EXPECT_EQ(best.x(0), kept == 0 ? fine_fit.x(0) : coarse_fit.x(0));
-  EXPECT_EQ(best.simulations, fine_fit.simulations + coarse_fit.simulations);
-  EXPECT_THROW(FitOverDifferenceSteps(w.rig, params, x0, w.view, w.options, {}, 2),
-               std::invalid_argument);
-  EXPECT_THROW(FitOverDifferenceSteps(w.rig, params, x0, w.view, w.options, {0.0, 1.0}, 2),
-               std::invalid_argument);
-}
-
 TEST(ExtendedModel, ParabolaVertexIsTheMinimumOfAQuadraticFromThreeSamples) {
   // c = 2 (f − 1.3)² + 5, sampled unevenly around its minimum: exact.
   const auto c = [](double f) { return 2.0 * (f - 1.3) * (f - 1.3) + 5.0; };
@@ -202,9 +173,21 @@ TEST(ExtendedModel, FitOverStartsKeepsTheLowestCostOfTheFitsFromEachStartAndStep
   }
   EXPECT_EQ(best.cost, *std::min_element(costs.begin(), costs.end()));
   EXPECT_EQ(best.cost, costs[kept]);
-  EXPECT_GE(kept, 2u);  // one step from 5 % high ends lower than one from 40 % low
+  EXPECT_GE(kept, 2u);            // one step from 5 % high ends lower than one from 40 % low
+  EXPECT_NE(costs[0], costs[1]);  // the difference step changes the fit
   EXPECT_EQ(best.simulations, simulations);
+  // FitOverDifferenceSteps is the one-start case: the second start's fits, same order.
+  std::vector<double> one_start;
+  std::size_t kept_one = 9;
+  FitOverDifferenceSteps(w.rig, params, starts[1], w.view, w.options, steps, 1, &one_start,
+                         &kept_one);
+  EXPECT_EQ(one_start, std::vector<double>(costs.begin() + 2, costs.end()));
+  EXPECT_EQ(kept_one, costs[2] <= costs[3] ? 0u : 1u);
   EXPECT_THROW(FitOverStarts(w.rig, params, {}, w.view, w.options, steps, 1),
+               std::invalid_argument);
+  EXPECT_THROW(FitOverStarts(w.rig, params, starts, w.view, w.options, {}, 1),
+               std::invalid_argument);
+  EXPECT_THROW(FitOverStarts(w.rig, params, starts, w.view, w.options, {0.0, 1.0}, 1),
                std::invalid_argument);
 }
 
