@@ -32,6 +32,20 @@ TEST(PassiveJoint, ElasticTorqueIsMinusPotentialGradient) {
   }
 }
 
+TEST(PassiveJoint, CubicStiffeningIsMinusTheGradientOfItsQuarticPotential) {
+  PassiveJointParams p = Joint();
+  p.cubic_stiffness_nm_per_rad3 = 3.0;
+  for (double q = 0.2; q <= 2.4; q += 0.1) {
+    const double dv =
+        (PassiveJointPotential(p, q + kFdStep) - PassiveJointPotential(p, q - kFdStep)) /
+        (2 * kFdStep);
+    EXPECT_NEAR(PassiveElasticTorque(p, q), -dv, kFdTol * (1 + std::abs(dv)));
+  }
+  // Mid-range the cubic term adds k₃ (q₀ − q)³ to the linear moment.
+  const double d = 1.4 - 0.9;
+  EXPECT_NEAR(PassiveElasticTorque(p, 0.9), 2.3 * d + 3.0 * d * d * d, 1e-8);
+}
+
 TEST(PassiveJoint, LinearInsideRangeExponentialBeyond) {
   const PassiveJointParams p = Joint();
   // Mid-range: eq. (14) of paper 000, limit moments below 1e-8 N·m.
