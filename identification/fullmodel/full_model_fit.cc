@@ -665,6 +665,40 @@ Trial SimulateLike(const sim::ModelParams& model, const Trial& trial,
   return out;
 }
 
+SimulationSensitivities SimulateLikeSensitivities(
+    const sim::ModelParams& model, const Trial& trial,
+    const std::vector<sim::ParameterPerturbation>& perturbed,
+    const sim::IntegratorParams& integrator) {
+  const SimPlan plan = PlanFor(model, trial);
+  const sim::UpperLimbModel limb(model);
+  const sim::StimulationSchedule delayed = DelayedSchedule(model, plan);
+  SimTK::State state = limb.MakeInitialState();
+  const std::size_t p = perturbed.size(), nq = plan.coords.size();
+  std::vector<std::vector<double>> q(nq);
+  SimulationSensitivities out;
+  out.dq_dtheta.assign(nq, Eigen::MatrixXd(plan.times.size(), p));
+  Eigen::Index row = 0;
+  sim::IntegrateTrialSensitivities(limb, integrator, delayed, plan.times, perturbed, &state,
+                                   [&](const SimTK::State& s, const std::vector<double>& dq) {
+                                     for (std::size_t j = 0; j < nq; ++j) {
+                                       q[j].push_back(limb.GetQ(s, plan.coords[j]));
+                                       for (std::size_t k = 0; k < p; ++k) {
+                                         out.dq_dtheta[j](row, static_cast<Eigen::Index>(k)) =
+                                             dq[plan.coords[j] * p + k];
+                                       }
+                                     }
+                                     ++row;
+                                   });
+  out.trial.time = trial.time;
+  for (const auto& name : trial.NamesWithPrefix("u.")) {
+    out.trial.AddColumn(name, trial.Column(name));
+  }
+  for (std::size_t j = 0; j < nq; ++j) {
+    out.trial.AddColumn("q." + sim::CoordinateNames()[plan.coords[j]], std::move(q[j]));
+  }
+  return out;
+}
+
 FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>& train,
                           const FullModelFitOptions& options, const ProgressFn& progress) {
   const auto t_total = Clock::now();

@@ -47,6 +47,7 @@
 
 #include "identification/method.h"
 #include "scenarios/trial.h"
+#include "sim/integrator.h"
 #include "sim/model_params.h"
 
 namespace fesim::identification::fullmodel {
@@ -187,6 +188,21 @@ Trial SimulateLike(const sim::ModelParams& model, const Trial& trial, double int
 /// The same with every integrator setting given (method CVODES BDF unless set otherwise).
 Trial SimulateLike(const sim::ModelParams& model, const Trial& trial,
                    const sim::IntegratorParams& integrator);
+
+/// SimulateLike with CVODES forward sensitivities (sim::IntegrateTrialSensitivities) to the
+/// parameters of `perturbed` (each the model with one parameter moved by its step; only what
+/// sim::ParameterPerturbation lists may differ): the simulated trial and, per q column of `trial`
+/// (same order), the samples × P matrix ∂q̂/∂θ_k (rad per unit of θ_k). Throws like SimulateLike,
+/// and std::invalid_argument for a model it cannot differentiate (fatigue or potentiation states,
+/// Simbody's RKM).
+struct SimulationSensitivities {
+  Trial trial;
+  std::vector<Eigen::MatrixXd> dq_dtheta;
+};
+SimulationSensitivities SimulateLikeSensitivities(
+    const sim::ModelParams& model, const Trial& trial,
+    const std::vector<sim::ParameterPerturbation>& perturbed,
+    const sim::IntegratorParams& integrator);
 
 /// Sensitivity ranking + multi-start local optimisation on `train` (the q.* columns; NaN samples
 /// are skipped). `progress` may be empty. Throws std::runtime_error with a one-line reason on
