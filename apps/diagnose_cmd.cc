@@ -24,19 +24,27 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
     std::printf(
         "usage: fesim diagnose MEASURED.csv[,MORE.csv...] --scenario RIG.yaml [--out DIR]\n"
         "                      [--model full|NAME] [--threads N]\n\n"
-        "Calibrates the full model (12) of the rig to the measured trials (subject parameters),\n"
-        "shows what it gets wrong on held-out data (the last trial, or the last 30 %% of a single\n"
-        "trial), names the cause among the candidate mechanisms (fatigue, potentiation, delay,\n"
-        "tremor, crosstalk, moment_arm_posture, force_length_velocity, unequal_muscle_dynamics,\n"
-        "passive_stiffness_nonlinear, arm_support, stiction, spasticity, sensor_drift), or says\n"
-        "none / unexplained, and measures the held-out gain of the extended model.\n"
-        "Writes DIR/diagnosis.md, DIR/diagnosis.json, DIR/residuals_<joint>.png and\n"
-        "DIR/spectrum_<joint>.png\n"
-        "(default DIR: out/diagnose); the calibration, score tests and fits are cached in\n"
-        "DIR/cache as they finish, so an interrupted run resumes. Trials need u.<channel>\n"
-        "inputs and q.<joint> outputs (q.<joint>_deg accepted) of joints that are free in the\n"
-        "scenario; a record with uneven time steps is resampled to its median step (outputs\n"
-        "interpolated, inputs from the nearest row; said in the report); NaN gaps are skipped.\n"
+        "Calibrates the full model (12) of the rig to the measured trials of a person it has "
+        "never\n"
+        "seen (recruitment, strength, passive stiffness, damping and rest angles, activation "
+        "rate,\n"
+        "moment arms: the parameters the data identify, with priors; the rest stay nominal and "
+        "the\n"
+        "report says so), identifies a black-box reference (hammerstein-mimo) on the same data,\n"
+        "and shows what the calibrated model gets wrong on held-out data (the last trial, or the\n"
+        "last 30 %% of a single trial). Names the cause among the candidate mechanisms (fatigue,\n"
+        "potentiation, delay, tremor, crosstalk, moment_arm_posture, force_length_velocity,\n"
+        "unequal_muscle_dynamics, passive_stiffness_nonlinear, arm_support, stiction, spasticity,\n"
+        "sensor_drift) with tests robust to the calibrated model's coloured misfit, says none, or\n"
+        "unexplained with the outputs where the model does not reach the black box, and measures\n"
+        "the held-out gain of the extended model.\n"
+        "Writes DIR/diagnosis.md, DIR/diagnosis.json, DIR/prediction_<joint>.png,\n"
+        "DIR/residuals_<joint>.png and DIR/spectrum_<joint>.png\n"
+        "(default DIR: out/diagnose); every stage is cached in DIR/cache as it finishes, so an\n"
+        "interrupted run resumes. Trials need u.<channel> inputs and q.<joint> outputs\n"
+        "(q.<joint>_deg accepted) of joints that are free in the scenario; a record whose time\n"
+        "steps differ by more than 1 %% is resampled to its median step (outputs interpolated,\n"
+        "inputs from the nearest row; said in the report); NaN gaps are skipped.\n"
         "--model NAME: diagnose a reduced model instead (hammerstein-mimo, spline-arx,\n"
         "spline-oe: identified on the training part as `fesim identify` does, options from the\n"
         "trial's metadata); it can be extended only by the mechanisms acting on its input or\n"
@@ -50,14 +58,14 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
   }
   if (!args.Has("scenario")) throw std::runtime_error("--scenario is required (see --help)");
   const std::string model = args.Get("model", "full");
-  identification::FitSimulatorFn reduced_fit;
   if (model != "full") {
     std::string allowed = "full";
+    bool known = false;
     for (const auto& m : diagnosis::ReducedModelMethods()) {
       allowed += ", " + m.name;
-      if (m.name == model) reduced_fit = m.fit_simulator;
+      known |= m.name == model;
     }
-    if (!reduced_fit) {
+    if (!known) {
       throw std::runtime_error("--model: '" + model + "' is not a model diagnose can calibrate " +
                                "(allowed: " + allowed + ")");
     }
@@ -86,17 +94,19 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
   // Layout 3: a candidate's probe changed (score-test θ of layout 2 do not fit the library).
   // Layout 4: the second round's score tests are screened with the baseline's directions, and
   // arm_support's probe changed (layout-3 entries would resume with what the code no longer does).
-  ResultCache cache(out + "/cache", FESIM_VERSION, "diagnose-cache-4");
-  diagnosis::DiagnoseOptions options;
-  options.fit.threads = static_cast<int>(threads);
-  options.model = model;
-  options.reduced_fit = reduced_fit;
-  options.cache = &cache;
-  options.cache_inputs = cache_inputs;
+  // Layout 5: the staged diagnosis (person calibration, black-box reference, robust tests).
+  ResultCache cache(out + "/cache", FESIM_VERSION, "diagnose-cache-5");
+  diagnosis::DiagnoseSettings settings;
+  settings.model = model;
+  diagnosis::DiagnoseExecution execution;
+  execution.threads = static_cast<int>(threads);
+  execution.cache = &cache;
+  execution.cache_inputs = cache_inputs;
+  if (job.is_root()) execution.progress = cli::ShowProgress;
   if (job.size() > 1) {
     // An MPI job: every rank runs the diagnosis; the probe simulations and the candidates'
     // screening fits are spread over the ranks, each rank gets every result back, rank 0 writes.
-    options.map = [&job](std::size_t n, const std::function<std::string(std::size_t)>& fn) {
+    execution.map = [&job](std::size_t n, const std::function<std::string(std::size_t)>& fn) {
       const std::vector<cluster::ItemOutcome> outcomes = job.MapAll(n, fn);
       std::vector<std::string> texts;
       std::string failed;
@@ -112,9 +122,7 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
       return texts;
     };
   }
-  const diagnosis::Diagnosis d =
-      diagnosis::Diagnose(scenario.model, trials, options,
-                          job.is_root() ? diagnosis::DiagnoseProgress(cli::ShowProgress) : nullptr);
+  const diagnosis::Diagnosis d = diagnosis::Diagnose(scenario.model, trials, settings, execution);
   if (!job.is_root()) return 0;
   MakeDirs(out);
   diagnosis::WriteDiagnosisReport(d, inputs, out);

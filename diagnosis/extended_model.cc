@@ -18,6 +18,19 @@
 
 namespace fesim::diagnosis {
 
+Eigen::VectorXd Concat(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  Eigen::VectorXd x(a.size() + b.size());
+  x << a, b;
+  return x;
+}
+
+std::vector<ModelParameter> Join(const std::vector<ModelParameter>& a,
+                                 const std::vector<ModelParameter>& b) {
+  std::vector<ModelParameter> out = a;
+  out.insert(out.end(), b.begin(), b.end());
+  return out;
+}
+
 long DataView::Count() const {
   long n = 0;
   for (std::size_t t = 0; t < trials.size(); ++t) {
@@ -47,36 +60,45 @@ sim::ModelParams ApplyModelParameters(const sim::ModelParams& base,
 
 namespace {
 
-/// One trial's prediction for an already-applied model.
+/// The trial's inputs with the kInputScale parameters (values x) applied.
+Trial ScaledInputs(const std::vector<ModelParameter>& params, const Eigen::VectorXd& x,
+                   const Trial& trial) {
+  Trial scaled = trial;
+  for (std::size_t k = 0; k < params.size(); ++k) {
+    if (params[k].target != ModelParameter::Target::kInputScale) continue;
+    if (!scaled.Has(params[k].column)) continue;
+    for (double& v : scaled.MutableColumn(params[k].column)) v *= x(static_cast<Eigen::Index>(k));
+  }
+  return scaled;
+}
+
+bool AnyInputScale(const std::vector<ModelParameter>& params) {
+  return std::any_of(params.begin(), params.end(), [](const ModelParameter& p) {
+    return p.target == ModelParameter::Target::kInputScale;
+  });
+}
+
+sim::IntegratorParams Integrator(const FitOptions& options, const Trial& trial, double factor) {
+  sim::IntegratorParams integrator;
+  integrator.tolerance = std::min(1e-2, options.tolerance * factor);
+  integrator.speed_time_scale_s = options.speed_time_scale_s;
+  const double duration = trial.time.empty() ? 0.0 : trial.time.back();
+  integrator.max_steps =
+      options.max_steps_per_s > 0.0
+          ? static_cast<long>(std::ceil(options.max_steps_per_s * std::max(duration, 1.0)))
+          : 0;
+  return integrator;
+}
+
+/// One trial's prediction for an already-applied model (its initial posture set).
 Trial PredictOne(const sim::ModelParams& model, const std::vector<ModelParameter>& params,
                  const Eigen::VectorXd& x, const Trial& trial, const FitOptions& options) {
-  const Trial* input = &trial;
-  Trial scaled;
-  bool any_scale = false;
-  for (const auto& p : params) any_scale |= p.target == ModelParameter::Target::kInputScale;
-  if (any_scale) {
-    scaled = trial;
-    for (std::size_t k = 0; k < params.size(); ++k) {
-      if (params[k].target != ModelParameter::Target::kInputScale) continue;
-      if (!scaled.Has(params[k].column)) continue;
-      for (double& v : scaled.MutableColumn(params[k].column)) v *= x(static_cast<Eigen::Index>(k));
-    }
-    input = &scaled;
-  }
-  Trial out;
-  if (options.simulator) {
-    out = options.simulator(model, *input, options.tolerance);
-  } else {
-    sim::IntegratorParams integrator;
-    integrator.tolerance = options.tolerance;
-    integrator.speed_time_scale_s = options.speed_time_scale_s;
-    const double duration = input->time.empty() ? 0.0 : input->time.back();
-    integrator.max_steps =
-        options.max_steps_per_s > 0.0
-            ? static_cast<long>(std::ceil(options.max_steps_per_s * std::max(duration, 1.0)))
-            : 0;
-    out = identification::fullmodel::SimulateLike(model, *input, integrator);
-  }
+  const bool scale = AnyInputScale(params);
+  const Trial scaled = scale ? ScaledInputs(params, x, trial) : Trial();
+  const Trial& input = scale ? scaled : trial;
+  Trial out = options.simulator ? options.simulator(model, input, options.tolerance)
+                                : identification::fullmodel::SimulateLike(
+                                      model, input, Integrator(options, input, 1.0));
   AddOutputDrift(params, x, &out);
   return out;
 }
@@ -101,7 +123,10 @@ std::vector<Trial> Predict(const sim::ModelParams& base, const std::vector<Model
   const sim::ModelParams model = ApplyModelParameters(base, params, x);
   std::vector<Trial> out(view.trials.size());
   ParallelFor(static_cast<int>(view.trials.size()), threads > 0 ? threads : options.threads,
-              [&](int t) { out[t] = PredictOne(model, params, x, view.trials[t], options); });
+              [&](int t) {
+                out[t] = PredictOne(WithInitialPosture(model, view, static_cast<std::size_t>(t)),
+                                    params, x, view.trials[t], options);
+              });
   return out;
 }
 
@@ -119,8 +144,21 @@ Eigen::VectorXd StackResiduals(const DataView& view, const std::vector<Trial>& p
   return Eigen::Map<Eigen::VectorXd>(r.data(), static_cast<Eigen::Index>(r.size()));
 }
 
-double ViewNrmse(const DataView& view, const std::vector<Trial>& predictions) {
-  double sum = 0.0;
+sim::ModelParams WithInitialPosture(const sim::ModelParams& base, const DataView& view,
+                                    std::size_t t) {
+  sim::ModelParams m = base;
+  if (t >= view.initial_q.size()) return m;
+  for (std::size_t o = 0; o < view.outputs.size() && o < view.initial_q[t].size(); ++o) {
+    const int c = sim::CoordinateIndex(view.outputs[o].substr(2));
+    if (c >= 0 && std::isfinite(view.initial_q[t][o]))
+      m.coordinates[c].initial_rad = view.initial_q[t][o];
+  }
+  return m;
+}
+
+std::vector<double> ViewNrmsePerOutput(const DataView& view,
+                                       const std::vector<Trial>& predictions) {
+  std::vector<double> out;
   for (const auto& name : view.outputs) {
     std::vector<double> y, yh;
     for (std::size_t t = 0; t < view.trials.size(); ++t) {
@@ -133,10 +171,72 @@ double ViewNrmse(const DataView& view, const std::vector<Trial>& predictions) {
         }
       }
     }
-    sum += identification::NormalisedError(y, yh);
+    out.push_back(identification::NormalisedError(y, yh));
   }
-  return sum / static_cast<double>(std::max<std::size_t>(1, view.outputs.size()));
+  return out;
 }
+
+double ViewNrmse(const DataView& view, const std::vector<Trial>& predictions) {
+  const std::vector<double> per = ViewNrmsePerOutput(view, predictions);
+  double sum = 0.0;
+  for (double v : per) sum += v;
+  return sum / static_cast<double>(std::max<std::size_t>(1, per.size()));
+}
+
+namespace {
+
+/// Rows of the stacked residual (StackResiduals' order) of the counted samples of trial t:
+/// calls fn(row, output index, sample index) for each.
+template <typename Fn>
+void ForEachRow(const DataView& view, Fn fn) {
+  Eigen::Index row = 0;
+  for (std::size_t t = 0; t < view.trials.size(); ++t) {
+    for (std::size_t o = 0; o < view.outputs.size(); ++o) {
+      const auto& y = view.trials[t].Column(view.outputs[o]);
+      for (std::size_t i = 0; i < y.size(); ++i) {
+        if (view.use[t][i] && std::isfinite(y[i])) fn(row++, t, o, i);
+      }
+    }
+  }
+}
+
+/// The Jacobian columns `cols` (indices into the free columns c, parameter first_free + c) of
+/// trial t by forward sensitivities: −∂ŷ/∂θ on the trial's rows. Throws when the model cannot be
+/// differentiated (fatigue or potentiation states) or the integration fails.
+std::vector<Eigen::MatrixXd> SensitivityColumns(const sim::ModelParams& base,
+                                                const std::vector<ModelParameter>& params,
+                                                const Eigen::VectorXd& x, const DataView& view,
+                                                std::size_t t, const std::vector<int>& cols,
+                                                int first_free, const FitOptions& options) {
+  const sim::ModelParams model = WithInitialPosture(ApplyModelParameters(base, params, x), view, t);
+  std::vector<sim::ParameterPerturbation> perturbed;
+  perturbed.reserve(cols.size());
+  for (int c : cols) {
+    const int k = first_free + c;
+    const double scale = std::max(params[k].scale, std::abs(x(k)));
+    double step = 1e-6 * scale;
+    if (x(k) + step > params[k].upper) step = -step;
+    Eigen::VectorXd xp = x;
+    xp(k) += step;
+    perturbed.push_back(
+        {WithInitialPosture(ApplyModelParameters(base, params, xp), view, t), step, scale});
+  }
+  const Trial& trial = view.trials[t];
+  const bool scale = AnyInputScale(params);
+  const Trial input = scale ? ScaledInputs(params, x, trial) : trial;
+  const identification::fullmodel::SimulationSensitivities sens =
+      identification::fullmodel::SimulateLikeSensitivities(
+          model, input, perturbed, Integrator(options, input, options.jacobian_tolerance_factor));
+  std::vector<Eigen::MatrixXd> out;
+  const auto simulated = input.NamesWithPrefix("q.");
+  for (const auto& name : view.outputs) {
+    const auto at = std::find(simulated.begin(), simulated.end(), name) - simulated.begin();
+    out.push_back(-sens.dq_dtheta[static_cast<std::size_t>(at)]);
+  }
+  return out;
+}
+
+}  // namespace
 
 Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
                                  const std::vector<ModelParameter>& params,
@@ -146,51 +246,86 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
   const int p = static_cast<int>(params.size()) - first_free;
   const int nt = static_cast<int>(view.trials.size());
   std::vector<double> h(p);
-  std::vector<sim::ModelParams> models;
-  std::vector<Eigen::VectorXd> xs;
-  std::vector<int> simulated;  // columns that need simulations (not output drifts)
+  std::vector<sim::ModelParams> models(p);
+  std::vector<Eigen::VectorXd> xs(p);
+  std::vector<int> differenced, sensed;  // columns by forward differences / sensitivities
+  const bool can_sense = options.sensitivities && !options.simulator;
   for (int c = 0; c < p; ++c) {
+    const ModelParameter& par = params[first_free + c];
+    if (par.target == ModelParameter::Target::kOutputDrift) continue;  // exact below
+    if (can_sense && par.target == ModelParameter::Target::kModel && par.sensitivity) {
+      sensed.push_back(c);
+      continue;
+    }
+    differenced.push_back(c);
+  }
+  const auto prepare_difference = [&](int c) {
     const int k = first_free + c;
     double step = options.fd_step * std::max(params[k].scale, std::abs(x(k) - params[k].start));
     if (x(k) + step > params[k].upper) step = -step;
     h[c] = step;
-    Eigen::VectorXd xp = x;
-    xp(k) += step;
-    xs.push_back(xp);
-    models.push_back(ApplyModelParameters(base, params, xp));
-    if (params[k].target != ModelParameter::Target::kOutputDrift) simulated.push_back(c);
-  }
+    xs[c] = x;
+    xs[c](k) += step;
+    models[c] = ApplyModelParameters(base, params, xs[c]);
+  };
+  for (int c : differenced) prepare_difference(c);
+  // Jobs: one sensitivity integration per trial (all sensed columns), then one perturbed
+  // simulation per differenced column and trial; a failed sensitivity job falls back to
+  // differences of its columns.
+  std::vector<std::vector<Eigen::MatrixXd>> sens(sensed.empty() ? 0 : nt);
+  std::vector<char> sens_ok(sens.size(), 1);
   std::vector<Trial> sims(static_cast<std::size_t>(p) * nt);
   std::vector<char> ok(sims.size(), 1);
-  ParallelFor(simulated.size() * nt, options.threads, [&](int item) {
-    const int c = simulated[item / nt], t = item % nt;
+  const auto difference = [&](int c, int t) {
     const int task = c * nt + t;
     try {
-      sims[task] = PredictOne(models[c], params, xs[c], view.trials[t], options);
+      sims[task] = PredictOne(WithInitialPosture(models[c], view, static_cast<std::size_t>(t)),
+                              params, xs[c], view.trials[t], options);
     } catch (const std::exception&) {
       ok[task] = 0;
     }
+  };
+  const int n_sens = static_cast<int>(sens.size());
+  ParallelFor(n_sens + static_cast<int>(differenced.size()) * nt, options.threads, [&](int item) {
+    if (item < n_sens) {
+      try {
+        sens[item] = SensitivityColumns(base, params, x, view, static_cast<std::size_t>(item),
+                                        sensed, first_free, options);
+      } catch (const std::exception&) {
+        sens_ok[item] = 0;
+      }
+      return;
+    }
+    item -= n_sens;
+    difference(differenced[item / nt], item % nt);
   });
-  if (simulations) *simulations += static_cast<int>(simulated.size()) * nt;
+  int n_sims = n_sens + static_cast<int>(differenced.size()) * nt;
+  if (std::any_of(sens_ok.begin(), sens_ok.end(), [](char v) { return v == 0; })) {
+    for (int c : sensed) prepare_difference(c);
+    ParallelFor(static_cast<int>(sensed.size()) * nt, options.threads,
+                [&](int item) { difference(sensed[item / nt], item % nt); });
+    n_sims += static_cast<int>(sensed.size()) * nt;
+    differenced.insert(differenced.end(), sensed.begin(), sensed.end());
+    sensed.clear();
+  }
+  if (simulations) *simulations += n_sims;
   Eigen::MatrixXd J = Eigen::MatrixXd::Zero(r0.size(), p);
+  if (!sensed.empty()) {
+    ForEachRow(view, [&](Eigen::Index row, std::size_t t, std::size_t o, std::size_t i) {
+      for (std::size_t s = 0; s < sensed.size(); ++s) {
+        J(row, sensed[s]) = sens[t][o](static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(s));
+      }
+    });
+  }
   for (int c = 0; c < p; ++c) {
     const ModelParameter& param = params[first_free + c];
-    if (param.target == ModelParameter::Target::kOutputDrift) {
-      // ∂(y − ŷ)/∂drift = −t on the drift's output, 0 elsewhere (StackResiduals' order).
-      Eigen::Index row = 0;
-      for (int t = 0; t < nt; ++t) {
-        const Trial& trial = view.trials[t];
-        for (const auto& name : view.outputs) {
-          const auto& y = trial.Column(name);
-          for (std::size_t i = 0; i < y.size(); ++i) {
-            if (!(view.use[t][i] && std::isfinite(y[i]))) continue;
-            if (name == param.column) J(row, c) = -trial.time[i];
-            ++row;
-          }
-        }
-      }
-      continue;
-    }
+    if (param.target != ModelParameter::Target::kOutputDrift) continue;
+    // ∂(y − ŷ)/∂drift = −t on the drift's output, 0 elsewhere.
+    ForEachRow(view, [&](Eigen::Index row, std::size_t t, std::size_t o, std::size_t i) {
+      if (view.outputs[o] == param.column) J(row, c) = -view.trials[t].time[i];
+    });
+  }
+  for (int c : differenced) {
     bool column_ok = true;
     for (int t = 0; t < nt; ++t) column_ok = column_ok && ok[c * nt + t];
     if (!column_ok) continue;
@@ -239,6 +374,42 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
     if (!nuisance) return m;
     return m - q_basis * (q_basis.transpose() * m);
   };
+  // Prior rows σ_p (x_k − start_k) / width_k of the free parameters with a prior.
+  std::vector<int> prior_of;  // free column of each prior row
+  if (options.prior_sigma > 0.0) {
+    for (int k = 0; k < p; ++k) {
+      if (std::isfinite(params[first_free + k].prior_width)) prior_of.push_back(k);
+    }
+  }
+  const auto prior_rows = [&](const Eigen::VectorXd& free) {
+    Eigen::VectorXd rows(static_cast<Eigen::Index>(prior_of.size()));
+    for (std::size_t m = 0; m < prior_of.size(); ++m) {
+      const ModelParameter& par = params[first_free + prior_of[m]];
+      const double x = free(prior_of[m]);
+      const double d = par.log_prior ? std::log(x / par.start) : x - par.start;
+      rows(static_cast<Eigen::Index>(m)) = options.prior_sigma * d / par.prior_width;
+    }
+    return rows;
+  };
+  const auto with_prior = [&](const Eigen::VectorXd& r_data, const Eigen::VectorXd& free) {
+    if (prior_of.empty()) return r_data;
+    Eigen::VectorXd r(r_data.size() + static_cast<Eigen::Index>(prior_of.size()));
+    r << r_data, prior_rows(free);
+    return r;
+  };
+  const auto with_prior_jacobian = [&](const Eigen::MatrixXd& j_data, const Eigen::VectorXd& free) {
+    if (prior_of.empty()) return j_data;
+    Eigen::MatrixXd j = Eigen::MatrixXd::Zero(
+        j_data.rows() + static_cast<Eigen::Index>(prior_of.size()), j_data.cols());
+    j.topRows(j_data.rows()) = j_data;
+    for (std::size_t m = 0; m < prior_of.size(); ++m) {
+      const ModelParameter& par = params[first_free + prior_of[m]];
+      const double dd = par.log_prior ? 1.0 / free(prior_of[m]) : 1.0;
+      j(j_data.rows() + static_cast<Eigen::Index>(m), prior_of[m]) =
+          options.prior_sigma * dd / par.prior_width;
+    }
+    return j;
+  };
   constexpr double kFailedResidualRad = 10.0;  // a failed simulation: make LM reject the step
   // The raw residual (and predictions) of the best (smallest, projected when profiled, cost)
   // point evaluated: LM's end point, for nuisance_step and FitResult::residual.
@@ -249,7 +420,7 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
                             std::vector<Trial>* pred) {
     last_free = free;
     last_raw = r;
-    const double cost = project(r).squaredNorm();
+    const double cost = project(r).squaredNorm() + prior_rows(free).squaredNorm();
     if (cost < best_cost) {
       best_cost = cost;
       best_free = free;
@@ -288,24 +459,26 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
       start && start->jacobian.rows() == n && start->jacobian.cols() == p
           ? start->jacobian
           : ResidualJacobian(base, params, x0, r0, view, options, &out.simulations, first_free);
-  const double max_diag = project(j0).colwise().squaredNorm().maxCoeff();
+  const double max_diag =
+      with_prior_jacobian(project(j0), x0_free).colwise().squaredNorm().maxCoeff();
   const double c = max_diag > 0.0 ? 1.0 / std::sqrt(max_diag) : 1.0;
   bool first_residual = true, first_jacobian = true;
   const identification::ResidualFn residual = [&](const Eigen::VectorXd& free) {
     if (first_residual && free == x0_free) {
       first_residual = false;
-      return (c * project(r0)).eval();
+      return (c * with_prior(project(r0), free)).eval();
     }
     first_residual = false;
-    return (c * project(raw_residual(free))).eval();
+    return (c * with_prior(project(raw_residual(free)), free)).eval();
   };
   out.jacobian = j0;
+  out.jacobian_x = x0;
   const identification::JacobianFn jacobian = [&](const Eigen::VectorXd& free,
                                                   const Eigen::VectorXd& r, int* evaluations) {
     *evaluations += p;
     if (first_jacobian && free == x0_free) {
       first_jacobian = false;
-      return (c * project(j0)).eval();
+      return (c * with_prior_jacobian(project(j0), free)).eval();
     }
     first_jacobian = false;
     // The finite differences need the raw residual at `free` (LM's r is scaled, and projected
@@ -316,7 +489,8 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
             : (best_free.size() == p && best_free == free ? best_raw : raw_residual(free));
     out.jacobian = ResidualJacobian(base, params, full(free), raw, view, options, &out.simulations,
                                     first_free);
-    return (c * project(out.jacobian)).eval();
+    out.jacobian_x = full(free);
+    return (c * with_prior_jacobian(project(out.jacobian), free)).eval();
   };
   identification::LmOptions lm;
   lm.max_iterations = max_iterations > 0 ? max_iterations : options.max_iterations;
@@ -327,11 +501,12 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   res.cost /= c * c;
   res.jtj /= c * c;
   out.x = full(res.x);
-  out.cost = res.cost;
+  out.map_cost = res.cost;
+  out.cost = res.cost - prior_rows(res.x).squaredNorm();
   out.converged = res.converged;
   out.residuals = n;
   out.ci95 = Eigen::VectorXd::Constant(np, NAN);
-  out.ci95.tail(p) = identification::ConfidenceHalfWidths95(res.jtj, res.cost, n);
+  out.ci95.tail(p) = identification::ConfidenceHalfWidths95(res.jtj, out.cost, n);
   if (nuisance) {
     if (!(best_free.size() == p && best_free == res.x)) {
       raw_residual(res.x);
@@ -355,41 +530,31 @@ double ParabolaVertex(double f0, double c0, double f1, double c1, double f2, dou
 
 FitResult FitOverStarts(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
                         const std::vector<Eigen::VectorXd>& starts, const DataView& view,
-                        const FitOptions& options, const std::vector<double>& fd_steps,
-                        int max_iterations, std::vector<double>* costs, std::size_t* kept) {
-  if (fd_steps.empty() || std::any_of(fd_steps.begin(), fd_steps.end(),
-                                      [](double h) { return !(h >= 0.0 && h < 1.0); })) {
-    throw std::invalid_argument("FitOverStarts: fd_steps must be non-empty, each in [0, 1)");
-  }
+                        const FitOptions& options, int max_iterations, std::vector<double>* costs,
+                        std::size_t* kept) {
   if (starts.empty()) throw std::invalid_argument("FitOverStarts: no start");
-  const std::size_t n_steps = fd_steps.size();
-  std::vector<FitResult> fits(starts.size() * n_steps);
+  std::vector<FitResult> fits(starts.size());
+  std::vector<char> ok(starts.size(), 0);
   ParallelFor(fits.size(), options.threads, [&](std::size_t k) {
-    FitOptions o = options;
-    if (fd_steps[k % n_steps] > 0.0) o.fd_step = fd_steps[k % n_steps];
-    fits[k] = FitParameters(base, params, starts[k / n_steps], view, o, 0, max_iterations);
+    try {
+      fits[k] = FitParameters(base, params, starts[k], view, options, 0, max_iterations);
+      ok[k] = 1;
+    } catch (const std::runtime_error&) {
+      // this start cannot be simulated
+    }
   });
-  std::size_t best = 0;
-  int simulations = 0;
+  int best = -1, simulations = 0;
   if (costs) costs->clear();
   for (std::size_t k = 0; k < fits.size(); ++k) {
     simulations += fits[k].simulations;
-    if (costs) costs->push_back(fits[k].cost);
-    if (fits[k].cost < fits[best].cost) best = k;
+    if (costs) costs->push_back(ok[k] ? fits[k].map_cost : INFINITY);
+    if (ok[k] && (best < 0 || fits[k].map_cost < fits[best].map_cost)) best = static_cast<int>(k);
   }
-  if (kept) *kept = best;
+  if (best < 0) throw std::runtime_error("no start of the fit can be simulated");
+  if (kept) *kept = static_cast<std::size_t>(best);
   FitResult out = std::move(fits[best]);
   out.simulations = simulations;
   return out;
-}
-
-FitResult FitOverDifferenceSteps(const sim::ModelParams& base,
-                                 const std::vector<ModelParameter>& params,
-                                 const Eigen::VectorXd& x0, const DataView& view,
-                                 const FitOptions& options, const std::vector<double>& fd_steps,
-                                 int max_iterations, std::vector<double>* costs,
-                                 std::size_t* kept) {
-  return FitOverStarts(base, params, {x0}, view, options, fd_steps, max_iterations, costs, kept);
 }
 
 std::string CollapsedParameter(const std::vector<ModelParameter>& params, const Eigen::VectorXd& x,
@@ -403,6 +568,22 @@ std::string CollapsedParameter(const std::vector<ModelParameter>& params, const 
                                                   p.collapses_at) <= 1e-3 * (p.upper - p.lower)) {
       return p.name;
     }
+  }
+  return "";
+}
+
+std::string ParameterAtRangeBound(const std::vector<ModelParameter>& params,
+                                  const Eigen::VectorXd& x, Eigen::Index offset) {
+  if (offset < 0 || offset + static_cast<Eigen::Index>(params.size()) > x.size()) {
+    throw std::invalid_argument("ParameterAtRangeBound: offset out of range");
+  }
+  for (std::size_t k = 0; k < params.size(); ++k) {
+    const ModelParameter& p = params[k];
+    if (!p.range_is_plausible) continue;
+    const double v = x(offset + static_cast<Eigen::Index>(k)), tol = 1e-3 * (p.upper - p.lower);
+    const bool at_lower = v - p.lower <= tol && std::abs(p.start - p.lower) > tol;
+    const bool at_upper = p.upper - v <= tol && std::abs(p.upper - p.start) > tol;
+    if (at_lower || at_upper) return p.name;
   }
   return "";
 }

@@ -6,10 +6,17 @@
 //                 the pulse width, dimensionless: electrode placement / threshold differences)
 //   kOutputDrift  value · t is added to the simulated q.<joint> (sensor offset drift, rad/s, as
 //                 sim/sensors.h plants it: drift · t)
-// Predictions simulate each trial's u.* from t = 0 with identification/fullmodel's SimulateLike;
-// fitting is the bounded Levenberg–Marquardt of identification/levenberg_marquardt.h with a
-// forward-difference Jacobian evaluated in parallel threads (one simulation per parameter and
-// trial). This generalises FitFullModel's parameter kinds (which stay as they are) to mechanisms.
+// Predictions simulate each trial's u.* from t = 0 with identification/fullmodel's SimulateLike,
+// the output joints starting at the trial's measured initial posture (DataView::initial_q);
+// fitting is the bounded Levenberg–Marquardt of identification/levenberg_marquardt.h. Jacobian
+// columns come from CVODES forward sensitivities (one augmented simulation per trial for all the
+// columns whose ModelParameter::sensitivity is set) and forward differences for the others, in
+// parallel threads. A parameter with a prior (ModelParameter::prior_width) adds the row
+// σ_p (x − start) / width (log_prior: σ_p ln(x / start) / width) to the least-squares problem
+// (FitOptions::prior_sigma): the fit is then
+// the maximum a-posteriori estimate under a Gaussian prior, and directions the data do not see
+// stay at the start. This generalises FitFullModel's parameter kinds (which stay as they are) to
+// the person calibration (person.h) and the mechanisms (mechanisms/).
 #pragma once
 
 #include <Eigen/Dense>
@@ -37,14 +44,39 @@ struct ModelParameter {
   /// (potentiation's shortest rise time: a constant extra gain on the active force); NaN: none.
   /// A candidate fit that ends there is not accepted (diagnose.h step 4).
   double collapses_at = NAN;
+  /// The bounds are the plausible range of the parameter (true), not a search window around a
+  /// start (false: a tremor's phase and frequency). A mechanism whose fit ends at a plausible-
+  /// range bound other than its "off" start is not accepted (extension.h).
+  bool range_is_plausible = true;
+  /// 1σ width of a Gaussian prior around `start`, in the parameter's unit, > 0; NaN: no prior.
+  /// Used when FitOptions::prior_sigma > 0.
+  double prior_width = NAN;
+  /// The prior is log-normal: on ln(x / start), prior_width in natural-log units (for scale
+  /// factors, start > 0 and lower > 0: a factor 2 and a factor ½ are equally far).
+  bool log_prior = false;
+  /// kModel only: `set` changes nothing but what sim::IntegrateTrialSensitivities differentiates
+  /// (recruitment, the electrode matrix, Hill and passive joint parameters, muscle paths), so its
+  /// Jacobian column may come from forward sensitivities.
+  bool sensitivity = false;
   /// kModel: writes the value into the model (called on a copy of the base).
   std::function<void(double, sim::ModelParams*)> set;
 };
+
+/// [a; b].
+Eigen::VectorXd Concat(const Eigen::VectorXd& a, const Eigen::VectorXd& b);
+/// a followed by b (a model's parameters with an extension's).
+std::vector<ModelParameter> Join(const std::vector<ModelParameter>& a,
+                                 const std::vector<ModelParameter>& b);
 
 /// The name of the first of `params` (their values x(offset), x(offset + 1), …) that sits at its
 /// collapses_at bound (within 1e-3 of its range), or "" when none does.
 std::string CollapsedParameter(const std::vector<ModelParameter>& params, const Eigen::VectorXd& x,
                                Eigen::Index offset);
+
+/// The name of the first of `params` (values from x(offset)) with range_is_plausible that sits
+/// within 1e-3 of its range at a bound that is not its start, or "" when none does.
+std::string ParameterAtRangeBound(const std::vector<ModelParameter>& params,
+                                  const Eigen::VectorXd& x, Eigen::Index offset);
 
 /// The data one fit or evaluation sees: trials simulated from t = 0, and per trial the samples
 /// that count (training segment or held-out segment). Outputs are the q.* columns named here.
@@ -52,6 +84,10 @@ struct DataView {
   std::vector<Trial> trials;
   std::vector<std::vector<char>> use;  ///< use[t][i]: sample i of trial t counts (and is finite).
   std::vector<std::string> outputs;    ///< q.<joint> names, present in every trial.
+  /// initial_q[t][o]: the measured angle of output o at the start of trial t, rad (the median of
+  /// its first finite samples, measured.h), the simulation's initial posture of that joint; NaN
+  /// or an empty list: the model's initial angle.
+  std::vector<std::vector<double>> initial_q;
   /// Number of counted finite output samples.
   long Count() const;
 };
@@ -87,6 +123,13 @@ Eigen::VectorXd StackResiduals(const DataView& view, const std::vector<Trial>& p
 /// Mean over outputs of the normalised error ‖y − ŷ‖ / ‖y − ȳ‖ (identification/metrics.h) on the
 /// counted samples of all trials pooled per output, dimensionless.
 double ViewNrmse(const DataView& view, const std::vector<Trial>& predictions);
+/// The same per output, in view.outputs order.
+std::vector<double> ViewNrmsePerOutput(const DataView& view, const std::vector<Trial>& predictions);
+
+/// `base` with the output joints of trial t of `view` starting at its measured posture
+/// (view.initial_q[t]; NaN entries keep the model's).
+sim::ModelParams WithInitialPosture(const sim::ModelParams& base, const DataView& view,
+                                    std::size_t t);
 
 struct FitOptions {
   int max_iterations = 8;            ///< accepted LM steps.
@@ -108,6 +151,15 @@ struct FitOptions {
   /// with a 5 Hz tremor (bench/diagnosis_bench.cc BM_SimulateLike*).
   double max_steps_per_s = 10000.0;
   int threads = 2;  ///< simulation workers, ≥ 1.
+  /// σ_p of the prior rows σ_p (x − start) / prior_width, rad (the measured noise level, so that
+  /// Σr² + Σ rows² is σ² times the negative log posterior); 0: priors off.
+  double prior_sigma = 0.0;
+  /// Jacobian columns of ModelParameter::sensitivity parameters from forward sensitivities
+  /// (false: all by forward differences).
+  bool sensitivities = true;
+  /// The sensitivity integrations run at this multiple of `tolerance` (≥ 1): LM needs the
+  /// Jacobian for its step direction only (as FullModelFitOptions::jacobian_tolerance_factor).
+  double jacobian_tolerance_factor = 10.0;
   /// The simulation. Empty: the full model (12) by identification/fullmodel's SimulateLike;
   /// `fesim diagnose --model NAME` sets a reduced model (reduced_model.h).
   TrialSimulator simulator;
@@ -117,6 +169,8 @@ struct FitResult {
   Eigen::VectorXd x;     ///< best values, in the parameters' units.
   Eigen::VectorXd ci95;  ///< 95 % half-widths (NaN: not estimable or held).
   double cost = 0.0;  ///< Σ (y − ŷ)², rad² (profiled: ‖(I − P) r‖², see FitParameters).
+  /// cost + the prior rows' Σ (FitOptions::prior_sigma), rad²: what LM minimised.
+  double map_cost = 0.0;
   /// Profiled fits only: the linearised least-squares step of the profiled (held) parameters
   /// at x, δ = −(J_nᵀJ_n)⁻¹ J_nᵀ r(x), one entry per column of the nuisance Jacobian.
   Eigen::VectorXd nuisance_step;
@@ -126,6 +180,7 @@ struct FitResult {
   /// step fell below its tolerance), not the iteration limit or a failure to decrease.
   bool converged = false;
   Eigen::MatrixXd jacobian;  ///< ∂r/∂x of the free parameters at the last linearisation point.
+  Eigen::VectorXd jacobian_x;  ///< that point (all parameters).
   /// The raw residual y − ŷ at x and the simulated trials it came from (empty when x was not
   /// simulated in this fit). With `jacobian` (at x when the fit ends on an accepted or the start
   /// point, the last LM linearisation) they let a following fit from x start without simulating.
@@ -161,34 +216,24 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
                         int first_free = 0, int max_iterations = 0,
                         const Eigen::MatrixXd* nuisance = nullptr, const FitStart* start = nullptr);
 
-/// FitParameters of all `params` from every start in `starts` (non-empty) once per difference
-/// step in `fd_steps` (0: options.fd_step; each in [0, 1), non-empty), side by side on
-/// options.threads threads (each fit's simulations on options.threads threads again): the fit
-/// with the lowest cost (the first of equal ones); `costs` (optional) receives every fit's cost
-/// and `kept` the index of the one returned, both in the order start-major (fit s · |fd_steps| +
-/// h: start s, step h). Its simulations count all the fits'. Several steps make a calibration that
-/// a local bump of Σr² stops at one step scale go on at another; several starts reach valleys a
-/// local fit from one start does not (the elbow rig's subject calibration, docs/diagnosis.md,
-/// sessions 10 and 12).
+/// FitParameters of all `params` from every start in `starts` (non-empty), side by side on
+/// options.threads threads (each fit's simulations on options.threads threads again): the fit of
+/// lowest posterior cost (map_cost; the data cost without priors; the first of equal ones). A
+/// start whose simulation fails is skipped; `costs` (optional) receives every start's map_cost
+/// (∞ for a failed one) and `kept` the index of the one returned. Its simulations count all the
+/// fits'. Throws std::invalid_argument without a start and std::runtime_error when every start
+/// fails. Several starts reach valleys a local fit from one start does not (the elbow rig, whose
+/// forearm weight trades off against strength and stiffness).
 FitResult FitOverStarts(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
                         const std::vector<Eigen::VectorXd>& starts, const DataView& view,
-                        const FitOptions& options, const std::vector<double>& fd_steps,
-                        int max_iterations, std::vector<double>* costs = nullptr,
-                        std::size_t* kept = nullptr);
+                        const FitOptions& options, int max_iterations,
+                        std::vector<double>* costs = nullptr, std::size_t* kept = nullptr);
 
 /// The vertex of the parabola through (f0, c0), (f1, c1), (f2, c2), f0 < f1 < f2, c1 < c0 and
 /// c1 < c2: the minimiser of the quadratic interpolant, inside (f0, f2) — one step of successive
 /// parabolic interpolation (Press et al., Numerical Recipes, 3rd ed., eq. 10.3.1). Refines a
-/// profile of Σr² sampled on a grid of a mechanism parameter (diagnose.cc, LowestProfileStart).
+/// profile of Σr² sampled on a grid of a mechanism parameter (extension.cc, LowestProfileStart).
 double ParabolaVertex(double f0, double c0, double f1, double c1, double f2, double c2);
-
-/// FitOverStarts from x0 alone.
-FitResult FitOverDifferenceSteps(const sim::ModelParams& base,
-                                 const std::vector<ModelParameter>& params,
-                                 const Eigen::VectorXd& x0, const DataView& view,
-                                 const FitOptions& options, const std::vector<double>& fd_steps,
-                                 int max_iterations, std::vector<double>* costs = nullptr,
-                                 std::size_t* kept = nullptr);
 
 /// Forward-difference Jacobian ∂r/∂x_k (N × (p − first_free)) for the columns k ≥ first_free
 /// at x with residual r0; one simulation per column and trial, in parallel, except kOutputDrift

@@ -23,7 +23,17 @@ struct MeasuredData {
   std::vector<std::string> notes;  ///< pre-processing done (resampling), one line each.
 };
 
-/// True when the steps of `time` are equal to within 0.1 % (and positive).
+/// The initial posture: at most kInitialPostureSamples finite samples within the first
+/// kInitialPostureWindowS of the record, their median per output.
+inline constexpr std::size_t kInitialPostureSamples = 3;
+inline constexpr double kInitialPostureWindowS = 0.1;
+
+/// The measured initial angle of each of `outputs` (rad; NaN when the window has no finite
+/// sample): the simulations start the output joints there (DataView::initial_q), so a trial that
+/// begins away from the model's rest posture is not read as a transient the model lacks.
+std::vector<double> InitialPosture(const Trial& trial, const std::vector<std::string>& outputs);
+
+/// True when the steps of `time` are equal to within 1 % (and positive).
 bool IsUniformlySampled(const std::vector<double>& time);
 
 /// A measured record on a uniform grid (for records whose sample steps differ, e.g. a tracker

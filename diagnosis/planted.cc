@@ -5,8 +5,10 @@
 #include <random>
 #include <stdexcept>
 
+#include "diagnosis/mechanisms/mechanism.h"
 #include "scenarios/protocols.h"
 #include "scenarios/study.h"
+#include "sim/default_model.h"
 #include "sim/sensors.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
@@ -64,42 +66,78 @@ sim::StimulationSchedule Grid(const sim::ModelParams& m, const std::vector<std::
   return s;
 }
 
-/// Sets the candidate parameter `name` of `id` (at the wrist for joint-level ones) through the
-/// library's own setter, so planted and fitted parameters mean the same thing.
-void SetViaLibrary(const std::string& id, const std::string& name, double value,
-                   const LibraryContext& ctx, sim::ModelParams* m,
-                   std::vector<NamedValue>* planted) {
-  const sim::ModelParams nominal = *m;
-  for (const auto& c : CandidateLibrary(nominal, ctx)) {
-    if (c.id != id || (!c.joint.empty() && c.joint != "wrist_flexion")) continue;
-    for (const auto& p : c.params) {
-      if (p.name == name) {
-        p.set(value, m);
-        planted->push_back({c.label + ":" + name, p.unit, value, NAN});
-        return;
-      }
+/// Log-uniform factor in [lo, hi].
+double LogUniform(std::mt19937_64* rng, double lo, double hi) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  return lo * std::pow(hi / lo, unit(*rng));
+}
+
+double Uniform(std::mt19937_64* rng, double lo, double hi) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  return lo + (hi - lo) * unit(*rng);
+}
+
+/// The wide person of planted.h on `m`.
+void ApplyWidePerson(std::mt19937_64* rng, sim::ModelParams* m) {
+  const double omega = Uniform(rng, 0.7, 1.3);
+  for (auto& mu : m->muscles) {
+    mu.recruitment.beta_per_us *= LogUniform(rng, 0.5, 2.0);
+    mu.recruitment.gamma *= LogUniform(rng, 0.5, 2.0);
+    mu.activation_omega_rad_s *= omega;
+    mu.hill.max_isometric_force_n *= LogUniform(rng, 1.0 / 1.5, 1.5);
+    for (auto& cr : mu.path.crossings) {
+      const double f = Uniform(rng, 0.75, 1.25);
+      cr.arm.d_m *= f;
+      cr.arm.d_tilde_m *= f;
     }
   }
-  throw std::invalid_argument("planted data: no parameter " + id + ":" + name);
+  for (auto& seg : m->segments) {
+    const double f = Uniform(rng, 0.8, 1.2);
+    seg.mass_kg *= f;
+    for (double& i : seg.inertia_about_com_kg_m2) i *= f;
+  }
+  for (auto& c : m->coordinates) {
+    c.passive.stiffness_nm_per_rad *= LogUniform(rng, 0.5, 2.0);
+    c.passive.damping_nms_per_rad *= LogUniform(rng, 0.5, 2.0);
+    if (c.mode == sim::CoordinateMode::kFree) {
+      c.passive.rest_angle_rad += Uniform(rng, -10.0, 10.0) * kPi / 180.0;
+      c.initial_rad = c.passive.rest_angle_rad;
+    }
+  }
+  m->array.origin.along_m += Uniform(rng, -0.01, 0.01);
+  m->array.origin.around_m += Uniform(rng, -0.01, 0.01);
+  // Muscles at their optimal length at the new rest posture (as sim/default_model.h builds them).
+  sim::CalibrateReferenceLengths(m);
 }
 
 }  // namespace
 
+sim::ModelParams DrawPerson(const sim::ModelParams& rig, PersonSpread spread, std::mt19937_64* rng,
+                            double* stiffness_scale, double* strength_scale) {
+  sim::ModelParams m = rig;
+  Participant person;
+  person.stiffness_scale = 0.8 * std::pow(1.25 / 0.8, Uniform(rng, 0.0, 1.0));
+  person.strength_scale = 0.8 * std::pow(1.25 / 0.8, Uniform(rng, 0.0, 1.0));
+  if (spread == PersonSpread::kNarrow) {
+    ApplyParticipant(person, &m);
+    *stiffness_scale = person.stiffness_scale;
+    *strength_scale = person.strength_scale;
+    return m;
+  }
+  ApplyWidePerson(rng, &m);
+  *stiffness_scale = *strength_scale = 1.0;
+  return m;
+}
+
 PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) {
   if (spec.trials < 1) throw std::invalid_argument("planted data: trials must be >= 1");
   std::mt19937_64 rng(spec.seed);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
   PlantedDataset out;
-  Participant person;
-  person.stiffness_scale = 0.8 * std::pow(1.25 / 0.8, unit(rng));
-  person.strength_scale = 0.8 * std::pow(1.25 / 0.8, unit(rng));
-  out.stiffness_scale = person.stiffness_scale;
-  out.strength_scale = person.strength_scale;
-  sim::ModelParams clean = rig.model;
-  ApplyParticipant(person, &clean);
+  const sim::ModelParams clean =
+      DrawPerson(rig.model, spec.person, &rng, &out.stiffness_scale, &out.strength_scale);
+  out.person = clean;
   sim::ModelParams truth = clean;
   sim::SensorSuite sensors = rig.trial.sensors;
-  const double s = spec.effect_scale;
   LibraryContext ctx;
   for (int c : sensors.angles.coordinates) ctx.outputs.push_back("q." + sim::CoordinateNames()[c]);
   ctx.channels = spec.channels;
@@ -113,62 +151,14 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
     throw std::invalid_argument("planted data: need two channels of the rig (spec.channels)");
   }
   double wander_rad = 0.0;
-  const double tremor_f = 5.0 + 3.0 * unit(rng), tremor_phase = 2.0 * kPi * unit(rng);
+  PlantContext plant{ctx, spec.effect_scale, Uniform(&rng, 5.0, 8.0),
+                     Uniform(&rng, 0.0, 2.0 * kPi)};
   for (const auto& id : spec.mechanisms) {
-    auto& mech = truth.mechanisms;
-    const double tj = JointTorqueScale(truth, sim::kWristFlexion);
-    if (id == "fatigue") {
-      mech.fatigue.enabled = true;
-      mech.fatigue.fatigue_time_s = 5.0 / s;
-      out.planted.push_back({"fatigue:fatigue.rate_per_s", "1/s", s / 5.0, NAN});
-    } else if (id == "potentiation") {
-      mech.potentiation.enabled = true;
-      mech.potentiation.gain = 2.0 * s;
-      out.planted.push_back({"potentiation:potentiation.gain", "1", 2.0 * s, NAN});
-      out.planted.push_back(
-          {"potentiation:potentiation.rise_time_s", "s", mech.potentiation.rise_time_s, NAN});
-    } else if (id == "delay") {
-      mech.electromechanical_delay_s = 0.07 * s;
-      out.planted.push_back({"delay:delay.s", "s", 0.07 * s, NAN});
-    } else if (id == "tremor") {
-      mech.tremor.enabled = true;
-      mech.tremor.coordinate = sim::kWristFlexion;
-      mech.tremor.amplitude_nm = 0.08 * s;
-      mech.tremor.frequency_hz = tremor_f;
-      mech.tremor.phase_rad = tremor_phase;
-      out.planted.push_back({"tremor@wrist_flexion:tremor.amplitude_nm", "N*m", 0.08 * s, NAN});
-      out.planted.push_back({"tremor@wrist_flexion:tremor.frequency_hz", "Hz", tremor_f, NAN});
-    } else if (id == "crosstalk") {
-      SetViaLibrary(id, "crosstalk.fraction", 0.06 * s, ctx, &truth, &out.planted);
-    } else if (id == "moment_arm_posture") {
-      SetViaLibrary(id, "momentarm.posture_ratio", 2.0 * s, ctx, &truth, &out.planted);
-    } else if (id == "force_length_velocity") {
-      SetViaLibrary(id, "hill.vmax_scale", 1.0 / (1.0 + 2.0 * s), ctx, &truth, &out.planted);
-    } else if (id == "unequal_muscle_dynamics") {
-      SetViaLibrary(id, "omega.ext_flex_ratio", 1.0 + 0.4 * s, ctx, &truth, &out.planted);
-    } else if (id == "passive_stiffness_nonlinear") {
-      SetViaLibrary(id, "passive.limit_scale", 1.0 + 20.0 * s, ctx, &truth, &out.planted);
-      SetViaLibrary(id, "passive.sharpness_per_rad", 5.0, ctx, &truth, &out.planted);
-    } else if (id == "stiction") {
-      SetViaLibrary(id, "friction.coulomb_nm", 0.04 * s * tj, ctx, &truth, &out.planted);
-      SetViaLibrary(id, "friction.static_excess_nm", 0.04 * s * tj, ctx, &truth, &out.planted);
-    } else if (id == "spasticity") {
-      SetViaLibrary(id, "reflex.gain_nms_per_rad", 0.4 * s * tj, ctx, &truth, &out.planted);
-      SetViaLibrary(id, "reflex.threshold_rad_s", 0.5, ctx, &truth, &out.planted);
-    } else if (id == "sensor_drift") {
-      sensors.angles.offset_drift_per_s = 0.0005 * s;
-      for (const auto& o : ctx.outputs) {
-        out.planted.push_back({"sensor_drift:drift." + o, "rad/s", 0.0005 * s, NAN});
-      }
-    } else if (id == "arm_support") {
-      SetViaLibrary(id, "support.weight_compensation_n",
-                    ForearmSupportCuff(truth).force_n + 0.25 * s * ForearmWeightN(truth), ctx,
-                    &truth, &out.planted);
-    } else if (id == "outside") {
-      wander_rad = 1.5 * s * kPi / 180.0;
-    } else {
-      throw std::invalid_argument("planted data: unknown mechanism '" + id + "'");
+    if (id == "outside") {
+      wander_rad = 1.5 * spec.effect_scale * kPi / 180.0;
+      continue;
     }
+    FindMechanism(id).plant(plant, &truth, &sensors, &out.planted);
   }
   out.noise_rms_rad = sensors.angles.noise_std;
   const sim::UpperLimbModel truth_model(truth), clean_model(clean);
@@ -218,8 +208,8 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
 }
 
 std::vector<std::string> PlantedProtocols(const std::string& id) {
-  if (id == "spasticity") return {"steps"};
-  return {"steps", "grid"};
+  if (id == "outside") return {"steps", "grid"};
+  return FindMechanism(id).planted_protocols;
 }
 
 PlantedDataset MakePlantedDatasetAtLeast(const Scenario& rig, PlantedSpec* spec, double min_ratio,

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "diagnosis/candidates.h"
+#include "diagnosis/mechanisms/library.h"
 #include "identification/method.h"
 #include "sim/mechanisms.h"
 
@@ -51,8 +51,13 @@ bool PadCentroid(const sim::ModelParams& m, const sim::ChannelParams& ch, double
 }  // namespace
 
 const std::vector<std::string>& ReducedModelMechanisms() {
-  static const std::vector<std::string> ids = {"fatigue", "potentiation", "delay",
-                                               "tremor",  "crosstalk",    "sensor_drift"};
+  static const std::vector<std::string> ids = [] {
+    std::vector<std::string> out;
+    for (const auto& m : Mechanisms()) {
+      if (m.reduced_model_form) out.push_back(m.id);
+    }
+    return out;
+  }();
   return ids;
 }
 
@@ -167,6 +172,14 @@ std::vector<Trial> ReducedTrainingTrials(const DataView& train,
     Trial tr;
     tr.metadata = in.metadata;
     tr.time.assign(in.time.begin(), in.time.begin() + static_cast<std::ptrdiff_t>(end));
+    // The record is uniform to within measured.h's 1 % (e.g. a 60 Hz log written to 4 decimals);
+    // the identification methods want exact steps: t₀ + k·(mean step), each moved by ≤ 0.5 %
+    // of a step.
+    if (tr.time.size() > 1) {
+      const double t0 = tr.time.front(), dt = (tr.time.back() - t0) / (tr.time.size() - 1.0);
+      for (std::size_t i = 0; i < tr.time.size(); ++i)
+        tr.time[i] = t0 + dt * static_cast<double>(i);
+    }
     for (const auto& ch : channels) {
       const std::string c = "u." + ch;
       if (!in.Has(c)) continue;

@@ -5,7 +5,7 @@
 //
 // A reduced model maps pulse widths u.* to joint angles q.*; it has no muscles, joints or support,
 // so only the mechanisms that act on its input or on its output can extend it. They read the same
-// sim::ModelParams fields the full model's extensions set (candidates.h), in these forms:
+// sim::ModelParams fields the full model's extensions set (mechanisms/), in these forms:
 //   delay          u_c(t − δ), linear interpolation, u_c(t₀) before t₀ + δ (as the full model:
 //                  recruitment sees the delayed input)
 //   crosstalk      u_c + c Σ_{c'≠c} w_cc' u_c',  w_cc' = exp(−d²_cc' / (2 σ_x²)), d_cc' the
@@ -35,7 +35,8 @@
 
 namespace fesim::diagnosis {
 
-/// The mechanism ids a reduced model can be extended with (the forms above).
+/// The mechanism ids a reduced model can be extended with (the forms above; Mechanism::
+/// reduced_model_form).
 const std::vector<std::string>& ReducedModelMechanisms();
 
 /// The reduced models `--model` accepts: the identification methods with a fit_simulator.
@@ -63,9 +64,10 @@ TrialSimulator ReducedSimulator(const identification::FittedSimulator& fitted,
 
 /// The training trials a reduced model is identified on: each training trial cut after its last
 /// counted sample, with the view's outputs and the given u.* channels only, NaN output gaps filled
-/// by linear interpolation between the finite neighbours (held at the ends). Sets `u_ref` to each
-/// channel's largest training pulse width. Throws std::runtime_error when an output has no finite
-/// sample.
+/// by linear interpolation between the finite neighbours (held at the ends), and the time column
+/// made exactly uniform (its mean step; the view's records are uniform to within 1 %). Sets `u_ref`
+/// to each channel's largest training pulse width. Throws std::runtime_error when an output has no
+/// finite sample.
 std::vector<Trial> ReducedTrainingTrials(const DataView& train,
                                          const std::vector<std::string>& channels,
                                          std::map<std::string, double>* u_ref);

@@ -18,21 +18,15 @@ std::string F(const char* fmt, double v) {
   return buf;
 }
 
-std::string Describe(const std::string& id) {
-  if (id == "fatigue") return "muscle fatigue (force falling with accumulated stimulation)";
-  if (id == "potentiation") return "post-activation potentiation (force rising with use)";
-  if (id == "delay") return "an electromechanical delay between stimulation and movement";
-  if (id == "tremor") return "a tremor (periodic joint torque)";
-  if (id == "crosstalk") return "electrode crosstalk (current reaching other muscles)";
-  if (id == "moment_arm_posture") return "posture-dependent moment arms";
-  if (id == "force_length_velocity") return "a different muscle force-velocity property";
-  if (id == "unequal_muscle_dynamics") return "unequal activation dynamics of the muscle groups";
-  if (id == "passive_stiffness_nonlinear") return "nonlinear passive joint stiffness";
-  if (id == "arm_support") return "the arm support";
-  if (id == "stiction") return "joint friction / stiction";
-  if (id == "spasticity") return "a velocity-dependent stretch reflex (spasticity)";
-  if (id == "sensor_drift") return "a drifting sensor offset";
-  return id;
+std::string Status(const PersonValue& v) {
+  if (!v.fitted) return "held at nominal: not identifiable from these data";
+  if (v.at_bound) return "at a bound";
+  if (v.prior_dominated) return "calibrated, weakly (prior-dominated)";
+  return "calibrated";
+}
+
+std::string Cell(double v, const char* fmt) {
+  return std::isfinite(v) ? F(fmt, v) : std::string("");
 }
 
 /// Held-out residual series of one output, per held-out trial concatenated (NaN elsewhere).
@@ -52,6 +46,22 @@ void HeldoutResidual(const Diagnosis& d, const std::vector<Trial>& pred, const s
   }
 }
 
+/// Held-out measured series of one output and a prediction of it, trials concatenated.
+void HeldoutSeries(const Diagnosis& d, const std::vector<Trial>& pred, const std::string& o,
+                   std::vector<double>* t, std::vector<double>* y, std::vector<double>* yh) {
+  double offset = 0.0;
+  for (std::size_t k = 0; k < d.heldout.trials.size(); ++k) {
+    const Trial& tr = d.heldout.trials[k];
+    for (std::size_t i = 0; i < tr.size(); ++i) {
+      if (!d.heldout.use[k][i]) continue;
+      t->push_back(offset + tr.time[i]);
+      y->push_back(tr.Column(o)[i]);
+      yh->push_back(pred[k].Column(o)[i]);
+    }
+    offset += tr.time.back();
+  }
+}
+
 }  // namespace
 
 std::string CandidateLogLine(const CandidateResult& c) {
@@ -59,10 +69,11 @@ std::string CandidateLogLine(const CandidateResult& c) {
   for (const auto& p : c.parameters) params += " " + p.name + "=" + std::to_string(p.value);
   char line[320];
   std::snprintf(line, sizeof line,
-                "%-40s S %9.1f dof %d padj %.2g fitted %d lr_padj %.2g gain %.4f | on top: S %.1f "
-                "gain %.4f",
-                c.label.c_str(), c.score_statistic, c.dof, c.p_adjusted, c.fitted ? 1 : 0,
-                c.lr_p_adjusted, c.heldout_gain, c.score_on_accepted, c.heldout_gain_on_accepted);
+                "%-40s S %9.1f dof %d padj %.2g infl %.1f fitted %d lr_padj %.2g gain %.4f z %.1f "
+                "| on top: S %.1f gain %.4f",
+                c.label.c_str(), c.score_statistic, c.dof, c.p_adjusted, c.variance_inflation,
+                c.fitted ? 1 : 0, c.lr_p_adjusted, c.heldout_gain, c.heldout_z, c.score_on_accepted,
+                c.heldout_gain_on_accepted);
   return line + params;
 }
 
@@ -70,8 +81,14 @@ Json DiagnosisJson(const Diagnosis& d) {
   Json j = Json::Object();
   j.Set("cause", d.cause);
   j.Set("confidence", d.confidence);
+  j.Set("reason", d.reason);
   Json base = Json::Object();
   base.Set("heldout_nrmse", d.baseline_heldout_nrmse);
+  Json per = Json::Object();
+  for (std::size_t o = 0; o < d.heldout.outputs.size(); ++o) {
+    per.Set(d.heldout.outputs[o], d.baseline_heldout_nrmse_per_output[o]);
+  }
+  base.Set("per_output", per);
   j.Set("baseline", base);
   Json ext = Json::Object();
   Json ids = Json::Array();
@@ -80,25 +97,54 @@ Json DiagnosisJson(const Diagnosis& d) {
   Json params = Json::Object();
   for (const auto& p : d.extension_parameters) {
     Json v = Json::Object();
-    v.Set("value", p.value);
-    v.Set("ci95", p.ci95);
-    v.Set("unit", p.unit);
+    v.Set("value", p.value).Set("ci95", p.ci95).Set("unit", p.unit);
     params.Set(p.name, v);
   }
   ext.Set("parameters", params);
   ext.Set("heldout_nrmse", d.extended_heldout_nrmse);
+  Json ext_per = Json::Object();
+  for (std::size_t o = 0; o < d.heldout.outputs.size(); ++o) {
+    ext_per.Set(d.heldout.outputs[o], d.extended_heldout_nrmse_per_output[o]);
+  }
+  ext.Set("per_output", ext_per);
   j.Set("extended", ext);
   j.Set("gain", d.gain);
   Json cands = Json::Array();
   for (const auto& c : d.candidates) {
     Json e = Json::Object();
-    e.Set("id", c.id);
-    e.Set("score", c.score);
+    e.Set("id", c.id).Set("label", c.label).Set("joint", c.joint.empty() ? Json() : Json(c.joint));
+    e.Set("score", c.score).Set("statistic", c.score_statistic).Set("dof", c.dof);
+    e.Set("p_value", c.p_value).Set("p_adjusted", c.p_adjusted);
+    e.Set("variance_inflation", c.variance_inflation);
     e.Set("heldout_gain", c.fitted ? Json(c.heldout_gain) : Json());
-    e.Set("evidence", (c.joint.empty() ? "" : "[" + c.joint + "] ") + c.evidence);
+    e.Set("heldout_z", c.fitted ? Json(c.heldout_z) : Json());
+    e.Set("lr_p_adjusted", c.fitted ? Json(c.lr_p_adjusted) : Json());
+    e.Set("accepted", c.accepted).Set("decision", c.decision).Set("evidence", c.evidence);
     cands.Push(e);
   }
   j.Set("candidates", cands);
+  Json person = Json::Object();
+  for (const auto& v : d.person) {
+    Json e = Json::Object();
+    e.Set("value", v.value).Set("unit", v.unit).Set("ci95", v.ci95).Set("nominal", v.nominal);
+    e.Set("calibrated", v.fitted).Set("at_bound", v.at_bound);
+    e.Set("prior_dominated", v.prior_dominated).Set("status", Status(v));
+    person.Set(v.name, e);
+  }
+  j.Set("person", person);
+  Json ref = Json::Object();
+  ref.Set("method", d.reference.method.empty() ? Json() : Json(d.reference.method));
+  ref.Set("heldout_nrmse", d.reference.heldout_nrmse);
+  Json ref_per = Json::Object();
+  for (std::size_t o = 0; o < d.reference.heldout_nrmse_per_output.size(); ++o) {
+    ref_per.Set(d.heldout.outputs[o], d.reference.heldout_nrmse_per_output[o]);
+  }
+  ref.Set("per_output", ref_per);
+  j.Set("reference", ref);
+  Json noise = Json::Object();
+  for (std::size_t o = 0; o < d.noise_rad.size(); ++o)
+    noise.Set(d.heldout.outputs[o], d.noise_rad[o]);
+  j.Set("noise_rad", noise);
   j.Set("model", d.model);
   return j;
 }
@@ -108,58 +154,54 @@ std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs) {
   for (const auto& line : d.notes) notes += "Input: " + line + ".\n\n";
   const std::string model =
       d.model == "full"
-          ? std::string("the full model (12) of the rig, subject parameters calibrated")
+          ? std::string("the full model (12) of the rig, the person calibrated")
           : "the reduced model " + d.model +
                 " identified on the training part (below); only mechanisms acting on its input or "
                 "output can extend it";
   std::string md = "# fesim diagnose\n\n" + inputs + "\n\nModel: " + model +
                    ".\n\nSplit: " + d.split + ".\n\n" + notes + "## Verdict\n\n";
-  if (d.cause == "none") {
-    md +=
-        "The calibrated simulation reproduces the held-out data to within the measurement "
-        "noise: no candidate mechanism improved the held-out error enough to be accepted and "
-        "the remaining residual is white. Verdict **none** (confidence " +
-        F("%.2f", d.confidence) + ").\n";
-  } else if (d.cause == "unexplained") {
-    md +=
-        "The calibrated simulation leaves structure in the held-out residual (see the "
-        "signature table: structured share above threshold) that none of the candidate "
-        "mechanisms explains on held-out data. Verdict **unexplained** (confidence " +
-        F("%.2f", d.confidence) +
-        "): the data hold an effect the model library lacks, or an "
-        "artefact of the recording.\n";
-  } else {
-    md += "What the simulation gets wrong is best explained by " + Describe(d.cause) + " (**" +
-          d.cause + "**, confidence " + F("%.2f", d.confidence) + ").";
-    if (d.mechanisms.size() > 1) {
-      md += " A second mechanism was accepted on top:";
-      for (std::size_t k = 1; k < d.mechanisms.size(); ++k) md += " **" + d.mechanisms[k] + "**";
-      md += ".";
-    }
-    md += " Extending the model with it and refitting lowers the held-out normalised error from " +
+  md += "**" + d.cause + "** (confidence " + F("%.2f", d.confidence) + "): " + d.reason + ".";
+  if (d.mechanisms.size() > 1) {
+    md += " A second mechanism was accepted on top:";
+    for (std::size_t k = 1; k < d.mechanisms.size(); ++k) md += " **" + d.mechanisms[k] + "**";
+    md += ".";
+  }
+  if (!d.mechanisms.empty()) {
+    md += " Extending the model and refitting lowers the held-out normalised error from " +
           F("%.4f", d.baseline_heldout_nrmse) + " to " + F("%.4f", d.extended_heldout_nrmse) +
           " (gain " + F("%.1f", 100.0 * d.gain) + " %).";
-    if (d.confidence < 0.5) {
-      md +=
-          " The confidence is low: another candidate explains a comparable share, or "
-          "structure remains after the extension — treat the name as a hypothesis.";
-    }
+    if (d.confidence < 0.5) md += " The confidence is low: treat the name as a hypothesis.";
     md +=
         "\n\nFitted mechanism parameters (95 % intervals from the Gauss–Newton covariance):\n\n"
         "| parameter | value | ± 95 % | unit |\n|---|---|---|---|\n";
     for (const auto& p : d.extension_parameters) {
-      md += "| " + p.name + " | " + F("%.4g", p.value) + " | " +
-            (std::isfinite(p.ci95) ? F("%.2g", p.ci95) : std::string("n/a")) + " | " + p.unit +
-            " |\n";
+      md += "| " + p.name + " | " + F("%.4g", p.value) + " | " + Cell(p.ci95, "%.2g") + " | " +
+            p.unit + " |\n";
     }
   }
-  md += "\n## Before / after (held-out data)\n\n";
+  md +=
+      "\n## Fit quality beside a black box (held-out NRMSE)\n\n| output | calibrated model | "
+      "extended model | black box " +
+      d.reference.method + " | noise σ (rad) |\n|---|---|---|---|---|\n";
+  for (std::size_t o = 0; o < d.heldout.outputs.size(); ++o) {
+    const double ref = o < d.reference.heldout_nrmse_per_output.size()
+                           ? d.reference.heldout_nrmse_per_output[o]
+                           : NAN;
+    md += "| " + d.heldout.outputs[o] + " | " + F("%.4f", d.baseline_heldout_nrmse_per_output[o]) +
+          " | " + F("%.4f", d.extended_heldout_nrmse_per_output[o]) + " | " + Cell(ref, "%.4f") +
+          " | " + (o < d.noise_rad.size() ? F("%.4f", d.noise_rad[o]) : std::string("")) + " |\n";
+  }
+  for (const auto& [method, result] : d.reference.tried) {
+    md += "\nBlack box " + method + ": " + result + ".";
+  }
+  md += "\n\n## Before / after (held-out data)\n\n";
   for (const auto& o : d.heldout.outputs) {
-    md += "![residual " + o + "](residuals_" + o.substr(2) + ".png)\n![spectrum " + o +
-          "](spectrum_" + o.substr(2) + ".png)\n\n";
+    md += "![prediction " + o + "](prediction_" + o.substr(2) + ".png)\n![residual " + o +
+          "](residuals_" + o.substr(2) + ".png)\n![spectrum " + o + "](spectrum_" + o.substr(2) +
+          ".png)\n\n";
   }
   md +=
-      "## Residual signatures (baseline model, training data)\n\n"
+      "## Residual signatures (calibrated model, training data)\n\n"
       "| output | RMS (rad) | spectrum peak 3–12 Hz | corr time | corr cumulative u | corr "
       "velocity | corr sign(velocity) | corr posture | input lag | structured share held-out "
       "before → after |\n|---|---|---|---|---|---|---|---|---|---|\n";
@@ -174,25 +216,25 @@ std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs) {
           F("%.2f", s.structure_heldout_extended) + " |\n";
   }
   md +=
-      "\n## Candidate ranking\n\nScore = −log10 of the Bonferroni-adjusted p-value of the "
-      "score test (0 = no evidence); held-out gain of the candidate alone on the baseline "
-      "(blank: not fitted); on top: its held-out gain over the model with the other accepted "
-      "mechanism(s) (second round; blank: not fitted there).\n\n| candidate | score | held-out "
-      "gain | on top | accepted | evidence |\n|---|---|---|---|---|---|\n";
+      "\n## Candidates\n\nRobust score test (noise_model.h: the residual's coloured noise "
+      "along the candidate's directions) with its Bonferroni-adjusted p; for fitted candidates the "
+      "held-out gain on the calibrated model, its Diebold–Mariano z and the decision.\n\n"
+      "| candidate | joint | χ² | dof | p (adj.) | held-out gain | z | on top | accepted | "
+      "decision | evidence |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& c : d.candidates) {
-    md += "| " + c.label + " | " + F("%.1f", c.score) + " | " +
+    md += "| " + c.label + " | " + c.joint + " | " + F("%.1f", c.score_statistic) + " | " +
+          std::to_string(c.dof) + " | " + F("%.2g", c.p_adjusted) + " | " +
           (c.fitted ? F("%.4f", c.heldout_gain) : std::string("")) + " | " +
-          (std::isfinite(c.heldout_gain_on_accepted) ? F("%.4f", c.heldout_gain_on_accepted)
-                                                     : std::string("")) +
-          " | " + (c.accepted ? "yes" : "") + " | " + c.evidence + " |\n";
+          (c.fitted ? Cell(c.heldout_z, "%.1f") : std::string("")) + " | " +
+          Cell(c.heldout_gain_on_accepted, "%.4f") + " | " + (c.accepted ? "yes" : "") + " | " +
+          c.decision + " | " + c.evidence + " |\n";
   }
   md +=
-      "\nSubject parameters calibrated on the training data:\n\n| parameter | value | ± 95 % | "
-      "unit |\n|---|---|---|---|\n";
-  for (const auto& p : d.subject_parameters) {
-    md += "| " + p.name + " | " + F("%.4g", p.value) + " | " +
-          (std::isfinite(p.ci95) ? F("%.2g", p.ci95) : std::string("n/a")) + " | " + p.unit +
-          " |\n";
+      "\n## The person, calibrated on the training data\n\n| parameter | value | ± 95 % | "
+      "nominal | unit | status |\n|---|---|---|---|---|---|\n";
+  for (const auto& v : d.person) {
+    md += "| " + v.name + " | " + F("%.4g", v.value) + " | " + Cell(v.ci95, "%.2g") + " | " +
+          F("%.4g", v.nominal) + " | " + v.unit + " | " + Status(v) + " |\n";
   }
   if (!d.model_yaml.empty()) {
     md += "\nThe reduced model " + d.model +
@@ -248,6 +290,23 @@ void WriteDiagnosisReport(const Diagnosis& d, const std::string& inputs, const s
     spec.axes.y_label = "rad^2";
     spec.axes.log_y = true;
     spec.series = {sb, sa};
+    Figure over;
+    over.path = dir + "/prediction_" + joint + ".png";
+    over.axes = res.axes;
+    over.axes.title = "held-out " + o + ": measured and predicted";
+    render::Series meas, before, after;
+    std::vector<double> unused_t, unused_y;
+    HeldoutSeries(d, d.heldout_baseline, o, &meas.x, &meas.y, &before.y);
+    HeldoutSeries(d, d.heldout_extended, o, &unused_t, &unused_y, &after.y);
+    before.x = after.x = meas.x;
+    meas.label = "measured";
+    meas.colour = render::PaletteColour(7);
+    before.label = "calibrated model";
+    before.colour = render::PaletteColour(1);
+    after.label = "extended model";
+    after.colour = render::PaletteColour(0);
+    over.series = {meas, before, after};
+    figures.push_back(over);
     figures.push_back(res);
     figures.push_back(spec);
   }

@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "diagnosis/extended_model.h"
+
 namespace fesim::diagnosis {
 namespace {
 
@@ -59,7 +61,78 @@ double GammaQContinuedFraction(double a, double x) {
   return std::exp(-x + a * std::log(x) - std::lgamma(a)) * h;
 }
 
+/// Coarse and fine spectrum grid steps, Hz.
+constexpr double kCoarseDfHz = 0.01, kFineDfHz = 0.0005;
+/// Largest input–residual lag examined, s.
+constexpr double kMaxLagS = 0.5;
+
+/// Refined spectrum peak: coarse grid, then a fine grid ±2 coarse steps around the peak.
+SpectrumPeak RefinedPeak(const std::vector<double>& r, double dt) {
+  const double hi = std::min(kTremorHighHz, 0.5 / dt - kCoarseDfHz);
+  if (hi <= kTremorLowHz) return {};
+  SpectrumPeak coarse = ResidualSpectrumPeak(r, dt, kTremorLowHz, hi, kCoarseDfHz);
+  std::vector<double> f;
+  for (double x = coarse.frequency_hz - 2 * kCoarseDfHz; x <= coarse.frequency_hz + 2 * kCoarseDfHz;
+       x += kFineDfHz) {
+    f.push_back(x);
+  }
+  const std::vector<double> p = Periodogram(r, dt, f);
+  coarse.frequency_hz = f[std::max_element(p.begin(), p.end()) - p.begin()];
+  return coarse;
+}
+
 }  // namespace
+
+std::vector<OutputSignature> ResidualSignatures(const DataView& train,
+                                                const std::vector<Trial>& predictions) {
+  const Trial& tr0 = train.trials[0];
+  const double dt = tr0.time[1] - tr0.time[0];
+  std::vector<std::vector<double>> inputs;
+  const auto input_names = tr0.NamesWithPrefix("u.");
+  inputs.reserve(input_names.size());
+  for (const auto& u : input_names) inputs.push_back(tr0.Column(u));
+  const std::vector<double> cumulative = CumulativeStimulation(tr0.time, inputs);
+  std::vector<OutputSignature> out;
+  for (const auto& o : train.outputs) {
+    OutputSignature s;
+    s.output = o;
+    const auto& y = tr0.Column(o);
+    const auto& yh = predictions[0].Column(o);
+    std::vector<double> r(y.size(), NAN);
+    double ss = 0;
+    int cnt = 0;
+    for (std::size_t i = 0; i < y.size(); ++i) {
+      if (!train.use[0][i]) continue;
+      r[i] = y[i] - yh[i];
+      if (Finite(r[i])) {
+        ss += r[i] * r[i];
+        ++cnt;
+      }
+    }
+    s.rms_rad = cnt ? std::sqrt(ss / cnt) : 0.0;
+    const SpectrumPeak peak = RefinedPeak(r, dt);
+    s.spectrum_peak_hz = peak.frequency_hz;
+    s.spectrum_peak_ratio = peak.power_ratio;
+    s.corr_time = Correlation(tr0.time, r);
+    s.corr_cumulative_stimulation = Correlation(cumulative, r);
+    const std::vector<double> v = Derivative(tr0.time, yh);
+    std::vector<double> sgn(v.size());
+    for (std::size_t i = 0; i < v.size(); ++i) sgn[i] = v[i] > 0 ? 1.0 : (v[i] < 0 ? -1.0 : 0.0);
+    s.corr_velocity = Correlation(v, r);
+    s.corr_velocity_sign = Correlation(sgn, r);
+    s.corr_posture = Correlation(yh, r);
+    for (std::size_t k = 0; k < inputs.size(); ++k) {
+      const LagPeak lp = CrossCorrelationPeak(Derivative(tr0.time, inputs[k]), r, dt, kMaxLagS);
+      if (std::abs(lp.correlation) > std::abs(s.input_lag_corr)) {
+        s.input_lag_corr = lp.correlation;
+        s.input_lag_s = lp.lag_s;
+        s.input_lag_column = input_names[k];
+      }
+    }
+    out.push_back(s);
+  }
+  return out;
+}
 
 double Correlation(const std::vector<double>& x, const std::vector<double>& y) {
   if (x.size() != y.size()) {

@@ -9,9 +9,37 @@
 // skipped everywhere. Also the χ² survival function used by the score tests (diagnose.h).
 #pragma once
 
+#include <string>
 #include <vector>
 
+#include "scenarios/trial.h"
+
 namespace fesim::diagnosis {
+
+struct DataView;
+
+/// Residual summaries of one output (training part unless stated).
+struct OutputSignature {
+  std::string output;
+  double rms_rad = 0.0;
+  double spectrum_peak_hz = 0.0, spectrum_peak_ratio = 0.0;  ///< 3–12 Hz.
+  double corr_time = 0.0, corr_cumulative_stimulation = 0.0;
+  double corr_velocity = 0.0, corr_velocity_sign = 0.0, corr_posture = 0.0;
+  double input_lag_s = 0.0, input_lag_corr = 0.0;  ///< strongest input–residual lag.
+  std::string input_lag_column;
+  double structure_heldout_baseline = 0.0, structure_heldout_extended = 0.0;
+};
+
+/// Tremor band of PRODUCT.md / papers/001_* §2, Hz.
+inline constexpr double kTremorLowHz = 3.0, kTremorHighHz = 12.0;
+
+/// The signatures of every output of `train` from the residual y − ŷ of its first trial
+/// (`predictions`: the calibrated model's, same order): RMS, 3–12 Hz spectrum peak (coarse
+/// 0.01 Hz grid, then 0.0005 Hz around the peak), correlations with time, cumulative
+/// stimulation, predicted velocity and its sign and predicted posture, and the strongest lag
+/// (≤ 0.5 s) between an input's rate of change and the residual.
+std::vector<OutputSignature> ResidualSignatures(const DataView& train,
+                                                const std::vector<Trial>& predictions);
 
 /// Pearson correlation of x and y over the indices where both are finite; 0 when fewer than 3
 /// such pairs or either is constant. Sizes must match (std::invalid_argument).

@@ -71,7 +71,10 @@ TEST(DiagnoseCmd, DiagnosesASimulatedTrialAndWritesTheReport) {
   const std::string json = ReadFile(dir + "/out/diagnosis.json");
   EXPECT_NE(json.find("\"cause\": \"none\""), std::string::npos) << json.substr(0, 400);
   EXPECT_NE(json.find("\"candidates\": ["), std::string::npos);
+  EXPECT_NE(json.find("\"person\": {"), std::string::npos);
+  EXPECT_NE(json.find("\"reference\": {"), std::string::npos);
   EXPECT_TRUE(Exists(dir + "/out/diagnosis.md"));
+  EXPECT_TRUE(Exists(dir + "/out/prediction_wrist_flexion.png"));
   EXPECT_TRUE(Exists(dir + "/out/residuals_wrist_flexion.png"));
   EXPECT_TRUE(Exists(dir + "/out/spectrum_mcp_flexion.png"));
 }

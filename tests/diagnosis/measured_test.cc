@@ -71,6 +71,27 @@ TEST(PrepareMeasured, ATwoRateRecordKeepsTheOutputGridWithItsDropouts) {
   EXPECT_TRUE(std::isnan(all.Column("q.wrist_flexion")[50]));  // the dropout, kept
 }
 
+TEST(PrepareMeasured, ARoundedTrackerLogWithDropoutsKeepsEveryRowAndItsInitialPosture) {
+  // Issue 28: a 60 Hz tracker log whose time is written to 4 decimals (steps 0.0166 and 0.0167)
+  // and that has NaN rows where the tracker lost the hand was cut to 28 samples ("need at least
+  // 100"): the grid came from the smallest rounded step. Every row stays, the record is resampled
+  // to its median step, the dropouts stay gaps, and the initial posture is the median of the
+  // first samples.
+  Trial t = Record(600, 60.0);
+  for (double& time : t.time) time = std::round(time * 1e4) / 1e4;
+  for (std::size_t row : {0u, 30u, 31u, 32u, 400u}) SetRow(&t, row, NAN);
+  const MeasuredData d = PrepareMeasured(Rig(), {t}, 0.3);
+  const Trial& all = d.heldout.trials[0];
+  EXPECT_EQ(all.size(), 600u);
+  EXPECT_TRUE(d.notes.empty());
+  long gaps = 0;
+  for (double v : all.Column("q.wrist_flexion")) gaps += std::isnan(v) ? 1 : 0;
+  EXPECT_EQ(gaps, 5);
+  ASSERT_EQ(d.train.initial_q.size(), 1u);
+  EXPECT_NEAR(d.train.initial_q[0][0], 0.1 * std::sin(2.0 / 60.0), 1e-4);  // rows 1-3: row 2
+  EXPECT_EQ(d.train.initial_q[0][1], 0.05);
+}
+
 TEST(PrepareMeasured, BadTrialsAreOneLineErrorsNamingFileAndColumn) {
   const auto error = [](const Trial& t) {
     try {
@@ -100,6 +121,34 @@ TEST(PrepareMeasured, BadTrialsAreOneLineErrorsNamingFileAndColumn) {
   t = Record(200, 50.0);
   t.columns[0].assign(200, 0.0);
   EXPECT_EQ(error(t), "diagnose: no trial stimulates any channel");
+}
+
+TEST(PrepareMeasured, ResampleToUniformInterpolatesOutputsKeepsGapsAndHoldsInputs) {
+  Trial t;
+  t.time = {0.0, 0.1, 0.2, 0.35, 0.4, 0.5};  // median step 0.1 s
+  t.AddColumn("u.ext", {0, 0, 100, 100, 200, 200});
+  t.AddColumn("q.wrist_flexion", {0.0, 0.1, 0.2, 0.35, NAN, 0.5});
+  const Trial r = ResampleToUniform(t, "m.csv");
+  ASSERT_EQ(r.size(), 6u);
+  EXPECT_TRUE(IsUniformlySampled(r.time));
+  EXPECT_NEAR(r.time[3], 0.3, 1e-12);
+  const auto& q = r.Column("q.wrist_flexion");
+  const auto& u = r.Column("u.ext");
+  EXPECT_NEAR(q[3], 0.3, 1e-12);  // linear between 0.2 s and 0.35 s
+  EXPECT_TRUE(std::isnan(q[4]));  // 0.4 s was a dropout: not invented
+  EXPECT_NEAR(q[5], 0.5, 1e-12);
+  EXPECT_EQ(u[3], 100.0);  // the nearest row (0.35 s), not interpolated towards 200
+  EXPECT_EQ(u[4], 200.0);
+  EXPECT_EQ(u[2], 100.0);
+  t.time[2] = 0.1;
+  try {
+    ResampleToUniform(t, "m.csv");
+    FAIL() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("m.csv: column time: not increasing at row 2"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace

@@ -8,9 +8,11 @@
 #include <map>
 #include <random>
 
-#include "diagnosis/candidates.h"
 #include "diagnosis/diagnose.h"
+#include "diagnosis/measured.h"
+#include "diagnosis/mechanisms/library.h"
 #include "diagnosis/planted.h"
+#include "diagnosis/report.h"
 #include "sim/mechanisms.h"
 
 namespace fesim::diagnosis {
@@ -244,14 +246,14 @@ TEST(ReducedModel, DiagnosisOfAReducedModelFindsWhatItsOwnFormDataLack) {
   spec.protocol = "grid";
   spec.seed = 11;
   const PlantedDataset clean = MakePlantedDataset(rig, spec);
-  DiagnoseOptions o;
+  DiagnoseSettings o;
   o.model = "hammerstein-mimo";
-  o.reduced_fit = Method(o.model).fit_simulator;
-  o.fit.threads = 2;
+  DiagnoseExecution e;
+  e.threads = 2;
   const MeasuredData md = PrepareMeasured(rig.model, clean.trials, o.holdout_fraction);
   std::map<std::string, double> u_ref;
   const identification::FittedSimulator truth =
-      o.reduced_fit(ReducedTrainingTrials(md.train, md.channels, &u_ref), nullptr);
+      Method(o.model).fit_simulator(ReducedTrainingTrials(md.train, md.channels, &u_ref), nullptr);
   std::vector<Trial> records = md.train.trials;
   records.push_back(md.heldout.trials[0]);
   const int wrist = sim::CoordinateIndex("wrist_flexion");
@@ -278,9 +280,13 @@ TEST(ReducedModel, DiagnosisOfAReducedModelFindsWhatItsOwnFormDataLack) {
     for (std::size_t k = 0; k < records.size(); ++k) {
       data.push_back(OwnFormTrial(truth, records[k], m, u_ref, drift, 5 + k));
     }
-    const Diagnosis d = Diagnose(rig.model, data, o);
+    const Diagnosis d = Diagnose(rig.model, data, o, e);
     EXPECT_EQ(d.model, "hammerstein-mimo");
-    EXPECT_EQ(d.cause, id);
+    std::string why = d.reason;
+    for (const auto& c : d.candidates) {
+      if (c.fitted) why += "\n  " + CandidateLogLine(c) + " | " + c.decision;
+    }
+    EXPECT_EQ(d.cause, id) << why;
     for (const auto& c : d.candidates) {  // the hand rig's channels use the array: crosstalk too
       const auto& ok = ReducedModelMechanisms();
       const bool reducible = std::find(ok.begin(), ok.end(), c.id) != ok.end();

@@ -35,6 +35,25 @@ Diagnosis Example() {
   n.label = "fatigue";
   d.candidates = {c, n};
   d.split = "test";
+  d.reason = "a tremor (periodic joint torque) explains what the calibrated model misses";
+  d.baseline_heldout_nrmse_per_output = {0.2};
+  d.extended_heldout_nrmse_per_output = {0.1};
+  d.reference.method = "hammerstein-mimo";
+  d.reference.heldout_nrmse = 0.15;
+  d.reference.heldout_nrmse_per_output = {0.15};
+  d.noise_rad = {0.01};
+  PersonValue k;
+  k.name = "k.wrist_flexion";
+  k.unit = "N*m/rad";
+  k.nominal = 0.8;
+  k.value = 1.1;
+  k.ci95 = 0.05;
+  k.fitted = true;
+  PersonValue mass;
+  mass.name = "mass.hand";
+  mass.unit = "1";
+  mass.nominal = mass.value = 1.0;
+  d.person = {k, mass};
   Trial t;
   for (int i = 0; i < 200; ++i) t.time.push_back(i / 60.0);
   std::vector<double> y(200), yh(200);
@@ -65,24 +84,42 @@ TEST(Report, CandidateLogLineCarriesTheTestFitAndParameterFigures) {
   c.parameters = {{"tremor.amplitude_nm", "N*m", 0.123268, 0.002}};
   const std::string line = CandidateLogLine(c);
   EXPECT_EQ(line.rfind("tremor@wrist_flexion ", 0), 0u) << line;
-  EXPECT_NE(
-      line.find("S   15543.3 dof 2 padj 0 fitted 1 lr_padj 1e-09 gain 0.3227 | on top: S nan"),
-      std::string::npos)
+  EXPECT_NE(line.find("S   15543.3 dof 2 padj 0 infl 1.0 fitted 1 lr_padj 1e-09 gain 0.3227 z nan "
+                      "| on top: S nan"),
+            std::string::npos)
       << line;
   EXPECT_NE(line.find(" tremor.amplitude_nm=0.123268"), std::string::npos) << line;
 }
 
-TEST(Report, JsonHasExactlyTheProductKeys) {
-  const std::string j = DiagnosisJson(Example()).Dump(0);
-  EXPECT_EQ(j.find("{\"cause\":\"tremor\",\"confidence\":0.9,\"baseline\":{\"heldout_nrmse\":0.2},"
-                   "\"extended\":{\"mechanisms\":[\"tremor\"],\"parameters\":{"),
-            0u)
-      << j;
-  EXPECT_NE(j.find("\"heldout_nrmse\":0.1},\"gain\":0.5,\"candidates\":[{\"id\":\"tremor\","
-                   "\"score\":300,\"heldout_gain\":0.5,\"evidence\":\"[wrist_flexion] peak at 6 "
-                   "Hz\"},{\"id\":\"fatigue\",\"score\":0,\"heldout_gain\":null,"),
-            std::string::npos)
-      << j;
+TEST(Report, JsonHasTheProductKeysPerCandidateTestsAndTheCalibratedPerson) {
+  const Json j = DiagnosisJson(Example());
+  const std::string text = j.Dump(0);
+  // PRODUCT.md's keys first, in its order.
+  EXPECT_EQ(text.find("{\"cause\":\"tremor\",\"confidence\":0.9,\"reason\":\"a tremor"), 0u)
+      << text;
+  for (const char* key : {"baseline", "extended", "gain", "candidates", "person", "reference"}) {
+    EXPECT_NE(j.Find(key), nullptr) << key;
+  }
+  EXPECT_EQ(j.Find("baseline")->Find("heldout_nrmse")->AsNumber(), 0.2);
+  EXPECT_EQ(j.Find("reference")->Find("method")->AsString(), "hammerstein-mimo");
+  EXPECT_EQ(j.Find("reference")->Find("heldout_nrmse")->AsNumber(), 0.15);
+  // Each candidate: its joint, statistic, p-values and whether it was accepted.
+  const Json& c0 = j.Find("candidates")->Items()[0];
+  for (const char* key : {"id", "score", "heldout_gain", "evidence", "joint", "statistic", "dof",
+                          "p_value", "p_adjusted", "accepted", "decision"}) {
+    EXPECT_NE(c0.Find(key), nullptr) << key;
+  }
+  EXPECT_EQ(c0.Find("joint")->AsString(), "wrist_flexion");
+  EXPECT_TRUE(c0.Find("accepted")->AsBool());
+  EXPECT_TRUE(j.Find("candidates")->Items()[1].Find("heldout_gain")->IsNull());  // not fitted
+  // The person: values with units and intervals, and what was not calibrated says so.
+  const Json& k = *j.Find("person")->Find("k.wrist_flexion");
+  EXPECT_EQ(k.Find("value")->AsNumber(), 1.1);
+  EXPECT_EQ(k.Find("unit")->AsString(), "N*m/rad");
+  EXPECT_EQ(k.Find("ci95")->AsNumber(), 0.05);
+  EXPECT_EQ(k.Find("status")->AsString(), "calibrated");
+  EXPECT_EQ(j.Find("person")->Find("mass.hand")->Find("status")->AsString(),
+            "held at nominal: not identifiable from these data");
 }
 
 TEST(Report, WritesMarkdownJsonAndPlots) {
@@ -97,16 +134,24 @@ TEST(Report, WritesMarkdownJsonAndPlots) {
   EXPECT_NE(md.find("**tremor**"), std::string::npos);
   EXPECT_NE(md.find("from 0.2000 to 0.1000"), std::string::npos);
   EXPECT_NE(md.find("](residuals_wrist_flexion.png)"), std::string::npos);
-  // Ranking columns: candidate, score, held-out gain, on top (second round), accepted, evidence.
-  EXPECT_NE(md.find("| tremor@wrist_flexion | 300.0 | 0.5000 |  | yes |"), std::string::npos);
-  EXPECT_NE(md.find("| fatigue | 0.0 | 0.1000 | 0.0200 |  |"), std::string::npos) << md;
-  EXPECT_EQ(ReadFile(dir + "/residuals_wrist_flexion.png").substr(1, 3), "PNG");
-  EXPECT_EQ(ReadFile(dir + "/spectrum_wrist_flexion.png").substr(1, 3), "PNG");
+  EXPECT_NE(md.find("](prediction_wrist_flexion.png)"), std::string::npos);
+  // The fit beside the black box, per output.
+  EXPECT_NE(md.find("| q.wrist_flexion | 0.2000 | 0.1000 | 0.1500 | 0.0100 |"), std::string::npos)
+      << md;
+  // Candidate columns: label, joint, χ², dof, p, held-out gain, z, on top, accepted, decision.
+  EXPECT_NE(md.find("| tremor@wrist_flexion | wrist_flexion | 0.0 | 0 | 1 | 0.5000 |"),
+            std::string::npos)
+      << md;
+  EXPECT_NE(md.find("| 0.0200 |  |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| mass.hand | 1 |  | 1 | 1 | held at nominal: not identifiable from these "
+                    "data |"),
+            std::string::npos)
+      << md;
+  for (const char* plot : {"residuals", "spectrum", "prediction"}) {
+    EXPECT_EQ(ReadFile(dir + "/" + plot + "_wrist_flexion.png").substr(1, 3), "PNG") << plot;
+  }
   const std::string json = ReadFile(dir + "/diagnosis.json");
   EXPECT_NE(json.find("\"cause\": \"tremor\""), std::string::npos);
-  // diagnosis.json keeps exactly PRODUCT.md's candidate keys; the second-round gain is in the
-  // markdown only.
-  EXPECT_EQ(json.find("on_top"), std::string::npos);
 }
 
 // Issue 10: when a write fails half-way (here diagnosis.md cannot replace a directory of that

@@ -1,5 +1,3 @@
-#include "diagnosis/candidates.h"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -7,6 +5,8 @@
 #include <set>
 #include <utility>
 
+#include "diagnosis/mechanisms/library.h"
+#include "diagnosis/mechanisms/mechanism.h"
 #include "identification/fullmodel/full_model_fit.h"
 #include "scenarios/scenario.h"
 #include "sim/default_model.h"
@@ -30,7 +30,7 @@ LibraryContext HandContext() {
   return ctx;
 }
 
-TEST(Candidates, EveryMechanismIdIsInTheLibraryAndArmSupportIsNotTestableOnTheHandRig) {
+TEST(Mechanisms, EveryMechanismIdIsInTheLibraryAndArmSupportIsNotTestableOnTheHandRig) {
   const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
   const auto lib = CandidateLibrary(rig, HandContext());
   std::set<std::string> ids;
@@ -57,7 +57,7 @@ TEST(Candidates, EveryMechanismIdIsInTheLibraryAndArmSupportIsNotTestableOnTheHa
   }
 }
 
-TEST(Candidates, EveryProbeIsAPointOverAllTheCandidatesParametersOnARigWithBands) {
+TEST(Mechanisms, EveryProbeIsAPointOverAllTheCandidatesParametersOnARigWithBands) {
   // scenarios/default.yaml: elbow and shoulder free, an elastic band and a forearm support of
   // 10 N, so arm_support has two parameters (force, band stiffness scale) and two probes.
   const Scenario sc = LoadScenario(std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/default.yaml");
@@ -85,7 +85,7 @@ TEST(Candidates, EveryProbeIsAPointOverAllTheCandidatesParametersOnARigWithBands
   EXPECT_GT(checked, 5);
 }
 
-TEST(Candidates, StartValuesLeaveTheModelAsItIs) {
+TEST(Mechanisms, StartValuesLeaveTheModelAsItIs) {
   // "Mechanism off" must be the rig itself, so that the score directions start at the baseline.
   const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
   Trial t;
@@ -115,7 +115,7 @@ TEST(Candidates, StartValuesLeaveTheModelAsItIs) {
   }
 }
 
-TEST(Candidates, StictionExcessIsAddedToTheCoulombLevelAndJointTorquesScaleWithStiffness) {
+TEST(Mechanisms, StictionExcessIsAddedToTheCoulombLevelAndJointTorquesScaleWithStiffness) {
   const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
   for (const auto& c : CandidateLibrary(rig, HandContext())) {
     if (c.label != "stiction@wrist_flexion") continue;
@@ -127,44 +127,39 @@ TEST(Candidates, StictionExcessIsAddedToTheCoulombLevelAndJointTorquesScaleWithS
   }
   EXPECT_DOUBLE_EQ(JointTorqueScale(rig, sim::kWristFlexion),
                    rig.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad);
-  const auto subject = SubjectParameters(rig, HandContext());
-  std::set<std::string> names;
-  for (const auto& p : subject) names.insert(p.name);
-  EXPECT_EQ(names, (std::set<std::string>{"k.wrist_flexion", "k.mcp_flexion", "k.pip_flexion",
-                                          "strength_scale", "u_scale.ext", "u_scale.flex"}));
 }
 
-TEST(Candidates, SubjectStartsAreTheNominalValuesAndOnAnElbowOutputTheStrengthStiffnessCorners) {
+TEST(Mechanisms, ArmSupportProfileStartsStepTenPercentOfTheForearmWeight) {
   const sim::ModelParams rig = sim::DefaultModelParams();
-  const auto hand = SubjectParameters(rig, HandContext());
-  const auto hand_starts = SubjectStarts(hand, HandContext());
-  ASSERT_EQ(hand_starts.size(), 1u);
-  for (std::size_t k = 0; k < hand.size(); ++k) EXPECT_EQ(hand_starts[0](k), hand[k].start);
   LibraryContext elbow;
   elbow.outputs = {"q.elbow_flexion"};
   elbow.channels = {"bic", "tri"};
   elbow.tremor_frequency_hz = {6.0};
-  const auto subject = SubjectParameters(rig, elbow);
-  ASSERT_EQ(subject.size(), 4u);  // k.elbow_flexion, strength_scale, u_scale.bic, u_scale.tri
-  const auto starts = SubjectStarts(subject, elbow);
-  ASSERT_EQ(starts.size(), 5u);
-  std::set<std::pair<double, double>> corners;
-  for (std::size_t s = 1; s < starts.size(); ++s) {
-    corners.insert({starts[s](0) / subject[0].start, starts[s](1)});
-    EXPECT_EQ(starts[s](2), 1.0);
-    EXPECT_EQ(starts[s](3), 1.0);
-  }
-  EXPECT_EQ(corners, (std::set<std::pair<double, double>>{
-                         {0.8, 0.8}, {0.8, 1.25}, {1.25, 0.8}, {1.25, 1.25}}));
-  // arm_support's profile starts: 10, 30, 50 % of the forearm weight.
+  int found = 0;
   for (const auto& c : CandidateLibrary(rig, elbow)) {
     if (c.id != "arm_support") continue;
     ASSERT_EQ(c.profile_starts.size(), 5u);
     EXPECT_NEAR(c.profile_starts[2](0), 0.3 * ForearmWeightN(rig), 1e-12);
+    ++found;
   }
+  EXPECT_EQ(found, 1);
 }
 
-TEST(Candidates, ArmSupportLiftsTheForearmByItsStaticTorqueOnTheElbowRig) {
+TEST(Mechanisms, EveryMechanismHasADescriptionAPlantAndAnEvidenceLine) {
+  ASSERT_EQ(Mechanisms().size(), 13u);
+  OutputSignature s;
+  s.output = "q.wrist_flexion";
+  for (const auto& m : Mechanisms()) {
+    EXPECT_FALSE(m.description.empty()) << m.id;
+    EXPECT_TRUE(static_cast<bool>(m.plant)) << m.id;
+    EXPECT_FALSE(m.evidence(s).empty()) << m.id;
+    EXPECT_FALSE(m.planted_protocols.empty()) << m.id;
+    EXPECT_EQ(&FindMechanism(m.id), &m);
+  }
+  EXPECT_THROW(FindMechanism("gravity"), std::invalid_argument);
+}
+
+TEST(Mechanisms, ArmSupportLiftsTheForearmByItsStaticTorqueOnTheElbowRig) {
   // Elbow free, everything else held, no stimulation: at equilibrium k (q_rest − q) equals the
   // gravity torque of the forearm and hand minus the support torque F_w · r_⊥ (the cuff at the
   // forearm's centre of mass, r_⊥ its horizontal distance from the elbow). A support force F_w
@@ -220,7 +215,7 @@ TEST(Candidates, ArmSupportLiftsTheForearmByItsStaticTorqueOnTheElbowRig) {
   EXPECT_NEAR((q1 - q0) / (q_small - q0), 4.0, 0.4);
 }
 
-TEST(Candidates, PotentiationCollapsesIntoAConstantGainAtItsShortestRiseTime) {
+TEST(Mechanisms, PotentiationCollapsesIntoAConstantGainAtItsShortestRiseTime) {
   // dp/dt = a (1 − p) / T_rise − p / T_decay (sim/mechanisms.h). A stimulation pattern of the
   // suite's kind (a = 0.5 for 2 s, rest 2 s, 60 s): at the library's collapse value of the rise
   // time p stays within a few % of 1 after the first seconds (force × (1 + g) throughout, which

@@ -1,0 +1,890 @@
+#include "diagnosis/extension.h"
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <set>
+
+#include "diagnosis/mechanisms/library.h"
+#include "scenarios/parallel.h"
+
+namespace fesim::diagnosis {
+namespace {
+
+/// One extension fit as cached: the fit, whether every parameter was free, its raw training
+/// residual and its held-out predictions (null: the extended model cannot simulate them).
+struct FitStage {
+  FitResult fit;
+  bool all_free = false;
+  Eigen::VectorXd train_residual;
+  bool heldout_ok = false;
+  std::vector<Trial> heldout_predictions;
+};
+
+Json ToJson(const FitStage& s) {
+  Json j = Json::Object();
+  j.Set("fit", diagnosis::ToJson(s.fit)).Set("all_free", s.all_free);
+  j.Set("train_residual", diagnosis::ToJson(s.train_residual));
+  j.Set("heldout_predictions", s.heldout_ok ? diagnosis::ToJson(s.heldout_predictions) : Json());
+  return j;
+}
+
+void FromJson(const Json& j, FitStage* s) {
+  diagnosis::FromJson(Member(j, "fit"), &s->fit);
+  s->all_free = Member(j, "all_free").AsBool();
+  diagnosis::FromJson(Member(j, "train_residual"), &s->train_residual);
+  const Json& h = Member(j, "heldout_predictions");
+  s->heldout_ok = !h.IsNull();
+  if (s->heldout_ok) diagnosis::FromJson(h, &s->heldout_predictions);
+}
+
+/// A fitted extension with its held-out figures.
+struct Fitted {
+  std::vector<int> cands;
+  FitStage stage;
+  double heldout_nrmse = INFINITY;
+  Eigen::VectorXd heldout_residual;
+};
+
+/// The tests of one fit against the model it extends.
+struct Judgement {
+  double lr = 0.0, lr_p_adj = 1.0, gain = -INFINITY, z = 0.0, z_p_adj = 1.0;
+  std::string collapsed;
+  std::string at_bound;  ///< a parameter at a bound of its plausible range ("": none).
+  bool passes = false;
+};
+
+class Extender {
+ public:
+  Extender(const StageContext& ctx, const std::vector<Candidate>& library,
+           const CalibrationStage& cal, const std::vector<ModelParameter>& person,
+           std::vector<CandidateResult>* results)
+      : ctx_(ctx), lib_(library), cal_(cal), person_(person), results_(results) {
+    m_ = ApplicableCount(library);
+    ns_ = static_cast<int>(person.size());
+    base_.cands = {};
+    base_.stage.fit = cal.fit;
+    base_.stage.all_free = true;
+    base_.stage.train_residual = StackResiduals(ctx.data.train, cal.train_predictions);
+    base_.stage.heldout_ok = true;
+    base_.stage.heldout_predictions = cal.heldout_predictions;
+    Complete(&base_);
+    on_top_reference_.assign(library.size(), NAN);
+  }
+
+  ExtensionOutcome Run(const ScreenStage& screen, std::map<int, Eigen::MatrixXd> directions);
+
+ private:
+  std::vector<ModelParameter> ParamsOf(const std::vector<int>& cands) const {
+    std::vector<ModelParameter> p = person_;
+    for (int c : cands) p = Join(p, lib_[c].params);
+    return p;
+  }
+  void Complete(Fitted* f) const {
+    if (!f->stage.heldout_ok) return;
+    f->heldout_nrmse = ViewNrmse(ctx_.data.heldout, f->stage.heldout_predictions);
+    f->heldout_residual = StackResiduals(ctx_.data.heldout, f->stage.heldout_predictions);
+  }
+  /// The tests of fit `f` (candidate c's parameters at `offset` of its x) against `ref`.
+  Judgement Judge(const Fitted& f, const Fitted& ref, int c, Eigen::Index offset) const;
+  /// Judge with c's parameters last.
+  Judgement JudgeLast(const Fitted& f, const Fitted& ref, int c) const {
+    return Judge(f, ref, c,
+                 f.stage.fit.x.size() - static_cast<Eigen::Index>(lib_[c].params.size()));
+  }
+  Fitted FitExtension(const std::vector<int>& cands, const Eigen::VectorXd& x0, int iterations,
+                      double fd_step = 0.0);
+  /// `from_test_step`: x0's last candidate block is a start from a score test's step, which is
+  /// backtracked towards "off" while it costs more than the model it extends.
+  FitStage FitStageOf(const std::vector<int>& cands, const Eigen::VectorXd& x0, int iterations,
+                      double fd_step, bool from_test_step = false);
+  /// Σr² of the model `cands` extend: the control for one candidate, the extended model for a
+  /// candidate on top of the accepted ones.
+  double ReferenceCost(const std::vector<int>& cands) const {
+    return cands.size() > 1 && current_.stage.train_residual.size()
+               ? current_.stage.train_residual.squaredNorm()
+               : base_.stage.train_residual.squaredNorm();
+  }
+  /// The person parameters fitted together with `cands` (indices into person_): all of them
+  /// when the extended model has forward sensitivities; else (fatigue, potentiation: states the
+  /// sensitivity integration lacks) the kRelevantPerson whose calibration Jacobian columns point
+  /// most along the candidates' probe directions.
+  std::vector<int> FreePerson(const std::vector<int>& cands);
+  /// Whether the extended model by `cands` lacks forward sensitivities (FreePerson then needs
+  /// the candidates' directions).
+  bool LacksSensitivities(const std::vector<int>& cands) const;
+  /// The probe directions of candidate c at the calibration (probed when not known; the
+  /// first screen's are handed in, EnsureDirections probes the missing ones in one batch).
+  const Eigen::MatrixXd& DirectionOf(int c);
+  void EnsureDirections(const std::vector<int>& cands);
+  Eigen::VectorXd LowestProfileStart(int c);
+  /// The extended model's prediction of the held-out trials; a candidate's free phase
+  /// (Candidate::free_phase_param) is chosen per held-out trial: with the response linear in
+  /// (cos φ, sin φ) of the phase offset, three simulations per trial (offsets 0, π/2, π) give
+  /// ŷ(φ) = c + a cos φ + b sin φ, φ* = atan2(⟨r_c, b⟩, ⟨r_c, a⟩) with r_c = y − c, and a fourth
+  /// the prediction at φ*.
+  std::vector<Trial> HeldoutPrediction(const std::vector<int>& cands,
+                                       const std::vector<ModelParameter>& params,
+                                       const Eigen::VectorXd& x, const FitOptions& fo, int* sims);
+  /// `cands` by decreasing score statistic in `tests`, the strongest joint per id, at most
+  /// `limit` of them.
+  std::vector<int> StrongestPerId(std::vector<int> cands, const ScreenStage& tests,
+                                  int limit) const;
+  void ScreenRound(const ScreenStage& screen);
+  bool OnTopRound();
+  void BackwardStep();
+  void FinalRefit();
+  void Record(int c, const Fitted& f, const Judgement& j);
+
+  const StageContext& ctx_;
+  const std::vector<Candidate>& lib_;
+  const CalibrationStage& cal_;
+  const std::vector<ModelParameter>& person_;
+  std::vector<CandidateResult>* results_;
+  int m_ = 0, ns_ = 0;
+  Fitted base_, current_;
+  std::vector<Fitted> round1_;
+  std::vector<int> accepted_;
+  std::set<std::string> dropped_;
+  std::map<int, double> accept_p_, accept_gain_;
+  std::vector<double> on_top_reference_;
+  // End points of fits run here (residual, Jacobian when all free): a fit from there starts
+  // without simulating them again (FitStart).
+  std::map<std::string, FitStart> ends_;
+  std::mutex ends_mutex_;
+  std::map<int, Eigen::MatrixXd> directions_;  ///< the first screen's probe directions.
+  std::mutex directions_mutex_;
+};
+
+/// Person parameters fitted with an extension whose model has no forward sensitivities.
+constexpr int kRelevantPerson = 6;
+/// Halvings of an extension's start towards its "off" values at most (FitStageOf).
+constexpr int kStartHalvings = 3;
+constexpr double kPi = 3.14159265358979323846;
+
+std::string PointKey(const std::vector<int>& cands, const Eigen::VectorXd& x) {
+  std::string key;
+  for (int c : cands) key += std::to_string(c) + ";";
+  return VectorKey(key, x);
+}
+
+Judgement Extender::Judge(const Fitted& f, const Fitted& ref, int c, Eigen::Index offset) const {
+  Judgement j;
+  const int p = static_cast<int>(lib_[c].params.size());
+  j.collapsed = CollapsedParameter(lib_[c].params, f.stage.fit.x, offset);
+  j.at_bound = ParameterAtRangeBound(lib_[c].params, f.stage.fit.x, offset);
+  const Eigen::VectorXd& r0 = ref.stage.train_residual;
+  const Eigen::VectorXd& r1 = f.stage.train_residual;
+  if (r1.size() == r0.size()) {
+    j.lr = RobustLikelihoodRatio(ctx_.train_rows, r0, r1);
+    j.lr_p_adj = AdjustedChiSquareP(j.lr, p, m_);
+  }
+  if (std::isfinite(f.heldout_nrmse) && std::isfinite(ref.heldout_nrmse)) {
+    j.gain = (ref.heldout_nrmse - f.heldout_nrmse) / ref.heldout_nrmse;
+    j.z = DieboldMariano(ctx_.heldout_rows, ref.heldout_residual, f.heldout_residual);
+    // Bonferroni over the fits a round can run (the score test already controls the library).
+    j.z_p_adj = std::min(1.0, ctx_.settings.max_screened * NormalSurvival(j.z));
+  }
+  const double alpha = ctx_.settings.alpha;
+  j.passes = j.collapsed.empty() && j.at_bound.empty() && j.lr_p_adj < alpha &&
+             j.gain > ctx_.settings.min_heldout_gain &&
+             (j.z_p_adj < alpha || j.gain > ctx_.settings.clear_heldout_gain);
+  return j;
+}
+
+void Extender::EnsureDirections(const std::vector<int>& cands) {
+  const std::lock_guard<std::mutex> lock(directions_mutex_);
+  std::vector<int> missing;
+  for (int c : cands) {
+    if (!directions_.count(c)) missing.push_back(c);
+  }
+  if (missing.empty()) return;
+  for (auto& [c, d] : ProbeDirections(ctx_, lib_, person_, cal_.fit.x, cal_.train_predictions,
+                                      base_.stage.train_residual, missing)) {
+    directions_[c] = std::move(d);
+  }
+}
+
+const Eigen::MatrixXd& Extender::DirectionOf(int c) {
+  EnsureDirections({c});
+  const std::lock_guard<std::mutex> lock(directions_mutex_);
+  return directions_.at(c);
+}
+
+bool Extender::LacksSensitivities(const std::vector<int>& cands) const {
+  // Fatigue and potentiation add states the sensitivity integration lacks.
+  Eigen::VectorXd x = cal_.fit.x;
+  std::vector<ModelParameter> params = person_;
+  for (int c : cands) {
+    params.insert(params.end(), lib_[c].params.begin(), lib_[c].params.end());
+    x = Concat(x, lib_[c].probes.empty() ? Starts(lib_[c].params) : lib_[c].probes[0]);
+  }
+  const sim::ModelParams m = ApplyModelParameters(ctx_.rig, params, x);
+  return m.mechanisms.fatigue.enabled || m.mechanisms.potentiation.enabled;
+}
+
+std::vector<int> Extender::FreePerson(const std::vector<int>& cands) {
+  std::vector<int> all(static_cast<std::size_t>(ns_));
+  for (int k = 0; k < ns_; ++k) all[k] = k;
+  if (!LacksSensitivities(cands)) return all;
+  // Overlap of each person column with the candidates' directions (cosine, largest over them).
+  std::vector<std::pair<double, int>> overlap;
+  for (int k = 0; k < ns_; ++k) {
+    const Eigen::VectorXd jk = cal_.jacobian.col(k);
+    double best = 0.0;
+    for (int c : cands) {
+      const Eigen::MatrixXd& d = DirectionOf(c);
+      for (Eigen::Index p = 0; p < d.cols(); ++p) {
+        const double norm = jk.norm() * d.col(p).norm();
+        if (norm > 0.0) best = std::max(best, std::abs(jk.dot(d.col(p))) / norm);
+      }
+    }
+    overlap.emplace_back(best, k);
+  }
+  std::sort(overlap.rbegin(), overlap.rend());
+  std::vector<int> out;
+  for (int k = 0; k < std::min(kRelevantPerson, ns_); ++k) out.push_back(overlap[k].second);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+FitStage Extender::FitStageOf(const std::vector<int>& cands, const Eigen::VectorXd& x0,
+                              int iterations, double fd_step, bool from_test_step) {
+  const std::vector<ModelParameter> params = ParamsOf(cands);
+  // The free person parameters follow from the candidates (FreePerson), so the key need not name
+  // them; they are chosen inside, where the candidates' directions may have to be probed.
+  std::vector<std::string> key = {"extension"};
+  for (int c : cands) key.push_back(std::to_string(c) + ":" + lib_[c].label);
+  key.push_back(VectorKey("x0", x0));
+  key.push_back("iterations=" + std::to_string(iterations));
+  if (from_test_step) key.emplace_back("backtracked start");
+  FitOptions fo = ctx_.fit;
+  fo.prior_sigma = cal_.prior_sigma_rad;
+  if (fd_step > 0.0) {
+    fo.fd_step = fd_step;
+    key.push_back("fd_step=" + ExactNumberText(fd_step));
+  }
+  return ctx_.cache.Get<FitStage>(key, [&] {
+    const std::vector<int> free_person = FreePerson(cands);
+    // Held person parameters first (FitParameters holds a leading block), then the free ones and
+    // the mechanisms' in their order (person setters touch disjoint fields; mechanisms after).
+    std::vector<int> order;
+    for (int k = 0; k < ns_; ++k) {
+      if (!std::binary_search(free_person.begin(), free_person.end(), k)) order.push_back(k);
+    }
+    const int held = static_cast<int>(order.size());
+    for (int k : free_person) order.push_back(k);
+    for (int k = ns_; k < static_cast<int>(params.size()); ++k) order.push_back(k);
+    const bool identity = held == 0;
+    std::vector<ModelParameter> ordered;
+    Eigen::VectorXd x0_ordered(x0.size());  // may be backtracked below
+    for (std::size_t i = 0; i < order.size(); ++i) {
+      ordered.push_back(params[order[i]]);
+      x0_ordered(static_cast<Eigen::Index>(i)) = x0(order[i]);
+    }
+    FitStart start;
+    if (identity) {
+      const std::lock_guard<std::mutex> lock(ends_mutex_);
+      const auto it = ends_.find(PointKey(cands, x0));
+      if (it != ends_.end()) start = it->second;
+    }
+    if (fd_step > 0.0) start.jacobian.resize(0, 0);  // a known Jacobian is at the default step
+    int sims = 0;
+    if (start.residual.size() == 0 && from_test_step) {
+      // Backtracking on the start: a Gauss–Newton step from the tests can overshoot into a basin
+      // worse than the model without the mechanism, where LM then stays (a foreign
+      // force_length_velocity ended 33 % worse on held-out data). Halve the mechanism's step
+      // from its "off" values while the start costs more than the model it extends.
+      const double reference = ReferenceCost(cands);
+      Eigen::VectorXd off = x0_ordered;
+      const auto n_mech = static_cast<Eigen::Index>(lib_[cands.back()].params.size());
+      const Eigen::Index first_mech = x0_ordered.size() - n_mech;
+      for (Eigen::Index k = 0; k < n_mech; ++k) off(first_mech + k) = ordered[first_mech + k].start;
+      for (int halving = 0; halving <= kStartHalvings; ++halving) {
+        std::vector<Trial> pred;
+        try {
+          pred = Predict(ctx_.rig, ordered, x0_ordered, ctx_.data.train, fo);
+        } catch (const std::runtime_error&) {
+          pred.clear();
+        }
+        sims += static_cast<int>(ctx_.data.train.trials.size());
+        if (!pred.empty()) {
+          start.residual = StackResiduals(ctx_.data.train, pred);
+          start.predictions = pred;
+          if (start.residual.squaredNorm() <= reference) break;
+        }
+        if (halving == kStartHalvings) break;
+        x0_ordered.tail(n_mech) = 0.5 * (x0_ordered.tail(n_mech) + off.tail(n_mech));
+        start = FitStart();
+      }
+    }
+    const FitResult ordered_fit = FitParameters(ctx_.rig, ordered, x0_ordered, ctx_.data.train, fo,
+                                                held, iterations, nullptr, &start);
+    FitResult fit = ordered_fit;
+    for (std::size_t i = 0; i < order.size(); ++i) {
+      fit.x(order[i]) = ordered_fit.x(static_cast<Eigen::Index>(i));
+      fit.ci95(order[i]) = ordered_fit.ci95(static_cast<Eigen::Index>(i));
+    }
+    sims += fit.simulations;
+    FitStage s;
+    s.fit = fit;
+    s.all_free = true;
+    s.train_residual = fit.residual;
+    if (s.train_residual.size() != ctx_.data.train.Count()) {
+      s.train_residual =
+          StackResiduals(ctx_.data.train, Predict(ctx_.rig, params, fit.x, ctx_.data.train, fo));
+      sims += static_cast<int>(ctx_.data.train.trials.size());
+    }
+    if (identity && fd_step <= 0.0 && fit.residual.size() > 0) {
+      FitStart end;
+      end.residual = fit.residual;
+      if (fit.jacobian_x.size() == fit.x.size() && fit.jacobian_x == fit.x)
+        end.jacobian = fit.jacobian;
+      end.predictions = fit.predictions;
+      const std::lock_guard<std::mutex> lock(ends_mutex_);
+      ends_[PointKey(cands, fit.x)] = std::move(end);
+    }
+    try {
+      s.heldout_predictions = HeldoutPrediction(cands, params, fit.x, fo, &sims);
+      s.heldout_ok = true;
+    } catch (const std::runtime_error&) {
+      // The extended model cannot simulate the held-out data (e.g. driven past a joint's
+      // range): it predicts nothing there and is not accepted.
+    }
+    *ctx_.simulations += sims;
+    return s;
+  });
+}
+
+Fitted Extender::FitExtension(const std::vector<int>& cands, const Eigen::VectorXd& x0,
+                              int iterations, double fd_step) {
+  Fitted f;
+  f.cands = cands;
+  f.stage = FitStageOf(cands, x0, iterations, fd_step);
+  Complete(&f);
+  return f;
+}
+
+std::vector<Trial> Extender::HeldoutPrediction(const std::vector<int>& cands,
+                                               const std::vector<ModelParameter>& params,
+                                               const Eigen::VectorXd& x, const FitOptions& fo,
+                                               int* sims) {
+  const DataView& held = ctx_.data.heldout;
+  std::vector<Eigen::Index> phases;  // indices into x of free phases
+  Eigen::Index at = ns_;
+  for (int c : cands) {
+    if (lib_[c].free_phase_param >= 0) phases.push_back(at + lib_[c].free_phase_param);
+    at += static_cast<Eigen::Index>(lib_[c].params.size());
+  }
+  *sims += static_cast<int>(held.trials.size());
+  std::vector<Trial> out = Predict(ctx_.rig, params, x, held, fo);
+  for (const Eigen::Index k : phases) {
+    for (std::size_t t = 0; t < held.trials.size(); ++t) {
+      DataView one;
+      one.trials = {held.trials[t]};
+      one.use = {held.use[t]};
+      one.outputs = held.outputs;
+      if (t < held.initial_q.size()) one.initial_q = {held.initial_q[t]};
+      std::vector<Eigen::VectorXd> r;  // y − ŷ at offsets 0, π/2, π
+      for (const double offset : {0.0, 0.5 * kPi, kPi}) {
+        Eigen::VectorXd xo = x;
+        xo(k) += offset;
+        r.push_back(StackResiduals(one, Predict(ctx_.rig, params, xo, one, fo, 1)));
+        ++*sims;
+      }
+      // ŷ(φ) = c + a cos φ + b sin φ: c = (ŷ₀ + ŷ_π)/2, a = (ŷ₀ − ŷ_π)/2, b = ŷ_{π/2} − c; in
+      // residuals r(φ) = y − ŷ(φ).
+      const Eigen::VectorXd rc = 0.5 * (r[0] + r[2]);
+      const Eigen::VectorXd a = 0.5 * (r[2] - r[0]), b = rc - r[1];
+      Eigen::VectorXd xo = x;
+      xo(k) += std::atan2(rc.dot(b), rc.dot(a));
+      out[t] = Predict(ctx_.rig, params, xo, one, fo, 1)[0];
+      ++*sims;
+    }
+  }
+  return out;
+}
+
+void Extender::Record(int c, const Fitted& f, const Judgement& j) {
+  CandidateResult& cr = (*results_)[c];
+  cr.fitted = true;
+  cr.lr_statistic = j.lr;
+  cr.lr_p_adjusted = j.lr_p_adj;
+  cr.heldout_nrmse = f.heldout_nrmse;
+  cr.heldout_gain = j.gain;
+  cr.heldout_z = j.z;
+  cr.heldout_p_adjusted = j.z_p_adj;
+  cr.collapsed = j.collapsed;
+  cr.parameters.clear();
+  for (std::size_t p = 0; p < lib_[c].params.size(); ++p) {
+    const auto k = static_cast<Eigen::Index>(ns_ + p);
+    cr.parameters.push_back(
+        {lib_[c].params[p].name, lib_[c].params[p].unit, f.stage.fit.x(k), f.stage.fit.ci95(k)});
+  }
+  if (!j.collapsed.empty()) {
+    cr.decision = j.collapsed + " fitted at its bound, where the mechanism is a person parameter";
+  } else if (!j.at_bound.empty()) {
+    cr.decision = j.at_bound +
+                  " ended at a bound of its plausible range: the fit stands in for a "
+                  "misfit of the model, not for the mechanism";
+  } else if (!(j.lr_p_adj < ctx_.settings.alpha)) {
+    cr.decision = "its fit does not pass the robust training test";
+  } else if (!(j.gain > ctx_.settings.min_heldout_gain)) {
+    cr.decision = "held-out gain below " + Fmt("%.0f %%", 100.0 * ctx_.settings.min_heldout_gain);
+  } else if (!j.passes) {
+    cr.decision = "held-out gain below " +
+                  Fmt("%.0f %%", 100.0 * ctx_.settings.clear_heldout_gain) +
+                  " and not significant (Diebold–Mariano)";
+  } else {
+    cr.decision = "passes";
+  }
+}
+
+Eigen::VectorXd Extender::LowestProfileStart(int c) {
+  // With the candidate held at each profile start, the person fitted from the calibration and
+  // from the nominal values (side by side); when the starts differ in one parameter and the
+  // lowest Σr² is an inner one, two more profile points at the vertex of the parabola through it
+  // and its neighbours (ParabolaVertex). Returns person ⊕ candidate values of the lowest Σr²
+  // (empty when none simulates).
+  constexpr int kVertexRounds = 2;
+  const Candidate& cand = lib_[c];
+  const auto nc = static_cast<Eigen::Index>(cand.params.size());
+  std::vector<ModelParameter> held_first = cand.params;
+  held_first.insert(held_first.end(), person_.begin(), person_.end());
+  const std::vector<Eigen::VectorXd> person_starts = {cal_.fit.x, Starts(person_)};
+  Eigen::Index varied = -1;
+  int n_varied = 0;
+  for (Eigen::Index k = 0; k < nc; ++k) {
+    const bool differs =
+        std::any_of(cand.profile_starts.begin(), cand.profile_starts.end(),
+                    [&](const Eigen::VectorXd& p) { return p(k) != cand.profile_starts[0](k); });
+    if (differs) {
+      varied = k;
+      ++n_varied;
+    }
+  }
+  if (n_varied != 1) varied = -1;
+  FitOptions fo = ctx_.fit;
+  fo.prior_sigma = cal_.prior_sigma_rad;
+  const std::vector<std::string> key = {"profile_start", std::to_string(c) + ":" + cand.label,
+                                        VectorKey("person", cal_.fit.x)};
+  const Json j = ctx_.cache.GetJson(key, [&] {
+    int sims = 0;
+    using Point = std::pair<double, Eigen::VectorXd>;
+    const auto lowest_of = [&](const std::vector<Eigen::VectorXd>& x0s, std::size_t group) {
+      std::vector<FitResult> fits(x0s.size());
+      std::vector<char> ok(fits.size(), 0);
+      ParallelFor(fits.size(), fo.threads, [&](std::size_t k) {
+        try {
+          fits[k] = FitParameters(ctx_.rig, held_first, x0s[k], ctx_.data.train, fo,
+                                  static_cast<int>(nc), ctx_.settings.person.iterations);
+          ok[k] = 1;
+        } catch (const std::runtime_error&) {
+          // not simulable with the candidate there: not a start
+        }
+      });
+      std::vector<Point> best(fits.size() / group, Point{INFINITY, Eigen::VectorXd()});
+      for (std::size_t k = 0; k < fits.size(); ++k) {
+        if (!ok[k]) continue;
+        sims += fits[k].simulations;
+        if (fits[k].cost < best[k / group].first) best[k / group] = {fits[k].cost, fits[k].x};
+      }
+      return best;
+    };
+    std::vector<Eigen::VectorXd> x0s;
+    for (const auto& p : cand.profile_starts) {
+      for (const auto& s : person_starts) x0s.push_back(Concat(p, s));
+    }
+    std::vector<Point> profile = lowest_of(x0s, person_starts.size());
+    for (int round = 0; round < kVertexRounds && varied >= 0; ++round) {
+      std::vector<Point> done;
+      for (const auto& pt : profile) {
+        if (std::isfinite(pt.first)) done.push_back(pt);
+      }
+      std::sort(done.begin(), done.end(),
+                [&](const auto& a, const auto& b) { return a.second(varied) < b.second(varied); });
+      std::size_t m = 0;
+      for (std::size_t k = 0; k < done.size(); ++k) {
+        if (done[k].first < done[m].first) m = k;
+      }
+      if (m == 0 || m + 1 >= done.size()) break;
+      const auto &p0 = done[m - 1], &p1 = done[m], &p2 = done[m + 1];
+      const double v = ParabolaVertex(p0.second(varied), p0.first, p1.second(varied), p1.first,
+                                      p2.second(varied), p2.first);
+      if (!(v > p0.second(varied) && v < p2.second(varied))) break;
+      std::vector<Eigen::VectorXd> at_vertex = {p0.second, p1.second, p2.second};
+      for (auto& x : at_vertex) x(varied) = v;
+      profile.push_back(lowest_of(at_vertex, at_vertex.size())[0]);
+    }
+    Eigen::VectorXd best;
+    double best_cost = INFINITY;
+    for (const auto& pt : profile) {
+      if (pt.first < best_cost) {
+        best_cost = pt.first;
+        best = Concat(pt.second.tail(pt.second.size() - nc), pt.second.head(nc));
+      }
+    }
+    *ctx_.simulations += sims;
+    Json r = Json::Object();
+    r.Set("x", best.size() ? diagnosis::ToJson(best) : Json());
+    return r;
+  });
+  Eigen::VectorXd x;
+  if (!Member(j, "x").IsNull()) diagnosis::FromJson(Member(j, "x"), &x);
+  return x;
+}
+
+std::vector<int> Extender::StrongestPerId(std::vector<int> cands, const ScreenStage& tests,
+                                          int limit) const {
+  std::stable_sort(cands.begin(), cands.end(), [&](int a, int b) {
+    return tests.tests[a].statistic > tests.tests[b].statistic;
+  });
+  std::vector<int> out;
+  std::set<std::string> seen;
+  for (int c : cands) {
+    if (static_cast<int>(out.size()) < limit && seen.insert(lib_[c].id).second) out.push_back(c);
+  }
+  return out;
+}
+
+void Extender::ScreenRound(const ScreenStage& screen) {
+  const double alpha = ctx_.settings.alpha;
+  std::vector<int> order;
+  for (std::size_t c = 0; c < lib_.size(); ++c) {
+    if (lib_[c].applicable && (*results_)[c].p_adjusted < alpha)
+      order.push_back(static_cast<int>(c));
+  }
+  order = StrongestPerId(order, screen, ctx_.settings.max_screened);
+  int best = -1;
+  std::vector<int> batch;
+  const std::function<std::string(std::size_t)> item = [&](std::size_t k) {
+    const int c = batch[k];
+    const Eigen::VectorXd x0 =
+        Concat(base_.stage.fit.x, lib_[c].start_from_step(screen.tests[c].theta));
+    FitStage s = FitStageOf({c}, x0, ctx_.settings.screen_iterations, 0.0, true);
+    if (!lib_[c].profile_starts.empty()) {
+      const Eigen::VectorXd x = LowestProfileStart(c);
+      if (x.size()) {
+        FitStage alt = FitStageOf({c}, x, ctx_.settings.screen_iterations, 0.0);
+        if (alt.fit.cost < s.fit.cost) s = std::move(alt);
+      }
+    }
+    return ToJson(s).Dump(0);
+  };
+  for (std::size_t first = 0; first < order.size() && best < 0; first += batch.size()) {
+    batch.assign(order.begin() + static_cast<std::ptrdiff_t>(first),
+                 order.begin() + static_cast<std::ptrdiff_t>(std::min(
+                                     order.size(), first + std::max(1, ctx_.settings.max_fitted))));
+    ctx_.Report(0.4 + 0.35 * first / order.size(),
+                "fitting " + std::to_string(batch.size()) + " extensions");
+    {  // FreePerson's directions, probed here: ProbeDirections maps items itself
+      std::vector<int> need;
+      for (int c : batch) {
+        if (LacksSensitivities({c})) need.push_back(c);
+      }
+      EnsureDirections(need);
+    }
+    const std::vector<std::string> texts = ctx_.Map(batch.size(), item);
+    for (std::size_t k = 0; k < batch.size(); ++k) {
+      const int c = batch[k];
+      Fitted f;
+      f.cands = {c};
+      FromJson(Json::Parse(texts[k], "screening fit"), &f.stage);
+      Complete(&f);
+      const Judgement j = JudgeLast(f, base_, c);
+      Record(c, f, j);
+      round1_.push_back(std::move(f));
+      if (j.passes && (best < 0 || j.gain > (*results_)[round1_[best].cands[0]].heldout_gain)) {
+        best = static_cast<int>(round1_.size()) - 1;
+      }
+    }
+  }
+  if (best < 0) return;
+  const int c1 = round1_[best].cands[0];
+  accepted_.push_back(c1);
+  (*results_)[c1].accepted = true;
+  accept_p_[c1] = (*results_)[c1].lr_p_adjusted;
+  accept_gain_[c1] = (*results_)[c1].heldout_gain;
+  // Its polished screening fit; refitted when LM stopped on the iteration limit.
+  if (round1_[best].stage.all_free && round1_[best].stage.fit.converged) {
+    current_ = round1_[best];
+  } else {
+    ctx_.Report(0.78, "refitting " + lib_[c1].label + " with the person parameters");
+    current_ = FitExtension({c1}, round1_[best].stage.fit.x, ctx_.settings.refit_iterations);
+  }
+}
+
+bool Extender::OnTopRound() {
+  std::set<std::string> ids;
+  std::vector<std::string> key = {"on_top"};
+  for (int c : accepted_) {
+    ids.insert(lib_[c].id);
+    key.push_back(std::to_string(c) + ":" + lib_[c].label);
+  }
+  for (const auto& id : dropped_) {
+    ids.insert(id);
+    key.push_back("dropped:" + id);
+  }
+  key.push_back(VectorKey("x", current_.stage.fit.x));
+  ModelPoint point;
+  point.params = ParamsOf(accepted_);
+  point.x = current_.stage.fit.x;
+  point.residual = current_.stage.train_residual;
+  {
+    std::vector<std::string> point_key = key;
+    point_key.emplace_back("point");
+    const Json j = ctx_.cache.GetJson(point_key, [&] {
+      int sims = 0;
+      const std::vector<Trial> pred =
+          Predict(ctx_.rig, point.params, point.x, ctx_.data.train, ctx_.fit);
+      sims += static_cast<int>(ctx_.data.train.trials.size());
+      const Eigen::MatrixXd jac = ResidualJacobian(ctx_.rig, point.params, point.x, point.residual,
+                                                   ctx_.data.train, ctx_.fit, &sims);
+      *ctx_.simulations += sims;
+      Json r = Json::Object();
+      r.Set("train_predictions", diagnosis::ToJson(pred)).Set("jacobian", diagnosis::ToJson(jac));
+      return r;
+    });
+    diagnosis::FromJson(Member(j, "train_predictions"), &point.train_predictions);
+    diagnosis::FromJson(Member(j, "jacobian"), &point.jacobian);
+  }
+  // The first screen's directions, for every applicable candidate (probed only when these tests
+  // are computed and the first screen came from the resume cache).
+  const DirectionsProvider first_screen = [this]() -> const std::map<int, Eigen::MatrixXd>& {
+    std::vector<int> applicable;
+    for (std::size_t c = 0; c < lib_.size(); ++c) {
+      if (lib_[c].applicable) applicable.push_back(static_cast<int>(c));
+    }
+    EnsureDirections(applicable);
+    return directions_;
+  };
+  ctx_.Report(0.8, "score tests on top of the extended model");
+  std::vector<std::string> test_key = key;
+  test_key.emplace_back("score_tests");
+  const ScreenStage tests = Screen(ctx_, lib_, point, ids, test_key, first_screen, nullptr);
+  std::vector<int> order;
+  for (std::size_t c = 0; c < lib_.size(); ++c) {
+    if (!lib_[c].applicable || ids.count(lib_[c].id) || tests.tests[c].dof == 0) continue;
+    (*results_)[c].score_on_accepted = tests.tests[c].statistic;
+    if (AdjustedChiSquareP(tests.tests[c].statistic, tests.tests[c].dof, m_) <
+        ctx_.settings.alpha) {
+      order.push_back(static_cast<int>(c));
+    }
+  }
+  order = StrongestPerId(order, tests, ctx_.settings.max_fitted);
+  if (order.empty()) return false;
+  // Start: a candidate's own first-round fit when it passed its training test there, else the
+  // Gauss–Newton step of its test on top of the extended model.
+  const auto start_on_top = [&](int c) {
+    for (const auto& f : round1_) {
+      if (f.cands[0] == c && (*results_)[c].lr_p_adjusted < ctx_.settings.alpha) {
+        return Concat(current_.stage.fit.x, f.stage.fit.x.tail(lib_[c].params.size()));
+      }
+    }
+    return Concat(current_.stage.fit.x, lib_[c].start_from_step(tests.tests[c].theta));
+  };
+  const std::function<std::string(std::size_t)> item = [&](std::size_t k) {
+    std::vector<int> cands = accepted_;
+    cands.push_back(order[k]);
+    return ToJson(FitStageOf(cands, start_on_top(order[k]), ctx_.settings.screen_iterations, 0.0,
+                             true))
+        .Dump(0);
+  };
+  ctx_.Report(0.85, "fitting " + std::to_string(order.size()) + " extensions on top");
+  for (int c : order) {  // FreePerson's directions, probed outside the items
+    std::vector<int> cands = accepted_;
+    cands.push_back(c);
+    if (LacksSensitivities(cands)) EnsureDirections(cands);
+  }
+  const std::vector<std::string> texts = ctx_.Map(order.size(), item);
+  int pick = -1;
+  double pick_gain = 0.0;
+  std::vector<Fitted> on_top;
+  Judgement pick_j;
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const int c = order[k];
+    Fitted f;
+    f.cands = accepted_;
+    f.cands.push_back(c);
+    FromJson(Json::Parse(texts[k], "fit on top"), &f.stage);
+    Complete(&f);
+    const Judgement j = JudgeLast(f, current_, c);
+    (*results_)[c].heldout_gain_on_accepted = j.gain;
+    on_top_reference_[c] = current_.heldout_nrmse;
+    on_top.push_back(std::move(f));
+    if (j.passes && (pick < 0 || j.gain > pick_gain)) {
+      pick = static_cast<int>(k);
+      pick_gain = j.gain;
+      pick_j = j;
+    }
+  }
+  if (pick < 0) return false;
+  const int c = order[pick];
+  accepted_.push_back(c);
+  (*results_)[c].accepted = true;
+  (*results_)[c].decision = "passes on top of " + lib_[accepted_[0]].label;
+  accept_p_[c] = pick_j.lr_p_adj;
+  accept_gain_[c] = pick_gain;
+  current_ = on_top[pick];
+  BackwardStep();
+  return true;
+}
+
+void Extender::BackwardStep() {
+  // An earlier mechanism that no longer passes on top of the others (the new one explains what
+  // it stood in for) is dropped for good.
+  for (std::size_t a = 0; a + 1 < accepted_.size(); ++a) {
+    const int old = accepted_[a];
+    std::vector<int> rest;
+    Eigen::VectorXd x_rest(current_.stage.fit.x.size() -
+                           static_cast<Eigen::Index>(lib_[old].params.size()));
+    Eigen::Index at = 0, to = 0;
+    for (Eigen::Index k = 0; k < ns_; ++k) x_rest(to++) = current_.stage.fit.x(at++);
+    for (int c2 : accepted_) {
+      const auto np = static_cast<Eigen::Index>(lib_[c2].params.size());
+      if (c2 != old) {
+        rest.push_back(c2);
+        x_rest.segment(to, np) = current_.stage.fit.x.segment(at, np);
+        to += np;
+      }
+      at += np;
+    }
+    ctx_.Report(0.9, "testing " + lib_[old].label + " on top of the others");
+    Fitted without;
+    bool have = false;
+    if (rest.size() == 1 && (*results_)[rest[0]].lr_p_adjusted < ctx_.settings.alpha) {
+      for (const auto& f : round1_) {
+        if (f.cands[0] == rest[0] && f.stage.all_free) {
+          without = f;
+          have = true;
+        }
+      }
+    }
+    if (!have) without = FitExtension(rest, x_rest, ctx_.settings.refit_iterations);
+    Eigen::Index offset = ns_;  // `old`'s block in the extended model's x
+    for (std::size_t i = 0; i < a; ++i) {
+      offset += static_cast<Eigen::Index>(lib_[accepted_[i]].params.size());
+    }
+    const Judgement j = Judge(current_, without, old, offset);
+    (*results_)[old].heldout_gain_on_accepted = j.gain;
+    on_top_reference_[old] = without.heldout_nrmse;
+    if (!std::isfinite(without.heldout_nrmse) || j.passes) continue;
+    (*results_)[old].accepted = false;
+    (*results_)[old].decision = "dropped: no longer passes on top of the later mechanisms";
+    dropped_.insert(lib_[old].id);
+    accepted_ = rest;
+    current_ = without;
+    break;  // one drop per step
+  }
+}
+
+void Extender::FinalRefit() {
+  std::set<double> steps;
+  std::vector<Eigen::VectorXd> starts = {current_.stage.fit.x};
+  std::vector<Eigen::VectorXd> scan;
+  auto at = static_cast<Eigen::Index>(ns_);
+  std::vector<std::string> key = {"refit_scan"};
+  for (int c : accepted_) {
+    const Candidate& cand = lib_[c];
+    key.push_back(std::to_string(c) + ":" + cand.label);
+    steps.insert(cand.refit_fd_steps.begin(), cand.refit_fd_steps.end());
+    if (cand.refit_scan_param >= 0) {
+      const auto k = at + cand.refit_scan_param;
+      const ModelParameter& par = cand.params[static_cast<std::size_t>(cand.refit_scan_param)];
+      for (const double factor : cand.refit_scan_factors) {
+        Eigen::VectorXd x = current_.stage.fit.x;
+        x(k) = std::clamp(x(k) * factor, par.lower, par.upper);
+        scan.push_back(x);
+      }
+    }
+    at += static_cast<Eigen::Index>(cand.params.size());
+  }
+  if (!scan.empty()) {
+    key.push_back(VectorKey("x", current_.stage.fit.x));
+    const std::vector<ModelParameter> params = ParamsOf(accepted_);
+    const Json costs = ctx_.cache.GetJson(key, [&] {
+      Json j = Json::Array();
+      for (const auto& x : scan) {
+        double cost = INFINITY;
+        try {
+          cost = StackResiduals(ctx_.data.train,
+                                Predict(ctx_.rig, params, x, ctx_.data.train, ctx_.fit))
+                     .squaredNorm();
+        } catch (const std::runtime_error&) {
+          // not simulable there: not a start
+        }
+        *ctx_.simulations += static_cast<int>(ctx_.data.train.trials.size());
+        j.Push(std::isfinite(cost) ? Json(cost) : Json());
+      }
+      return j;
+    });
+    std::size_t lowest = scan.size();
+    double lowest_cost = INFINITY;
+    for (std::size_t k = 0; k < scan.size(); ++k) {
+      const Json& v = costs.Items()[k];
+      if (!v.IsNull() && v.AsNumber() < lowest_cost) {
+        lowest = k;
+        lowest_cost = v.AsNumber();
+      }
+    }
+    if (lowest < scan.size()) starts.push_back(scan[lowest]);
+  }
+  for (std::size_t s = 0; s < starts.size(); ++s) {
+    for (const double h : steps) {
+      ctx_.Report(0.93, "refitting the extended model at difference step " + ExactNumberText(h));
+      Fitted f = FitExtension(accepted_, starts[s], ctx_.settings.refit_iterations, h);
+      if (f.stage.fit.cost < current_.stage.fit.cost) current_ = std::move(f);
+    }
+    if (s > 0) {  // a scanned start: also at the default step
+      Fitted f = FitExtension(accepted_, starts[s], ctx_.settings.refit_iterations);
+      if (f.stage.fit.cost < current_.stage.fit.cost) current_ = std::move(f);
+    }
+  }
+}
+
+ExtensionOutcome Extender::Run(const ScreenStage& screen,
+                               std::map<int, Eigen::MatrixXd> directions) {
+  directions_ = std::move(directions);
+  ExtensionOutcome out;
+  if (!cal_.fit.converged) {
+    // The control every candidate is judged against: the person alone, refitted as many LM steps
+    // as a candidate's fit gets, so that no candidate is credited with the calibration's own
+    // progress.
+    ctx_.Report(0.38, "refitting the person (the candidates' control)");
+    base_ = FitExtension({}, cal_.fit.x, ctx_.settings.screen_iterations);
+    out.baseline_refit = true;
+  }
+  out.baseline_fit = base_.stage.fit;
+  out.baseline_heldout_predictions = base_.stage.heldout_predictions;
+  ScreenRound(screen);
+  out.on_top_reference = on_top_reference_;
+  if (accepted_.empty()) return out;
+  while (static_cast<int>(accepted_.size()) < ctx_.settings.max_accepted && OnTopRound()) {
+  }
+  const CandidateResult& cause = (*results_)[accepted_[0]];
+  const bool screened = cause.fitted && cause.lr_p_adjusted < ctx_.settings.alpha &&
+                        accept_p_.count(accepted_[0]) && cause.accepted;
+  out.cause_lr_p = screened ? cause.lr_p_adjusted : accept_p_[accepted_[0]];
+  out.cause_gain = screened ? cause.heldout_gain : accept_gain_[accepted_[0]];
+  FinalRefit();
+  out.accepted = accepted_;
+  out.params = ParamsOf(accepted_);
+  out.fit = current_.stage.fit;
+  out.heldout_predictions = current_.stage.heldout_predictions;
+  out.heldout_nrmse = current_.heldout_nrmse;
+  out.on_top_reference = on_top_reference_;
+  return out;
+}
+
+}  // namespace
+
+ExtensionOutcome Extend(const StageContext& ctx, const std::vector<Candidate>& library,
+                        const CalibrationStage& calibration,
+                        const std::vector<ModelParameter>& person, const ScreenStage& screen,
+                        std::map<int, Eigen::MatrixXd> baseline_directions,
+                        std::vector<CandidateResult>* results) {
+  Extender e(ctx, library, calibration, person, results);
+  return e.Run(screen, std::move(baseline_directions));
+}
+
+}  // namespace fesim::diagnosis

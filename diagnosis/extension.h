@@ -1,0 +1,81 @@
+// Stages "extend" and "refit" of `fesim diagnose` (diagnose.h): candidate mechanisms fitted on
+// top of the calibrated person, judged, and the model extended with those that pass.
+//
+// Control. When the calibration stopped at its iteration limit, the person alone is refitted as
+// many LM steps as a candidate's fit gets; that refit, not the calibration, is what the candidates
+// are judged against (otherwise any candidate is credited with the calibration's own progress).
+//
+// Screening. The candidates whose robust score test passes (p_adj < alpha), the best-scoring
+// joint per id, up to max_screened, are fitted in batches of max_fitted while none passes: their
+// own parameters from the test's Gauss–Newton step (Candidate::start_from_step), fitted together
+// with the person parameters (screen_iterations LM steps, person priors on) — all of them when
+// the extended model has forward sensitivities, else (fatigue, potentiation) the kRelevantPerson
+// whose Jacobian columns point most along the candidate's probe directions. A candidate with
+// profile starts (Candidate::profile_starts, arm_support) is also fitted from the lowest of the
+// person fits with it held at each (two parabolic refinements when one parameter varies,
+// ParabolaVertex); the lower Σr² is kept.
+//
+// Acceptance (Judgement): a fit passes when
+//   robust LR (noise_model.h) of its training residual against the model it extends:
+//     p_adj(χ²_p) < alpha;
+//   held-out gain g = (x − y)/x of the held-out NRMSE > min_heldout_gain, and either its
+//     Diebold–Mariano p_adj < alpha (× max_screened fits) or g > clear_heldout_gain: with one
+//     held-out trial a slow gain (fatigue, potentiation) has an effective sample of about one and
+//     cannot reach significance, while a clean person's misfit absorbed by a candidate gains
+//     ~2 % (DiagnoseForeign.ACleanPersonIsNone…);
+//   no parameter ended where the mechanism collapses into the person (collapses_at), and none at
+//     a bound of its plausible range other than its "off" start (ParameterAtRangeBound): a
+//     posture ratio of ±6 or a 5-fold v_max is no person's, it is the fit soaking up a misfit the
+//     person calibration leaves (clean foreign persons, docs/diagnosis.md).
+// The passing candidate of largest held-out gain is accepted (its fit, refitted when LM had not
+// converged). Then forward selection up to max_accepted: the score tests repeated at the
+// extended model (its parameters' Jacobian projected out; candidates insignificant with the first
+// round's directions at twice their statistic are not probed again), the best max_fitted fitted on
+// top (start: their own first-round fit when it passed its training test, else the new test's
+// step), the passing one of largest held-out gain over the extended model accepted; then a
+// backward step drops an earlier mechanism that no longer passes on top of the others (refitted
+// without it), for good.
+//
+// Refit: when an accepted mechanism lists further difference steps or scanned starts
+// (Candidate::refit_fd_steps, refit_scan_*: stiction), the extended model is refitted from its
+// fit at each step and from the scanned point of lowest training Σr²; the lowest Σr² is kept.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "diagnosis/screening.h"
+
+namespace fesim::diagnosis {
+
+/// What the verdict needs of the extension.
+struct ExtensionOutcome {
+  /// The model the candidates were judged against: the calibration, or — when its LM stopped at
+  /// the iteration limit — the person refitted screen_iterations more steps (baseline_refit).
+  bool baseline_refit = false;
+  FitResult baseline_fit;
+  std::vector<Trial> baseline_heldout_predictions;
+  std::vector<int> accepted;           ///< library indices, in acceptance order.
+  std::vector<ModelParameter> params;  ///< person ⊕ accepted mechanisms' parameters.
+  FitResult fit;                       ///< the extended model's (empty when none accepted).
+  std::vector<Trial> heldout_predictions;
+  double heldout_nrmse = NAN;
+  /// The cause's training-test p and held-out gain as accepted (on the calibrated model when it
+  /// was screened there and passed).
+  double cause_lr_p = 1.0, cause_gain = 0.0;
+  /// Held-out NRMSE of the model a candidate was fitted on top of (second round), by library
+  /// index (NaN: not fitted on top).
+  std::vector<double> on_top_reference;
+};
+
+/// Screening, forward selection with the backward step, and the refit (see above). Fills the
+/// fit figures of `results` (library order). `baseline_directions`: the first screen's probe
+/// directions (empty when it came from the resume cache: probed again when needed).
+ExtensionOutcome Extend(const StageContext& ctx, const std::vector<Candidate>& library,
+                        const CalibrationStage& calibration,
+                        const std::vector<ModelParameter>& person, const ScreenStage& screen,
+                        std::map<int, Eigen::MatrixXd> baseline_directions,
+                        std::vector<CandidateResult>* results);
+
+}  // namespace fesim::diagnosis

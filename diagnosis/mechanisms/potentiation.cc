@@ -1,0 +1,44 @@
+// potentiation: post-activation potentiation, force rising with use (sim/mechanisms.h).
+// Extension: potentiation.gain g (0 = off; up to 5: force × 6 when fully potentiated) and
+// potentiation.rise_time_s. Planted: g = 2 s.
+#include "diagnosis/mechanisms/library.h"
+
+namespace fesim::diagnosis {
+
+Mechanism PotentiationMechanism() {
+  Mechanism m;
+  m.id = "potentiation";
+  m.description = "post-activation potentiation (force rising with use)";
+  m.reduced_model_form = true;
+  m.candidates = [](const sim::ModelParams& rig, const LibraryContext&) {
+    Candidate c;
+    c.params.push_back(
+        Param("potentiation.gain", "1", 0.0, 0.0, 5.0, 0.1, [](double v, sim::ModelParams* p) {
+          p->mechanisms.potentiation.enabled = v > 1e-12;
+          p->mechanisms.potentiation.gain = v;
+        }));
+    const double rise = rig.mechanisms.potentiation.rise_time_s;
+    c.params.push_back(
+        Param("potentiation.rise_time_s", "s", rise, 0.5, 60.0, rise,
+              [](double v, sim::ModelParams* p) { p->mechanisms.potentiation.rise_time_s = v; }));
+    // At the shortest rise time p ≈ 1 within a second of any stimulation and decays over
+    // T_decay = 60 s: a constant gain 1 + g on the active force, i.e. a stronger person
+    // (candidates_test: PotentiationCollapsesIntoAConstantGainAtItsShortestRiseTime).
+    c.params.back().collapses_at = 0.5;
+    c.probes = {ProbeAt(c.params, 0, 0.1)};
+    c.one_sided = {true};
+    return std::vector<Candidate>{c};
+  };
+  m.plant = [](const PlantContext& ctx, sim::ModelParams* truth, sim::SensorSuite*,
+               std::vector<NamedValue>* planted) {
+    auto& p = truth->mechanisms.potentiation;
+    p.enabled = true;
+    p.gain = 2.0 * ctx.scale;
+    planted->push_back({"potentiation:potentiation.gain", "1", p.gain, NAN});
+    planted->push_back({"potentiation:potentiation.rise_time_s", "s", p.rise_time_s, NAN});
+  };
+  m.evidence = UseEvidence;
+  return m;
+}
+
+}  // namespace fesim::diagnosis

@@ -1,0 +1,141 @@
+#include "diagnosis/verdict.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "diagnosis/mechanisms/library.h"
+#include "diagnosis/screening.h"
+
+namespace fesim::diagnosis {
+namespace {
+
+/// Confidence cap of a name given while the model misses the black box somewhere.
+constexpr double kGapConfidenceCap = 0.45;
+/// Below this confidence another candidate explains about as much as the first accepted one:
+/// the verdict is `unexplained`, naming both, not a name at a confidence near 0.
+constexpr double kMinNameConfidence = 0.25;
+
+std::string GapText(const std::vector<int>& gaps, const std::vector<double>& nrmse,
+                    const Diagnosis& d) {
+  std::string text;
+  for (int o : gaps) {
+    text += (text.empty() ? "" : "; ") + d.heldout.outputs[o] +
+            Fmt(": %.3f vs %.3f", nrmse[o], d.reference.heldout_nrmse_per_output[o]);
+  }
+  return text + " (held-out NRMSE of the calibrated model vs the black box " + d.reference.method +
+         ")";
+}
+
+}  // namespace
+
+std::vector<int> ReferenceGaps(const std::vector<double>& nrmse, const ReferenceResult& reference,
+                               const DiagnoseSettings& settings) {
+  std::vector<int> gaps;
+  if (reference.method.empty()) return gaps;
+  for (std::size_t o = 0; o < nrmse.size() && o < reference.heldout_nrmse_per_output.size(); ++o) {
+    const double b = reference.heldout_nrmse_per_output[o];
+    if (std::isfinite(b) &&
+        !(nrmse[o] <= settings.reference_gate * b + settings.reference_margin)) {
+      gaps.push_back(static_cast<int>(o));
+    }
+  }
+  return gaps;
+}
+
+void MakeVerdict(const std::vector<Candidate>& library, const ExtensionOutcome& extension,
+                 int person_parameters, const DiagnoseSettings& settings, Diagnosis* d) {
+  const std::vector<int> gaps_before =
+      ReferenceGaps(d->baseline_heldout_nrmse_per_output, d->reference, settings);
+  const std::vector<int> gaps_after =
+      ReferenceGaps(d->extended_heldout_nrmse_per_output, d->reference, settings);
+  double best_gain = 0.0;
+  for (const auto& cr : d->candidates) {
+    if (cr.fitted && std::isfinite(cr.heldout_gain))
+      best_gain = std::max(best_gain, cr.heldout_gain);
+  }
+  if (extension.accepted.empty()) {
+    if (!gaps_before.empty()) {
+      d->cause = "unexplained";
+      double worst = 0.0;
+      for (int o : gaps_before) {
+        worst = std::max(worst,
+                         d->baseline_heldout_nrmse_per_output[o] /
+                             (settings.reference_gate * d->reference.heldout_nrmse_per_output[o]));
+      }
+      d->confidence = std::clamp(0.5 + 0.5 * (worst - 1.0), 0.5, 1.0);
+      d->reason =
+          "the calibrated model does not reach a black-box fit and no candidate mechanism "
+          "closes the gap: " +
+          GapText(gaps_before, d->baseline_heldout_nrmse_per_output, *d);
+    } else {
+      d->cause = "none";
+      d->confidence = 1.0 - 0.5 * std::min(1.0, best_gain / settings.min_heldout_gain);
+      d->reason =
+          "the calibrated model predicts the held-out data as well as the black box " +
+          (d->reference.method.empty() ? std::string("(none identified)") : d->reference.method) +
+          " (within the gate) and no candidate mechanism passes its tests";
+    }
+    return;
+  }
+  const std::string& id = library[extension.accepted[0]].id;
+  d->cause = id;
+  // An alternative competes for the share of its gain it loses once the accepted mechanisms are
+  // in the model (fitted on top of them: the NRMSE it still removes there explains something
+  // else); not fitted there: all of it.
+  // Alternatives: other ids whose fit passed its training test (a fit that explains nothing on
+  // the training data is no explanation), less what they lose on top of the accepted mechanisms
+  // — nothing left when their score test there is no longer significant.
+  const int m = ApplicableCount(library);
+  double g_alt = 0.0;
+  std::string alternative;
+  for (std::size_t c = 0; c < d->candidates.size(); ++c) {
+    const CandidateResult& cr = d->candidates[c];
+    if (!cr.fitted || cr.id == id || !std::isfinite(cr.heldout_gain) || cr.accepted ||
+        !cr.collapsed.empty() || !(cr.lr_p_adjusted < settings.alpha)) {
+      continue;
+    }
+    if (std::isfinite(cr.score_on_accepted) &&
+        AdjustedChiSquareP(cr.score_on_accepted, std::max(1, cr.dof), m) >= settings.alpha) {
+      continue;
+    }
+    double g = cr.heldout_gain;
+    if (std::isfinite(cr.heldout_gain_on_accepted) &&
+        std::isfinite(extension.on_top_reference[c])) {
+      g -= std::max(0.0, cr.heldout_gain_on_accepted) * extension.on_top_reference[c] /
+           d->baseline_heldout_nrmse;
+    }
+    if (g > g_alt) {
+      g_alt = g;
+      alternative = cr.label;
+    }
+  }
+  d->confidence =
+      std::clamp((1.0 - extension.cause_lr_p) * (1.0 - g_alt / extension.cause_gain), 0.0, 1.0);
+  if (d->confidence < kMinNameConfidence) {
+    d->cause = "unexplained";
+    d->confidence = 1.0 - d->confidence;
+    d->reason = "the misfit is explained about as well by other candidates as by the best one (" +
+                library[extension.accepted[0]].label +
+                Fmt(": held-out gain %.1f %%; ", 100.0 * extension.cause_gain) + alternative +
+                Fmt(": %.1f %%): no single cause", 100.0 * g_alt);
+    return;
+  }
+  d->reason = FindMechanism(id).description + " explains what the calibrated model misses";
+  if (!gaps_after.empty()) {
+    d->confidence = std::min(d->confidence, kGapConfidenceCap);
+    d->reason += "; but the extended model still does not reach the black box on " +
+                 GapText(gaps_after, d->extended_heldout_nrmse_per_output, *d);
+  }
+  auto at = static_cast<Eigen::Index>(person_parameters);
+  for (int c : extension.accepted) {
+    d->mechanisms.push_back(library[c].label);
+    d->mechanism_ids.push_back(library[c].id);
+    for (const auto& p : library[c].params) {
+      d->extension_parameters.push_back(
+          {library[c].label + ":" + p.name, p.unit, extension.fit.x(at), extension.fit.ci95(at)});
+      ++at;
+    }
+  }
+}
+
+}  // namespace fesim::diagnosis
