@@ -336,6 +336,80 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
   return J;
 }
 
+namespace {
+
+/// A profiled fit's projection (I − QQᵀ) onto the complement of the nuisance columns' span
+/// (Q an orthonormal basis of it); the identity without nuisance columns.
+struct NuisanceProjection {
+  NuisanceProjection(const Eigen::MatrixXd* nuisance, long n) : active(nuisance != nullptr) {
+    if (!nuisance) return;
+    if (nuisance->rows() != n) {
+      throw std::invalid_argument("FitParameters: nuisance Jacobian has " +
+                                  std::to_string(nuisance->rows()) + " rows, residuals " +
+                                  std::to_string(n));
+    }
+    qr.compute(*nuisance);
+    q_basis = (qr.householderQ() * Eigen::MatrixXd::Identity(n, qr.rank())).eval();
+  }
+  Eigen::MatrixXd Apply(const Eigen::MatrixXd& m) const {
+    if (!active) return m;
+    return m - q_basis * (q_basis.transpose() * m);
+  }
+  bool active;
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr;
+  Eigen::MatrixXd q_basis;
+};
+
+/// The prior rows σ_p (x_k − start_k) / width_k (log-normal: σ_p ln(x_k / start_k) / width_k) of
+/// the free parameters with a finite prior width, appended to a residual and its Jacobian
+/// (docs/diagnosis.md, "The person" step 1).
+class PriorRows {
+ public:
+  PriorRows(const std::vector<ModelParameter>& params, int first_free, double prior_sigma)
+      : params_(params), first_free_(first_free), sigma_(prior_sigma) {
+    if (prior_sigma <= 0.0) return;
+    for (int k = 0; k + first_free < static_cast<int>(params.size()); ++k) {
+      if (std::isfinite(params[first_free + k].prior_width)) of_.push_back(k);
+    }
+  }
+  Eigen::VectorXd Rows(const Eigen::VectorXd& free) const {
+    Eigen::VectorXd rows(static_cast<Eigen::Index>(of_.size()));
+    for (std::size_t m = 0; m < of_.size(); ++m) {
+      const ModelParameter& par = params_[first_free_ + of_[m]];
+      const double x = free(of_[m]);
+      const double d = par.log_prior ? std::log(x / par.start) : x - par.start;
+      rows(static_cast<Eigen::Index>(m)) = sigma_ * d / par.prior_width;
+    }
+    return rows;
+  }
+  Eigen::VectorXd Append(const Eigen::VectorXd& r_data, const Eigen::VectorXd& free) const {
+    if (of_.empty()) return r_data;
+    Eigen::VectorXd r(r_data.size() + static_cast<Eigen::Index>(of_.size()));
+    r << r_data, Rows(free);
+    return r;
+  }
+  Eigen::MatrixXd AppendJacobian(const Eigen::MatrixXd& j_data, const Eigen::VectorXd& free) const {
+    if (of_.empty()) return j_data;
+    Eigen::MatrixXd j =
+        Eigen::MatrixXd::Zero(j_data.rows() + static_cast<Eigen::Index>(of_.size()), j_data.cols());
+    j.topRows(j_data.rows()) = j_data;
+    for (std::size_t m = 0; m < of_.size(); ++m) {
+      const ModelParameter& par = params_[first_free_ + of_[m]];
+      const double dd = par.log_prior ? 1.0 / free(of_[m]) : 1.0;
+      j(j_data.rows() + static_cast<Eigen::Index>(m), of_[m]) = sigma_ * dd / par.prior_width;
+    }
+    return j;
+  }
+
+ private:
+  const std::vector<ModelParameter>& params_;
+  int first_free_;
+  double sigma_;
+  std::vector<int> of_;  ///< free column of each prior row
+};
+
+}  // namespace
+
 FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
                         const Eigen::VectorXd& x0, const DataView& view, const FitOptions& options,
                         int first_free, int max_iterations, const Eigen::MatrixXd* nuisance,
@@ -357,58 +431,15 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   };
   FitResult out;
   const long n = view.Count();
-  // Profiled fit: an orthonormal basis Q of the nuisance columns' span; project = (I − QQᵀ).
-  Eigen::MatrixXd q_basis;
-  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> nuisance_qr;
-  if (nuisance) {
-    if (nuisance->rows() != n) {
-      throw std::invalid_argument("FitParameters: nuisance Jacobian has " +
-                                  std::to_string(nuisance->rows()) + " rows, residuals " +
-                                  std::to_string(n));
-    }
-    nuisance_qr.compute(*nuisance);
-    const Eigen::Index rank = nuisance_qr.rank();
-    q_basis = (nuisance_qr.householderQ() * Eigen::MatrixXd::Identity(n, rank)).eval();
-  }
-  const auto project = [&](const Eigen::MatrixXd& m) -> Eigen::MatrixXd {
-    if (!nuisance) return m;
-    return m - q_basis * (q_basis.transpose() * m);
-  };
-  // Prior rows σ_p (x_k − start_k) / width_k of the free parameters with a prior.
-  std::vector<int> prior_of;  // free column of each prior row
-  if (options.prior_sigma > 0.0) {
-    for (int k = 0; k < p; ++k) {
-      if (std::isfinite(params[first_free + k].prior_width)) prior_of.push_back(k);
-    }
-  }
-  const auto prior_rows = [&](const Eigen::VectorXd& free) {
-    Eigen::VectorXd rows(static_cast<Eigen::Index>(prior_of.size()));
-    for (std::size_t m = 0; m < prior_of.size(); ++m) {
-      const ModelParameter& par = params[first_free + prior_of[m]];
-      const double x = free(prior_of[m]);
-      const double d = par.log_prior ? std::log(x / par.start) : x - par.start;
-      rows(static_cast<Eigen::Index>(m)) = options.prior_sigma * d / par.prior_width;
-    }
-    return rows;
-  };
+  const NuisanceProjection nuisance_projection(nuisance, n);
+  const auto project = [&](const Eigen::MatrixXd& m) { return nuisance_projection.Apply(m); };
+  const PriorRows prior(params, first_free, options.prior_sigma);
+  const auto prior_rows = [&](const Eigen::VectorXd& free) { return prior.Rows(free); };
   const auto with_prior = [&](const Eigen::VectorXd& r_data, const Eigen::VectorXd& free) {
-    if (prior_of.empty()) return r_data;
-    Eigen::VectorXd r(r_data.size() + static_cast<Eigen::Index>(prior_of.size()));
-    r << r_data, prior_rows(free);
-    return r;
+    return prior.Append(r_data, free);
   };
   const auto with_prior_jacobian = [&](const Eigen::MatrixXd& j_data, const Eigen::VectorXd& free) {
-    if (prior_of.empty()) return j_data;
-    Eigen::MatrixXd j = Eigen::MatrixXd::Zero(
-        j_data.rows() + static_cast<Eigen::Index>(prior_of.size()), j_data.cols());
-    j.topRows(j_data.rows()) = j_data;
-    for (std::size_t m = 0; m < prior_of.size(); ++m) {
-      const ModelParameter& par = params[first_free + prior_of[m]];
-      const double dd = par.log_prior ? 1.0 / free(prior_of[m]) : 1.0;
-      j(j_data.rows() + static_cast<Eigen::Index>(m), prior_of[m]) =
-          options.prior_sigma * dd / par.prior_width;
-    }
-    return j;
+    return prior.AppendJacobian(j_data, free);
   };
   constexpr double kFailedResidualRad = 10.0;  // a failed simulation: make LM reject the step
   // The raw residual (and predictions) of the best (smallest, projected when profiled, cost)
@@ -514,7 +545,7 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
       best_raw = last_raw;
       best_pred.clear();
     }
-    out.nuisance_step = -nuisance_qr.solve(best_raw);
+    out.nuisance_step = -nuisance_projection.qr.solve(best_raw);
   }
   if (best_free.size() == p && best_free == res.x) {
     out.residual = best_raw;
