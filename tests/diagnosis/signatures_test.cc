@@ -6,6 +6,8 @@
 #include <random>
 #include <vector>
 
+#include "diagnosis/extended_model.h"
+
 namespace fesim::diagnosis {
 namespace {
 
@@ -31,6 +33,31 @@ TEST(Signatures, SpectrumPeakFindsAPlantedTremorFrequencyBelowTheNoise) {
   const SpectrumPeak white = ResidualSpectrumPeak(WhiteNoise(1.0, 2), kDt, 3.0, 12.0, 0.01);
   EXPECT_LT(white.power_ratio, 15.0);  // max of ~900 exponential(1) draws / median ≈ ln 900/ln 2
   EXPECT_THROW(ResidualSpectrumPeak(r, kDt, 3.0, 60.0, 0.01), std::invalid_argument);
+}
+
+TEST(Signatures, SpectrumPeakUsesTheMeanStepOfARoundedClock) {
+  // A 60 Hz record with time stamps rounded to 4 decimals (steps 0.0166 / 0.0167 s) and an
+  // 8.5163 Hz line in its residual: the peak is found within 2 mHz, not 0.2 % low (8.4993 Hz,
+  // what the first step 0.0167 s alone gives).
+  constexpr int kSamples = 3601;  // 60 s
+  constexpr double kF = 8.5163;
+  Trial t;
+  std::vector<double> y(kSamples), zero(kSamples, 0.0);
+  for (int i = 0; i < kSamples; ++i) {
+    t.time.push_back(std::round(i / 60.0 * 1e4) / 1e4);
+    y[static_cast<std::size_t>(i)] = 0.01 * std::sin(2 * kPi * kF * i / 60.0);
+  }
+  t.AddColumn("u.ext", zero);
+  t.AddColumn("q.wrist_flexion", y);
+  Trial prediction = t;
+  prediction.MutableColumn("q.wrist_flexion") = zero;
+  DataView v;
+  v.trials = {t};
+  v.use = {std::vector<char>(kSamples, 1)};
+  v.outputs = {"q.wrist_flexion"};
+  const std::vector<OutputSignature> s = ResidualSignatures(v, {prediction});
+  ASSERT_EQ(s.size(), 1u);
+  EXPECT_NEAR(s[0].spectrum_peak_hz, kF, 0.002);
 }
 
 TEST(Signatures, StructuredShareIsZeroForWhiteNoiseAndNearOneForASlowResidual) {
