@@ -22,6 +22,18 @@ bool DriftOnly(const Candidate& c) {
   });
 }
 
+bool PerTrialDirections(const Candidate& c, int trials) {
+  return c.free_phase_param >= 0 && trials > 1;
+}
+
+std::vector<bool> OneSidedColumns(const Candidate& c, Eigen::Index columns) {
+  std::vector<bool> out;
+  for (Eigen::Index k = 0; k < columns; ++k) {
+    out.push_back(c.one_sided[static_cast<std::size_t>(k) % c.one_sided.size()]);
+  }
+  return out;
+}
+
 int ApplicableCount(const std::vector<Candidate>& library) {
   return static_cast<int>(std::count_if(library.begin(), library.end(),
                                         [](const Candidate& c) { return c.applicable; }));
@@ -90,15 +102,26 @@ std::map<int, Eigen::MatrixXd> ProbeDirections(
   std::size_t j = 0;
   for (int c : cands) {
     const int np = static_cast<int>(library[c].probes.size());
-    Eigen::MatrixXd d = Eigen::MatrixXd::Zero(r.size(), np);
+    const auto nt = static_cast<int>(train.trials.size());
+    const int per_trial = PerTrialDirections(library[c], nt) ? nt : 1;
+    Eigen::MatrixXd d = Eigen::MatrixXd::Zero(r.size(), np * per_trial);
     for (int p = 0; p < np; ++p) {
       std::vector<Trial> probe_pred;
       bool all_ok = true;
-      for (std::size_t t = 0; t < train.trials.size(); ++t, ++j) {
+      for (int t = 0; t < nt; ++t, ++j) {
         probe_pred.push_back(sims[j]);
         all_ok = all_ok && ok[j];
       }
-      if (all_ok) d.col(p) = StackResiduals(train, probe_pred) - r;
+      if (!all_ok) continue;
+      if (per_trial == 1) {
+        d.col(p) = StackResiduals(train, probe_pred) - r;
+        continue;
+      }
+      for (int t = 0; t < nt; ++t) {  // trial t probed, the others at the point's prediction
+        std::vector<Trial> only_t = pred;
+        only_t[static_cast<std::size_t>(t)] = probe_pred[static_cast<std::size_t>(t)];
+        d.col(t * np + p) = StackResiduals(train, only_t) - r;
+      }
     }
     directions[c] = std::move(d);
   }
@@ -138,8 +161,9 @@ ScreenStage Screen(const StageContext& ctx, const std::vector<Candidate>& librar
         const std::map<int, Eigen::MatrixXd>& earlier = screen_with();
         const auto it = earlier.find(static_cast<int>(c));
         if (it != earlier.end()) {
-          const ScoreTest t = RobustScoreTest(ctx.train_rows, point.residual, it->second,
-                                              point.jacobian, library[c].one_sided);
+          const ScoreTest t =
+              RobustScoreTest(ctx.train_rows, point.residual, it->second, point.jacobian,
+                              OneSidedColumns(library[c], it->second.cols()));
           if (AdjustedChiSquareP(2.0 * t.statistic, std::max(1, t.dof), m) >= ctx.settings.alpha) {
             s.tests[c] = t;
             continue;
@@ -151,8 +175,8 @@ ScreenStage Screen(const StageContext& ctx, const std::vector<Candidate>& librar
     const std::map<int, Eigen::MatrixXd> d = ProbeDirections(
         ctx, library, point.params, point.x, point.train_predictions, point.residual, probed);
     for (const auto& [c, dc] : d) {
-      s.tests[c] =
-          RobustScoreTest(ctx.train_rows, point.residual, dc, point.jacobian, library[c].one_sided);
+      s.tests[c] = RobustScoreTest(ctx.train_rows, point.residual, dc, point.jacobian,
+                                   OneSidedColumns(library[c], dc.cols()));
     }
     if (directions != nullptr) *directions = d;
     return s;

@@ -23,9 +23,19 @@ namespace fesim::diagnosis {
 /// plus the drifts, without simulating.
 bool DriftOnly(const Candidate& c);
 
+/// Whether candidate c's directions are split per training trial: a free phase
+/// (Candidate::free_phase_param, tremor) is the trial's own — a person's tremor starts at a
+/// random phase in every trial, and one phase for all trials let the probes cancel
+/// (docs/diagnosis.md "Robust tests").
+bool PerTrialDirections(const Candidate& c, int trials);
+
+/// Candidate c's one_sided flags for `columns` direction columns (repeated per trial block).
+std::vector<bool> OneSidedColumns(const Candidate& c, Eigen::Index columns);
+
 /// Probe directions D_c = r(probe) − r (N × probes; a failed probe's column 0) of the candidates
 /// `cands` (library indices) on top of the model (params, x) whose training predictions are
-/// `pred` and residual r; all probe simulations in one batch through ctx.Map.
+/// `pred` and residual r; all probe simulations in one batch through ctx.Map. Split per trial
+/// (PerTrialDirections): N × (probes · trials), column t·probes + p the probe p of trial t alone.
 std::map<int, Eigen::MatrixXd> ProbeDirections(
     const StageContext& ctx, const std::vector<Candidate>& library,
     const std::vector<ModelParameter>& params, const Eigen::VectorXd& x,

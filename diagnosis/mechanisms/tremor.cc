@@ -36,10 +36,16 @@ Candidate TremorAt(const sim::ModelParams& rig, int j, double f0) {
   c.probes = {p0, p1};
   c.one_sided = {false, false};
   const std::vector<ModelParameter> params = c.params;
+  // θ: (sine, cosine) weights, one pair per training trial when the directions are split per
+  // trial (screening.h): the mean amplitude, the first trial's phase.
   c.start_from_step = [params, a0, f0](const Eigen::VectorXd& theta) {
+    const Eigen::Index pairs = theta.size() / 2;
+    double amplitude = 0.0;
+    for (Eigen::Index t = 0; t < pairs; ++t) {
+      amplitude += std::hypot(theta(2 * t), theta(2 * t + 1)) / static_cast<double>(pairs);
+    }
     Eigen::VectorXd x(3);
-    x << std::min(a0 * std::hypot(theta(0), theta(1)), params[0].upper),
-        std::atan2(theta(1), theta(0)), f0;
+    x << std::min(a0 * amplitude, params[0].upper), std::atan2(theta(1), theta(0)), f0;
     return x;
   };
   return c;

@@ -164,6 +164,34 @@ TEST(NoiseModel, ASpectralLineIsFoundOnTheSameColouredResidual) {
   EXPECT_LT(t.variance_inflation, 2.0);
 }
 
+TEST(NoiseModel, ALineWhosePhaseChangesBetweenTrialsNeedsDirectionsPerTrial) {
+  // Two 60 s runs with a 5.3 Hz line at opposite phases (a tremor restarts at a random phase in
+  // every trial): one (sin, cos) pair for both runs cancels and the AR model takes the line for
+  // colour; a pair per run (screening.h PerTrialDirections) finds it.
+  std::mt19937_64 rng(17);
+  std::normal_distribution<double> w(0.0, 0.01);
+  const long n = 3600;
+  RowLayout l;
+  l.outputs = 1;
+  l.output.assign(2 * n, 0);
+  for (long i = 0; i < 2 * n; ++i) l.run.push_back(i < n ? 0 : 1);
+  Eigen::VectorXd r(2 * n);
+  Eigen::MatrixXd common(2 * n, 2), split = Eigen::MatrixXd::Zero(2 * n, 4);
+  for (long i = 0; i < 2 * n; ++i) {
+    const long run = i < n ? 0 : 1;
+    const double t = static_cast<double>(i - run * n) / 60.0;
+    common(i, 0) = split(i, 2 * run) = std::sin(2 * kPi * 5.3 * t);
+    common(i, 1) = split(i, 2 * run + 1) = std::cos(2 * kPi * 5.3 * t);
+    r(i) = w(rng) + 0.01 * std::sin(2 * kPi * 5.3 * t + 0.4 + kPi * static_cast<double>(run));
+  }
+  const Eigen::MatrixXd none(2 * n, 0);
+  const ScoreTest one = RobustScoreTest(l, r, common, none, {false, false});
+  const ScoreTest per_run = RobustScoreTest(l, r, split, none, {false, false, false, false});
+  EXPECT_LT(one.statistic, 20.0);  // χ²₂ at p = 0.01 is 9.2
+  EXPECT_GT(per_run.statistic, 1000.0);
+  EXPECT_EQ(per_run.dof, 4);
+}
+
 TEST(NoiseModel, OneSidedDirectionsWithANegativeCoefficientAreDropped) {
   std::mt19937_64 rng(17);
   std::normal_distribution<double> w(0.0, 0.01);
