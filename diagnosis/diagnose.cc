@@ -164,6 +164,7 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   LibraryContext library_ctx;
   library_ctx.outputs = data.outputs;
   library_ctx.channels = data.channels;
+  library_ctx.training_trials = static_cast<int>(data.train.trials.size());
   FitOptions fo = settings.fit;
   fo.threads = execution.threads;
   if (settings.model != "full") {

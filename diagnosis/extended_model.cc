@@ -44,18 +44,23 @@ long DataView::Count() const {
 
 sim::ModelParams ApplyModelParameters(const sim::ModelParams& base,
                                       const std::vector<ModelParameter>& params,
-                                      const Eigen::VectorXd& x) {
+                                      const Eigen::VectorXd& x, int trial) {
   if (static_cast<std::size_t>(x.size()) != params.size()) {
     throw std::invalid_argument("ApplyModelParameters: " + std::to_string(x.size()) +
                                 " values for " + std::to_string(params.size()) + " parameters");
   }
   sim::ModelParams m = base;
   for (std::size_t k = 0; k < params.size(); ++k) {
-    if (params[k].target == ModelParameter::Target::kModel && params[k].set) {
+    if (params[k].target == ModelParameter::Target::kModel && params[k].set &&
+        (trial < 0 || AppliesToTrial(params[k], trial))) {
       params[k].set(x(static_cast<Eigen::Index>(k)), &m);
     }
   }
   return m;
+}
+
+bool AppliesToTrial(const ModelParameter& param, int trial) {
+  return param.trial < 0 || param.trial == trial;
 }
 
 namespace {
@@ -120,10 +125,14 @@ void AddOutputDrift(const std::vector<ModelParameter>& params, const Eigen::Vect
 std::vector<Trial> Predict(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
                            const Eigen::VectorXd& x, const DataView& view,
                            const FitOptions& options, int threads) {
-  const sim::ModelParams model = ApplyModelParameters(base, params, x);
+  const bool per_trial = std::any_of(params.begin(), params.end(),
+                                     [](const ModelParameter& p) { return p.trial >= 0; });
+  const sim::ModelParams shared = per_trial ? base : ApplyModelParameters(base, params, x);
   std::vector<Trial> out(view.trials.size());
   ParallelFor(static_cast<int>(view.trials.size()), threads > 0 ? threads : options.threads,
               [&](int t) {
+                const sim::ModelParams model =
+                    per_trial ? ApplyModelParameters(base, params, x, t) : shared;
                 out[t] = PredictOne(WithInitialPosture(model, view, static_cast<std::size_t>(t)),
                                     params, x, view.trials[t], options);
               });
@@ -208,7 +217,9 @@ std::vector<Eigen::MatrixXd> SensitivityColumns(const sim::ModelParams& base,
                                                 const Eigen::VectorXd& x, const DataView& view,
                                                 std::size_t t, const std::vector<int>& cols,
                                                 int first_free, const FitOptions& options) {
-  const sim::ModelParams model = WithInitialPosture(ApplyModelParameters(base, params, x), view, t);
+  const int index = static_cast<int>(t);
+  const sim::ModelParams model =
+      WithInitialPosture(ApplyModelParameters(base, params, x, index), view, t);
   std::vector<sim::ParameterPerturbation> perturbed;
   perturbed.reserve(cols.size());
   for (int c : cols) {
@@ -219,7 +230,7 @@ std::vector<Eigen::MatrixXd> SensitivityColumns(const sim::ModelParams& base,
     Eigen::VectorXd xp = x;
     xp(k) += step;
     perturbed.push_back(
-        {WithInitialPosture(ApplyModelParameters(base, params, xp), view, t), step, scale});
+        {WithInitialPosture(ApplyModelParameters(base, params, xp, index), view, t), step, scale});
   }
   const Trial& trial = view.trials[t];
   const bool scale = AnyInputScale(params);
@@ -246,7 +257,6 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
   const int p = static_cast<int>(params.size()) - first_free;
   const int nt = static_cast<int>(view.trials.size());
   std::vector<double> h(p);
-  std::vector<sim::ModelParams> models(p);
   std::vector<Eigen::VectorXd> xs(p);
   std::vector<int> differenced, sensed;  // columns by forward differences / sensitivities
   const bool can_sense = options.sensitivities && !options.simulator;
@@ -266,8 +276,9 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
     h[c] = step;
     xs[c] = x;
     xs[c](k) += step;
-    models[c] = ApplyModelParameters(base, params, xs[c]);
   };
+  // A column of a parameter of one trial (ModelParameter::trial) is 0 on the other trials' rows.
+  const auto moves = [&](int c, int t) { return AppliesToTrial(params[first_free + c], t); };
   for (int c : differenced) prepare_difference(c);
   // Jobs: one sensitivity integration per trial (all sensed columns), then one perturbed
   // simulation per differenced column and trial; a failed sensitivity job falls back to
@@ -277,17 +288,30 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
   std::vector<Trial> sims(static_cast<std::size_t>(p) * nt);
   std::vector<char> ok(sims.size(), 1);
   const auto difference = [&](int c, int t) {
+    if (!moves(c, t)) return;
     const int task = c * nt + t;
     try {
-      sims[task] = PredictOne(WithInitialPosture(models[c], view, static_cast<std::size_t>(t)),
+      sims[task] = PredictOne(WithInitialPosture(ApplyModelParameters(base, params, xs[c], t), view,
+                                                 static_cast<std::size_t>(t)),
                               params, xs[c], view.trials[t], options);
     } catch (const std::exception&) {
       ok[task] = 0;
     }
   };
+  const auto simulated_tasks = [&](const std::vector<int>& cols) {
+    int n = 0;
+    for (int c : cols) {
+      for (int t = 0; t < nt; ++t) n += moves(c, t) ? 1 : 0;
+    }
+    return n;
+  };
   const int n_sens = static_cast<int>(sens.size());
+  const auto any_sensed_moves = [&](int t) {
+    return std::any_of(sensed.begin(), sensed.end(), [&](int c) { return moves(c, t); });
+  };
   ParallelFor(n_sens + static_cast<int>(differenced.size()) * nt, options.threads, [&](int item) {
     if (item < n_sens) {
+      if (!any_sensed_moves(item)) return;
       try {
         sens[item] = SensitivityColumns(base, params, x, view, static_cast<std::size_t>(item),
                                         sensed, first_free, options);
@@ -299,12 +323,13 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
     item -= n_sens;
     difference(differenced[item / nt], item % nt);
   });
-  int n_sims = n_sens + static_cast<int>(differenced.size()) * nt;
+  int n_sims = simulated_tasks(differenced);
+  for (int t = 0; t < n_sens; ++t) n_sims += any_sensed_moves(t) ? 1 : 0;
   if (std::any_of(sens_ok.begin(), sens_ok.end(), [](char v) { return v == 0; })) {
     for (int c : sensed) prepare_difference(c);
     ParallelFor(static_cast<int>(sensed.size()) * nt, options.threads,
                 [&](int item) { difference(sensed[item / nt], item % nt); });
-    n_sims += static_cast<int>(sensed.size()) * nt;
+    n_sims += simulated_tasks(sensed);
     differenced.insert(differenced.end(), sensed.begin(), sensed.end());
     sensed.clear();
   }
@@ -313,6 +338,7 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
   if (!sensed.empty()) {
     ForEachRow(view, [&](Eigen::Index row, std::size_t t, std::size_t o, std::size_t i) {
       for (std::size_t s = 0; s < sensed.size(); ++s) {
+        if (!moves(sensed[s], static_cast<int>(t))) continue;
         J(row, sensed[s]) = sens[t][o](static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(s));
       }
     });
@@ -329,9 +355,12 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
     bool column_ok = true;
     for (int t = 0; t < nt; ++t) column_ok = column_ok && ok[c * nt + t];
     if (!column_ok) continue;
-    const auto first = sims.begin() + static_cast<std::ptrdiff_t>(c) * nt;
-    std::vector<Trial> pred(first, first + nt);
-    J.col(c) = (StackResiduals(view, pred) - r0) / h[c];
+    ForEachRow(view, [&](Eigen::Index row, std::size_t t, std::size_t o, std::size_t i) {
+      if (!moves(c, static_cast<int>(t))) return;
+      const double y = view.trials[t].Column(view.outputs[o])[i];
+      const double y_perturbed = sims[c * nt + t].Column(view.outputs[o])[i];
+      J(row, c) = (y - y_perturbed - r0(row)) / h[c];
+    });
   }
   return J;
 }

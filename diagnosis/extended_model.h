@@ -58,6 +58,10 @@ struct ModelParameter {
   /// (recruitment, the electrode matrix, Hill and passive joint parameters, muscle paths), so its
   /// Jacobian column may come from forward sensitivities.
   bool sensitivity = false;
+  /// kModel only: the value applies to trial `trial` of the view it is simulated on alone (−1:
+  /// to every trial) — a value no two trials share, such as the phase of a tremor that starts
+  /// afresh in each recording (Candidate::phase_per_trial).
+  int trial = -1;
   /// kModel: writes the value into the model (called on a copy of the base).
   std::function<void(double, sim::ModelParams*)> set;
 };
@@ -98,10 +102,14 @@ struct DataView {
 using TrialSimulator =
     std::function<Trial(const sim::ModelParams& m, const Trial& inputs, double tolerance)>;
 
-/// `base` with the kModel parameters applied (values x, sizes checked).
+/// `base` with the kModel parameters applied (values x, sizes checked): for trial `trial` of a
+/// view, those of every trial and those of that trial (ModelParameter::trial); −1: all of them in
+/// order.
 sim::ModelParams ApplyModelParameters(const sim::ModelParams& base,
                                       const std::vector<ModelParameter>& params,
-                                      const Eigen::VectorXd& x);
+                                      const Eigen::VectorXd& x, int trial = -1);
+/// Whether parameter `param` changes the simulation of trial `trial` (ModelParameter::trial).
+bool AppliesToTrial(const ModelParameter& param, int trial);
 
 struct FitOptions;
 

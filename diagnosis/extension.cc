@@ -370,15 +370,31 @@ std::vector<Trial> Extender::HeldoutPrediction(const std::vector<int>& cands,
                                                const Eigen::VectorXd& x, const FitOptions& fo,
                                                int* sims) {
   const DataView& held = ctx_.data.heldout;
-  std::vector<Eigen::Index> phases;  // indices into x of free phases
+  // Per candidate with a free phase, the indices into x of its phase (every trial's copy,
+  // Candidate::phase_per_trial): all start from the first training trial's and move together.
+  std::vector<std::vector<Eigen::Index>> phases;
+  Eigen::VectorXd x_held = x;
   Eigen::Index at = ns_;
   for (int c : cands) {
-    if (lib_[c].free_phase_param >= 0) phases.push_back(at + lib_[c].free_phase_param);
-    at += static_cast<Eigen::Index>(lib_[c].params.size());
+    const Candidate& cand = lib_[c];
+    if (cand.free_phase_param >= 0) {
+      std::vector<Eigen::Index> ks = {at + cand.free_phase_param};
+      for (int k : cand.phase_per_trial) {
+        if (k != cand.free_phase_param) ks.push_back(at + k);
+      }
+      for (const Eigen::Index k : ks) x_held(k) = x(ks[0]);
+      phases.push_back(ks);
+    }
+    at += static_cast<Eigen::Index>(cand.params.size());
   }
   *sims += static_cast<int>(held.trials.size());
-  std::vector<Trial> out = Predict(ctx_.rig, params, x, held, fo);
-  for (const Eigen::Index k : phases) {
+  std::vector<Trial> out = Predict(ctx_.rig, params, x_held, held, fo);
+  const auto shifted = [&](const std::vector<Eigen::Index>& ks, double offset) {
+    Eigen::VectorXd xo = x_held;
+    for (const Eigen::Index k : ks) xo(k) += offset;
+    return xo;
+  };
+  for (const std::vector<Eigen::Index>& ks : phases) {
     for (std::size_t t = 0; t < held.trials.size(); ++t) {
       DataView one;
       one.trials = {held.trials[t]};
@@ -387,18 +403,16 @@ std::vector<Trial> Extender::HeldoutPrediction(const std::vector<int>& cands,
       if (t < held.initial_q.size()) one.initial_q = {held.initial_q[t]};
       std::vector<Eigen::VectorXd> r;  // y − ŷ at offsets 0, π/2, π
       for (const double offset : {0.0, 0.5 * kPi, kPi}) {
-        Eigen::VectorXd xo = x;
-        xo(k) += offset;
-        r.push_back(StackResiduals(one, Predict(ctx_.rig, params, xo, one, fo, 1)));
+        r.push_back(
+            StackResiduals(one, Predict(ctx_.rig, params, shifted(ks, offset), one, fo, 1)));
         ++*sims;
       }
       // ŷ(φ) = c + a cos φ + b sin φ: c = (ŷ₀ + ŷ_π)/2, a = (ŷ₀ − ŷ_π)/2, b = ŷ_{π/2} − c; in
       // residuals r(φ) = y − ŷ(φ).
       const Eigen::VectorXd rc = 0.5 * (r[0] + r[2]);
       const Eigen::VectorXd a = 0.5 * (r[2] - r[0]), b = rc - r[1];
-      Eigen::VectorXd xo = x;
-      xo(k) += std::atan2(rc.dot(b), rc.dot(a));
-      out[t] = Predict(ctx_.rig, params, xo, one, fo, 1)[0];
+      out[t] =
+          Predict(ctx_.rig, params, shifted(ks, std::atan2(rc.dot(b), rc.dot(a))), one, fo, 1)[0];
       ++*sims;
     }
   }
@@ -554,7 +568,19 @@ void Extender::ScreenRound(const ScreenStage& screen) {
     if (lib_[c].applicable && (*results_)[c].p_adjusted < alpha)
       order.push_back(static_cast<int>(c));
   }
+  const std::vector<int> significant = order;
   order = StrongestPerId(order, screen, ctx_.settings.max_screened);
+  for (int c : significant) {  // why a significant candidate is not fitted
+    if (std::find(order.begin(), order.end(), c) != order.end()) continue;
+    const auto same_id =
+        std::find_if(order.begin(), order.end(), [&](int o) { return lib_[o].id == lib_[c].id; });
+    (*results_)[c].decision =
+        same_id != order.end()
+            ? "significant, not fitted: " + lib_[*same_id].label +
+                  " has the larger score statistic (one joint per mechanism is fitted)"
+            : Fmt("significant, not fitted: beyond the %d strongest mechanisms",
+                  ctx_.settings.max_screened);
+  }
   int best = -1;
   std::vector<int> batch;
   const std::function<std::string(std::size_t)> item = [&](std::size_t k) {
@@ -601,6 +627,12 @@ void Extender::ScreenRound(const ScreenStage& screen) {
   }
   if (best < 0) return;
   const int c1 = round1_[best].cands[0];
+  for (int c : order) {
+    if (!(*results_)[c].fitted) {
+      (*results_)[c].decision = "significant, not fitted: " + lib_[c1].label +
+                                " passed in an earlier batch of larger score statistics";
+    }
+  }
   accepted_.push_back(c1);
   (*results_)[c1].accepted = true;
   accept_p_[c1] = (*results_)[c1].lr_p_adjusted;

@@ -36,6 +36,8 @@ struct LibraryContext {
   std::vector<std::string> channels;  ///< stimulated channel names (u.<channel> without "u.").
   /// Residual spectrum peak frequency per output (Hz), for the tremor start; same order.
   std::vector<double> tremor_frequency_hz;
+  /// Training trials (Candidate::phase_per_trial), ≥ 1.
+  int training_trials = 1;
   /// The reduced model diagnosed instead of the full model (`--model NAME`, reduced_model.h);
   /// empty: the full model.
   std::string reduced_model;
@@ -76,6 +78,11 @@ struct Candidate {
   /// prediction takes, per held-out trial, the phase that fits it best (extension.h), the other
   /// parameters as fitted.
   int free_phase_param = -1;
+  /// With several training trials, the free phase of each (filled by CandidateLibrary): index
+  /// t (into `params`) is trial t's (ModelParameter::trial = t; index 0 is free_phase_param, the
+  /// others appended after the mechanism's own parameters), so that a tremor restarting at its
+  /// own phase in each recording is fitted as such. Empty: one phase for every trial.
+  std::vector<int> phase_per_trial;
   bool applicable = true;
   std::string not_applicable_reason;
 };

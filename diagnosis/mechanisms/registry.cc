@@ -43,6 +43,46 @@ const Mechanism& FindMechanism(const std::string& id) {
   throw std::invalid_argument("unknown mechanism '" + id + "' (allowed: " + allowed + ")");
 }
 
+namespace {
+
+/// Candidate::phase_per_trial: a copy of the free phase per training trial t ≥ 1 (trial 0 keeps
+/// the original); the probes set every copy to the probe's phase; the start from a score test
+/// whose directions are split per trial (screening.h PerTrialDirections: probes.size() columns
+/// per trial) takes each trial's phase from its own block.
+void SplitFreePhase(int trials, Candidate* c) {
+  const int k = c->free_phase_param;
+  if (k < 0 || trials < 2) return;
+  c->params[k].trial = 0;
+  c->phase_per_trial = {k};
+  for (int t = 1; t < trials; ++t) {
+    ModelParameter copy = c->params[k];
+    copy.name += ".trial" + std::to_string(t + 1);
+    copy.trial = t;
+    c->phase_per_trial.push_back(static_cast<int>(c->params.size()));
+    c->params.push_back(std::move(copy));
+  }
+  const auto extra = static_cast<Eigen::Index>(trials - 1);
+  for (Eigen::VectorXd& probe : c->probes) {
+    probe.conservativeResize(probe.size() + extra);
+    probe.tail(extra).setConstant(probe(k));
+  }
+  const auto own_start = c->start_from_step;
+  const auto np = static_cast<Eigen::Index>(c->probes.size());
+  const std::vector<int> copies = c->phase_per_trial;
+  c->start_from_step = [own_start, np, k, copies, extra](const Eigen::VectorXd& theta) {
+    const Eigen::VectorXd own = own_start(theta);
+    Eigen::VectorXd x(own.size() + extra);
+    x << own, Eigen::VectorXd::Constant(extra, own(k));
+    const bool split = theta.size() == np * static_cast<Eigen::Index>(copies.size());
+    for (std::size_t t = 1; split && t < copies.size(); ++t) {
+      x(copies[t]) = own_start(theta.segment(static_cast<Eigen::Index>(t) * np, np))(k);
+    }
+    return x;
+  };
+}
+
+}  // namespace
+
 std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const LibraryContext& ctx) {
   std::vector<Candidate> out;
   for (const auto& m : Mechanisms()) {
@@ -56,6 +96,7 @@ std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const Libra
             " does not have (diagnose with --model full)";
       }
       if (c.applicable && !c.start_from_step) SetLinearStart(&c);
+      if (c.applicable) SplitFreePhase(ctx.training_trials, &c);
       out.push_back(std::move(c));
     }
   }

@@ -322,6 +322,57 @@ TEST(ExtendedModel, DriftJacobianColumnIsMinusTimeWithoutSimulating) {
   EXPECT_GT(J.col(0).norm(), 0.0);
 }
 
+TEST(ExtendedModel, AParameterOfOneTrialMovesThatTrialAloneInPredictionsAndJacobian) {
+  // Two trials; the stiffness applies to the second alone (ModelParameter::trial = 1): the first
+  // is simulated at the rig's value, and the Jacobian column is 0 on its rows and, on the
+  // second's, the column of the same parameter fitted to that trial alone — by forward
+  // differences and by sensitivities.
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  const double k_nominal = rig.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad;
+  const Trial trial = StepTrial(rig);
+  DataView both = ViewOf(trial);
+  both.trials.push_back(trial);
+  both.use.push_back(both.use[0]);
+  const DataView second = ViewOf(trial);
+  const FitOptions o = Accurate();
+  for (const bool sensed : {false, true}) {
+    ModelParameter k = Stiffness(k_nominal);
+    k.sensitivity = sensed;
+    const std::vector<ModelParameter> shared = {k};
+    k.trial = 1;
+    const std::vector<ModelParameter> of_second = {k};
+    Eigen::VectorXd x(1);
+    x << 1.3 * k_nominal;
+    const std::vector<Trial> pred = Predict(rig, of_second, x, both, o);
+    const auto& q0 = pred[0].Column("q.wrist_flexion");
+    const auto& q1 = pred[1].Column("q.wrist_flexion");
+    const std::vector<double> stiff =
+        Predict(rig, shared, x, second, o)[0].Column("q.wrist_flexion");
+    double first_off = 0.0, second_off = 0.0, moved = 0.0;
+    for (std::size_t i = 0; i < q0.size(); ++i) {
+      first_off = std::max(first_off, std::abs(q0[i] - trial.Column("q.wrist_flexion")[i]));
+      second_off = std::max(second_off, std::abs(q1[i] - stiff[i]));
+      moved = std::max(moved, std::abs(q1[i] - q0[i]));
+    }
+    EXPECT_LT(first_off, 1e-5);
+    EXPECT_LT(second_off, 1e-9);
+    EXPECT_GT(moved, 1e-3);
+
+    int sims = 0;
+    const Eigen::MatrixXd J =
+        ResidualJacobian(rig, of_second, x, StackResiduals(both, pred), both, o, &sims);
+    EXPECT_EQ(sims, 1) << "sensed " << sensed;  // the second trial only
+    const Eigen::MatrixXd J1 =
+        ResidualJacobian(rig, shared, x, StackResiduals(second, Predict(rig, shared, x, second, o)),
+                         second, o, nullptr);
+    const Eigen::Index n = J1.rows();
+    ASSERT_EQ(J.rows(), 2 * n);
+    EXPECT_EQ(J.col(0).head(n).cwiseAbs().maxCoeff(), 0.0);
+    EXPECT_GT(J1.norm(), 0.0);
+    EXPECT_LT((J.col(0).tail(n) - J1.col(0)).norm(), 1e-9 * J1.norm()) << "sensed " << sensed;
+  }
+}
+
 TEST(ExtendedModel, CollapsedParameterIsTheOneAtItsCollapseBound) {
   ModelParameter gain = Stiffness(1.0), rise = Stiffness(1.0);
   gain.name = "gain";

@@ -145,6 +145,39 @@ TEST(Mechanisms, ArmSupportProfileStartsStepTenPercentOfTheForearmWeight) {
   EXPECT_EQ(found, 1);
 }
 
+TEST(Mechanisms, AFreePhaseGetsACopyPerTrainingTrialStartedFromThatTrialsOwnScoreStep) {
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  LibraryContext ctx = HandContext();
+  ctx.training_trials = 3;
+  int found = 0;
+  for (const auto& c : CandidateLibrary(rig, ctx)) {
+    if (c.free_phase_param < 0) {
+      EXPECT_TRUE(c.phase_per_trial.empty()) << c.label;
+      for (const auto& p : c.params) EXPECT_EQ(p.trial, -1) << c.label << " " << p.name;
+      continue;
+    }
+    ++found;
+    const int k = c.free_phase_param;
+    ASSERT_EQ(c.phase_per_trial.size(), 3u) << c.label;
+    EXPECT_EQ(c.phase_per_trial[0], k);
+    for (int t = 0; t < 3; ++t) EXPECT_EQ(c.params[c.phase_per_trial[t]].trial, t);
+    for (const auto& probe : c.probes) {
+      ASSERT_EQ(probe.size(), static_cast<Eigen::Index>(c.params.size()));
+      for (int idx : c.phase_per_trial) EXPECT_EQ(probe(idx), probe(k));
+    }
+    // A score step per trial: (sine, cosine) weights (1, 0), (0, 1), (−1, 0) are the phases 0,
+    // π/2 and π (tremor.cc: φ = atan2(cosine weight, sine weight)).
+    Eigen::VectorXd theta(6);
+    theta << 1, 0, 0, 1, -1, 0;
+    const Eigen::VectorXd x = c.start_from_step(theta);
+    ASSERT_EQ(x.size(), static_cast<Eigen::Index>(c.params.size()));
+    EXPECT_NEAR(x(c.phase_per_trial[0]), 0.0, 1e-12);
+    EXPECT_NEAR(x(c.phase_per_trial[1]), 0.5 * M_PI, 1e-12);
+    EXPECT_NEAR(x(c.phase_per_trial[2]), M_PI, 1e-12);
+  }
+  EXPECT_EQ(found, 3);  // tremor at each output joint
+}
+
 TEST(Mechanisms, EveryMechanismHasADescriptionAPlantAndAnEvidenceLine) {
   ASSERT_EQ(Mechanisms().size(), 13u);
   OutputSignature s;
