@@ -578,7 +578,7 @@ void Extender::ScreenRound(const ScreenStage& screen) {
         same_id != order.end()
             ? "significant, not fitted: " + lib_[*same_id].label +
                   " has the larger score statistic (one joint per mechanism is fitted)"
-            : Fmt("significant, not fitted: beyond the %d strongest mechanisms",
+            : Fmt("significant, not fitted: beyond the %.0f strongest mechanisms",
                   ctx_.settings.max_screened);
   }
   int best = -1;
