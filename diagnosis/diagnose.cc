@@ -220,8 +220,10 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   const ScreenStage screen = Screen(ctx, library, base, {}, {"score_tests"}, {}, &directions);
   d.candidates = TestResults(library, screen, d.signatures);
   // extend, refit
-  const ExtensionOutcome extension =
-      Extend(ctx, library, calibration, person, screen, std::move(directions), &d.candidates);
+  const bool reference_gap =
+      !ReferenceGaps(d.baseline_heldout_nrmse_per_output, d.reference, settings).empty();
+  const ExtensionOutcome extension = Extend(ctx, library, calibration, person, screen,
+                                            std::move(directions), reference_gap, &d.candidates);
   if (extension.baseline_refit) {
     d.notes.push_back(
         "the person calibration stopped at its LM iteration limit; the person "

@@ -58,8 +58,13 @@ class Extender {
  public:
   Extender(const StageContext& ctx, const std::vector<Candidate>& library,
            const CalibrationStage& cal, const std::vector<ModelParameter>& person,
-           std::vector<CandidateResult>* results)
-      : ctx_(ctx), lib_(library), cal_(cal), person_(person), results_(results) {
+           bool reference_gap, std::vector<CandidateResult>* results)
+      : ctx_(ctx),
+        lib_(library),
+        cal_(cal),
+        person_(person),
+        reference_gap_(reference_gap),
+        results_(results) {
     m_ = ApplicableCount(library);
     ns_ = static_cast<int>(person.size());
     base_.cands = {};
@@ -140,6 +145,7 @@ class Extender {
   const std::vector<Candidate>& lib_;
   const CalibrationStage& cal_;
   const std::vector<ModelParameter>& person_;
+  const bool reference_gap_;  ///< the calibrated model misses the black box somewhere.
   std::vector<CandidateResult>* results_;
   int m_ = 0, ns_ = 0;
   Fitted base_, current_;
@@ -565,7 +571,8 @@ void Extender::ScreenRound(const ScreenStage& screen) {
   const double alpha = ctx_.settings.alpha;
   std::vector<int> order;
   for (std::size_t c = 0; c < lib_.size(); ++c) {
-    if (lib_[c].applicable && (*results_)[c].p_adjusted < alpha)
+    const bool profiled = reference_gap_ && !lib_[c].profile_starts.empty();
+    if (lib_[c].applicable && ((*results_)[c].p_adjusted < alpha || profiled))
       order.push_back(static_cast<int>(c));
   }
   const std::vector<int> significant = order;
@@ -913,9 +920,9 @@ ExtensionOutcome Extender::Run(const ScreenStage& screen,
 ExtensionOutcome Extend(const StageContext& ctx, const std::vector<Candidate>& library,
                         const CalibrationStage& calibration,
                         const std::vector<ModelParameter>& person, const ScreenStage& screen,
-                        std::map<int, Eigen::MatrixXd> baseline_directions,
+                        std::map<int, Eigen::MatrixXd> baseline_directions, bool reference_gap,
                         std::vector<CandidateResult>* results) {
-  Extender e(ctx, library, calibration, person, results);
+  Extender e(ctx, library, calibration, person, reference_gap, results);
   return e.Run(screen, std::move(baseline_directions));
 }
 

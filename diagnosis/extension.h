@@ -13,7 +13,11 @@
 // whose Jacobian columns point most along the candidate's probe directions. A candidate with
 // profile starts (Candidate::profile_starts, arm_support) is also fitted from the lowest of the
 // person fits with it held at each (two parabolic refinements when one parameter varies,
-// ParabolaVertex); the lower Σr² is kept.
+// ParabolaVertex); the lower Σr² is kept. When the calibrated model misses the black box on
+// some output (`reference_gap`, verdict.h ReferenceGaps), such a candidate is fitted whatever its
+// score test: a mechanism that the person parameters mimic along a curved valley (a strong
+// crosstalk that stronger, stiffer muscles half-reproduce) leaves little along its direction at
+// "off", where the test looks, and much beyond it.
 //
 // Acceptance (Judgement): a fit passes when
 //   robust LR (noise_model.h) of its training residual against the model it extends:
@@ -75,7 +79,7 @@ struct ExtensionOutcome {
 ExtensionOutcome Extend(const StageContext& ctx, const std::vector<Candidate>& library,
                         const CalibrationStage& calibration,
                         const std::vector<ModelParameter>& person, const ScreenStage& screen,
-                        std::map<int, Eigen::MatrixXd> baseline_directions,
+                        std::map<int, Eigen::MatrixXd> baseline_directions, bool reference_gap,
                         std::vector<CandidateResult>* results);
 
 }  // namespace fesim::diagnosis

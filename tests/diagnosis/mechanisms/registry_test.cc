@@ -178,6 +178,45 @@ TEST(Mechanisms, AFreePhaseGetsACopyPerTrainingTrialStartedFromThatTrialsOwnScor
   EXPECT_EQ(found, 3);  // tremor at each output joint
 }
 
+TEST(Mechanisms, CrosstalkAntagonistFractionReachesTheOtherGroupWithItsOwnWeight) {
+  // f = 0.4: ext reaches each muscle flex drives with 0.4 × its flex entry of A, flex each muscle
+  // ext drives with 0.4 × its ext entry; the channels' own entries and other channels stay.
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  const muscles::ArrayMatrix before = sim::BuildElectrodeMatrix(rig);
+  int ext = -1, flex = -1;
+  for (int k = 0; k < before.channels; ++k) {
+    if (rig.channels[k].name == "ext") ext = k;
+    if (rig.channels[k].name == "flex") flex = k;
+  }
+  ASSERT_GE(ext, 0);
+  ASSERT_GE(flex, 0);
+  for (const auto& c : CandidateLibrary(rig, HandContext())) {
+    if (c.id != "crosstalk") continue;
+    ASSERT_TRUE(c.applicable);
+    ASSERT_EQ(c.params.size(), 2u);
+    Eigen::VectorXd x(2);
+    x << 0.0, 0.4;
+    const muscles::ArrayMatrix after =
+        sim::BuildElectrodeMatrix(ApplyModelParameters(rig, c.params, x));
+    // A channel drives a muscle at ≥ 2 % of its largest entry (≈ 0.5 for both channels here).
+    constexpr double kDriven = 0.01;
+    int reached = 0;
+    for (int j = 0; j < before.muscles; ++j) {
+      const bool by_ext = before(j, ext) > kDriven, by_flex = before(j, flex) > kDriven;
+      const double ext_expected = before(j, ext) + (by_flex && !by_ext ? 0.4 * before(j, flex) : 0);
+      const double flex_expected =
+          before(j, flex) + (by_ext && !by_flex ? 0.4 * before(j, ext) : 0);
+      EXPECT_NEAR(after(j, ext), ext_expected, 1e-12) << rig.muscles[j].name;
+      EXPECT_NEAR(after(j, flex), flex_expected, 1e-12) << rig.muscles[j].name;
+      reached += after(j, ext) != before(j, ext) || after(j, flex) != before(j, flex);
+      for (int k = 0; k < before.channels; ++k) {
+        if (k != ext && k != flex) EXPECT_EQ(after(j, k), before(j, k));
+      }
+    }
+    EXPECT_GE(reached, 6);  // the three wrist extensors, EDC and the flexors
+  }
+}
+
 TEST(Mechanisms, EveryMechanismHasADescriptionAPlantAndAnEvidenceLine) {
   ASSERT_EQ(Mechanisms().size(), 13u);
   OutputSignature s;
