@@ -27,11 +27,6 @@ constexpr double kPriorFactor = 2.0, kShapePriorFactor = 3.0;
 /// cubic moment is then ±0.5 × the linear one — the mid-range stiffening of a normal passive
 /// curve (passive_stiffness_nonlinear is a stiffening beyond that).
 constexpr double kCubicPriorPerRad2 = 2.0;
-/// 1σ of the prior of the passive asymmetry k₂, × k per rad: at 0.5 rad from rest the quadratic
-/// moment is then ±¼ × the linear one. (The second-order term of a double-exponential passive
-/// moment, ½(k_f κ_f − k_e κ_e), reaches ≈ k per rad when the flexion and extension sides differ
-/// by a factor 4 at κ ≈ 3/rad — foreign/person.h draws k_f and k_e × [0.5, 2] independently.)
-constexpr double kQuadraticPriorPerRad = 0.5;
 
 struct MuscleGroup {
   std::string name;
@@ -160,14 +155,6 @@ void AddJointParameters(const sim::ModelParams& rig, int c, std::vector<ModelPar
                                         m->coordinates[c].passive.damping_nms_per_rad = v;
                                       }),
                                 kPriorFactor, true));
-  }
-  if (k > 0.0) {  // normal flexion/extension asymmetry of the passive curve (sim/passive_joint.h)
-    // |k₂| ≤ k per rad keeps the passive stiffness k − 2k₂d positive within ±0.5 rad.
-    out->push_back(WithPrior(Param("k2." + joint, "N*m/rad^2", 0.0, -k, k, k,
-                                   [c](double v, sim::ModelParams* m) {
-                                     m->coordinates[c].passive.quadratic_stiffness_nm_per_rad2 = v;
-                                   }),
-                             kQuadraticPriorPerRad * k, true));
   }
   if (k > 0.0) {  // normal mid-range curvature of the passive curve (sim/passive_joint.h)
     // Softening k₃ ≥ −k/2 keeps the passive stiffness k + 3k₃d² positive within ±0.8 rad.

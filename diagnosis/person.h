@@ -14,8 +14,6 @@
 //     gamma.g      recruitment shape γ × s (eq. 3), dimensionless, [0.05, 20], log-normal × 3
 //   per free output joint j (eq. 14 of paper 000, sim/passive_joint.h):
 //     k.j          stiffness k_j, N·m/rad, [0.1, 10] × nominal, log-normal × 2
-//     k2.j         quadratic stiffness k₂ (flexion/extension asymmetry), N·m/rad², [−1, 1] × k_j,
-//                  normal 0.5 k_j (at 0.5 rad from rest ±¼ the linear moment)
 //     k3.j         cubic stiffness k₃ (mid-range stiffening), N·m/rad³, [−0.5, 20] × k_j,
 //                  normal 2 k_j (at 0.5 rad from rest ±½ the linear moment)
 //     b.j          damping b_j, N·m·s/rad, [0.05, 20] × nominal, log-normal × 2
