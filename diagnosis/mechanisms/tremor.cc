@@ -1,6 +1,7 @@
 // tremor: a periodic joint torque, 3–12 Hz (papers/001_50576a960b4d02ae.txt §2; sim/mechanisms.h).
 // Extension at each output joint: tremor.amplitude_nm A, tremor.phase_rad φ, tremor.frequency_hz
-// f (start f from the residual spectrum peak, within ±0.15 Hz). Planted on the wrist: A = 0.08 s
+// f (start f from the residual spectrum peak, within ±0.15 Hz); with several training trials one
+// φ per trial (Candidate::phase_per_trial, registry.cc). Planted on the wrist: A = 0.08 s
 // N·m, f drawn in [5, 8] Hz, φ seeded.
 #include "diagnosis/mechanisms/library.h"
 
