@@ -577,16 +577,15 @@ void Extender::ScreenRound(const ScreenStage& screen) {
   }
   const std::vector<int> significant = order;
   order = StrongestPerId(order, screen, ctx_.settings.max_screened);
-  for (int c : significant) {  // why a significant candidate is not fitted
+  for (int c : significant) {  // why a candidate to be screened is not fitted
     if (std::find(order.begin(), order.end(), c) != order.end()) continue;
     const auto same_id =
         std::find_if(order.begin(), order.end(), [&](int o) { return lib_[o].id == lib_[c].id; });
     (*results_)[c].decision =
         same_id != order.end()
-            ? "significant, not fitted: " + lib_[*same_id].label +
+            ? "not fitted: " + lib_[*same_id].label +
                   " has the larger score statistic (one joint per mechanism is fitted)"
-            : Fmt("significant, not fitted: beyond the %.0f strongest mechanisms",
-                  ctx_.settings.max_screened);
+            : Fmt("not fitted: beyond the %.0f strongest mechanisms", ctx_.settings.max_screened);
   }
   int best = -1;
   std::vector<int> batch;
@@ -636,7 +635,7 @@ void Extender::ScreenRound(const ScreenStage& screen) {
   const int c1 = round1_[best].cands[0];
   for (int c : order) {
     if (!(*results_)[c].fitted) {
-      (*results_)[c].decision = "significant, not fitted: " + lib_[c1].label +
+      (*results_)[c].decision = "not fitted: " + lib_[c1].label +
                                 " passed in an earlier batch of larger score statistics";
     }
   }
