@@ -9,7 +9,8 @@ namespace fesim::sim {
 
 double PassiveElasticTorque(const PassiveJointParams& p, double q) {
   const double d = p.rest_angle_rad - q;
-  double tau = p.stiffness_nm_per_rad * d + p.cubic_stiffness_nm_per_rad3 * d * d * d;
+  double tau = p.stiffness_nm_per_rad * d + p.quadratic_stiffness_nm_per_rad2 * d * d +
+               p.cubic_stiffness_nm_per_rad3 * d * d * d;
   if (p.limit_stiffness_nm_per_rad > 0.0) {
     const double kappa = p.limit_sharpness_per_rad;
     tau += p.limit_stiffness_nm_per_rad / kappa *
@@ -35,7 +36,8 @@ double PassiveJointTorque(const PassiveJointParams& p, double q, double qdot) {
 
 double PassiveJointPotential(const PassiveJointParams& p, double q) {
   const double dq = q - p.rest_angle_rad;
-  double v = 0.5 * p.stiffness_nm_per_rad * dq * dq +
+  double v = 0.5 * p.stiffness_nm_per_rad * dq * dq -
+             p.quadratic_stiffness_nm_per_rad2 * dq * dq * dq / 3.0 +
              0.25 * p.cubic_stiffness_nm_per_rad3 * dq * dq * dq * dq;
   if (p.limit_stiffness_nm_per_rad > 0.0) {
     const double kappa = p.limit_sharpness_per_rad;

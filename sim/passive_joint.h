@@ -1,10 +1,14 @@
 // Passive joint moments (papers/000_0a6c0de9fc69df7c.txt eq. 14; values papers/004_* Table I).
 //
-//   τ_p(q, q̇) = k (q₀ − q) + k₃ (q₀ − q)³ − b q̇ + τ_lim(q) − τ_c(q̇)
+//   τ_p(q, q̇) = k (q₀ − q) + k₂ (q₀ − q)² + k₃ (q₀ − q)³ − b q̇ + τ_lim(q) − τ_c(q̇)
 //   τ_lim(q)  = (K_L/κ) (e^{−κ (q − q_min)} − e^{−κ (q_max − q)})       (exponential range limits,
 //               Riener & Edrich 1999 form; K_L = stiffness at the limit, κ = sharpness)
-//   V(q)      = ½ k (q − q₀)² + ¼ k₃ (q − q₀)⁴ + (K_L/κ²)(e^{−κ (q − q_min)} + e^{−κ (q_max − q)}),
-//               τ = −∂V/∂q
+//   V(q)      = ½ k (q − q₀)² − ⅓ k₂ (q − q₀)³ + ¼ k₃ (q − q₀)⁴
+//               + (K_L/κ²)(e^{−κ (q − q_min)} + e^{−κ (q_max − q)}),   τ = −∂V/∂q
+//   k₂ (q₀ − q)²: a person's flexion/extension asymmetry of the passive curve (k₂ > 0: stiffer
+//               on the extension side q < q₀, softer on the flexion side; the second-order term
+//               of a double-exponential passive moment with unequal sides, e.g. Amankwah, Triolo
+//               & Kirsch 2004); 0 by default
 //   k₃ (q₀ − q)³: a person's mild mid-range stiffening (or softening, k₃ < 0) of the passive
 //               curve (the person calibration of diagnosis/person.h); 0 by default
 //   τ_c(q̇)   = (F_c + (F_s − F_c) e^{−(q̇/v_s)²}) tanh(q̇ / v_c)   (optional Coulomb friction with
@@ -18,6 +22,8 @@ namespace fesim::sim {
 /// Passive properties of one coordinate.
 struct PassiveJointParams {
   double stiffness_nm_per_rad = 0.0;  ///< k, N·m/rad, ≥ 0.
+  /// k₂, N·m/rad² (the stiffness k − 2k₂(q − q₀) + 3k₃(q − q₀)² should stay > 0 in range).
+  double quadratic_stiffness_nm_per_rad2 = 0.0;
   double cubic_stiffness_nm_per_rad3 = 0.0;  ///< k₃, N·m/rad³ (k + 3k₃(q − q₀)² should stay > 0).
   double damping_nms_per_rad = 0.0;         ///< b, N·m·s/rad, ≥ 0.
   double rest_angle_rad = 0.0;              ///< q₀, rad.

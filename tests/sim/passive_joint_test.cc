@@ -46,6 +46,22 @@ TEST(PassiveJoint, CubicStiffeningIsMinusTheGradientOfItsQuarticPotential) {
   EXPECT_NEAR(PassiveElasticTorque(p, 0.9), 2.3 * d + 3.0 * d * d * d, 1e-8);
 }
 
+TEST(PassiveJoint, QuadraticAsymmetryIsMinusTheGradientOfItsCubicPotential) {
+  PassiveJointParams p = Joint();
+  p.quadratic_stiffness_nm_per_rad2 = 1.5;
+  for (double q = 0.2; q <= 2.4; q += 0.1) {
+    const double dv =
+        (PassiveJointPotential(p, q + kFdStep) - PassiveJointPotential(p, q - kFdStep)) /
+        (2 * kFdStep);
+    EXPECT_NEAR(PassiveElasticTorque(p, q), -dv, kFdTol * (1 + std::abs(dv)));
+  }
+  // k₂ (q₀ − q)² adds the same moment on both sides of the rest angle q₀ = 1.4: more restoring
+  // on the extension side, less on the flexion side (the range limits add < 1e-6 N·m here).
+  const double d = 0.5;
+  EXPECT_NEAR(PassiveElasticTorque(p, 1.4 - d), 2.3 * d + 1.5 * d * d, 1e-6);
+  EXPECT_NEAR(PassiveElasticTorque(p, 1.4 + d), -2.3 * d + 1.5 * d * d, 1e-6);
+}
+
 TEST(PassiveJoint, LinearInsideRangeExponentialBeyond) {
   const PassiveJointParams p = Joint();
   // Mid-range: eq. (14) of paper 000, limit moments below 1e-8 N·m.
