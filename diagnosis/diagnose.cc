@@ -79,6 +79,7 @@ std::vector<CandidateResult> TestResults(const std::vector<Candidate>& library,
     cr.id = library[c].id;
     cr.joint = library[c].joint;
     cr.label = library[c].label;
+    cr.control = library[c].control;
     cr.applicable = library[c].applicable;
     cr.not_applicable_reason = library[c].not_applicable_reason;
     if (!cr.applicable) {

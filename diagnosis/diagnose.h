@@ -96,6 +96,7 @@ struct DiagnoseExecution {
 /// One candidate's figures.
 struct CandidateResult {
   std::string id, joint, label;
+  bool control = false;  ///< a control (mechanisms/mechanism.h Mechanism::control), never a cause.
   bool applicable = true;
   std::string not_applicable_reason;
   double score_statistic = 0.0;     ///< S of the robust score test (noise_model.h).

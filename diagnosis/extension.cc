@@ -897,13 +897,28 @@ ExtensionOutcome Extender::Run(const ScreenStage& screen,
   ScreenRound(screen);
   out.on_top_reference = on_top_reference_;
   if (accepted_.empty()) return out;
-  while (static_cast<int>(accepted_.size()) < ctx_.settings.max_accepted && OnTopRound()) {
+  // Up to max_accepted mechanisms; the controls (Candidate::control) taken on the way do not
+  // count, but each round takes one more candidate, so the rounds stay bounded.
+  const auto mechanisms_accepted = [&] {
+    return std::count_if(accepted_.begin(), accepted_.end(),
+                         [&](int c) { return !lib_[c].control; });
+  };
+  while (mechanisms_accepted() < ctx_.settings.max_accepted &&
+         static_cast<int>(accepted_.size()) < ctx_.settings.max_accepted + 1 && OnTopRound()) {
   }
-  const CandidateResult& cause = (*results_)[accepted_[0]];
-  const bool screened = cause.fitted && cause.lr_p_adjusted < ctx_.settings.alpha &&
-                        accept_p_.count(accepted_[0]) && cause.accepted;
-  out.cause_lr_p = screened ? cause.lr_p_adjusted : accept_p_[accepted_[0]];
-  out.cause_gain = screened ? cause.heldout_gain : accept_gain_[accepted_[0]];
+  // The cause: the first accepted mechanism; its figures from its first-round fit when it was
+  // accepted there, else from its acceptance on top of the candidates before it.
+  const auto first =
+      std::find_if(accepted_.begin(), accepted_.end(), [&](int c) { return !lib_[c].control; });
+  if (first != accepted_.end()) {
+    const int c = *first;
+    const CandidateResult& cause = (*results_)[c];
+    const bool screened = c == accepted_[0] && cause.fitted &&
+                          cause.lr_p_adjusted < ctx_.settings.alpha && cause.accepted;
+    out.cause = c;
+    out.cause_lr_p = screened ? cause.lr_p_adjusted : accept_p_[c];
+    out.cause_gain = screened ? cause.heldout_gain : accept_gain_[c];
+  }
   FinalRefit();
   out.accepted = accepted_;
   out.params = ParamsOf(accepted_);

@@ -40,6 +40,10 @@
 // backward step drops an earlier mechanism that no longer passes on top of the others (refitted
 // without it), for good.
 //
+// Controls (mechanisms/mechanism.h Mechanism::control) go through all of this like mechanisms
+// and may be accepted; they do not count towards max_accepted, and the cause is the first
+// accepted candidate that is not a control (ExtensionOutcome::cause).
+//
 // Refit: when an accepted mechanism lists further difference steps or scanned starts
 // (Candidate::refit_fd_steps, refit_scan_*: stiction), the extended model is refitted from its
 // fit at each step and from the scanned point of lowest training Σr²; the lowest Σr² is kept.
@@ -65,8 +69,11 @@ struct ExtensionOutcome {
   FitResult fit;                       ///< the extended model's (empty when none accepted).
   std::vector<Trial> heldout_predictions;
   double heldout_nrmse = NAN;
-  /// The cause's training-test p and held-out gain as accepted (on the calibrated model when it
-  /// was screened there and passed).
+  /// The cause: the first accepted candidate that is not a control (library index; −1: none —
+  /// no candidate, or controls only). Its training-test p and held-out gain as accepted (on the
+  /// calibrated model when it was screened there and passed first, else on top of the candidates
+  /// accepted before it).
+  int cause = -1;
   double cause_lr_p = 1.0, cause_gain = 0.0;
   /// Held-out NRMSE of the model a candidate was fitted on top of (second round), by library
   /// index (NaN: not fitted on top).

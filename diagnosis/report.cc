@@ -113,6 +113,7 @@ Json DiagnosisJson(const Diagnosis& d) {
   for (const auto& c : d.candidates) {
     Json e = Json::Object();
     e.Set("id", c.id).Set("label", c.label).Set("joint", c.joint.empty() ? Json() : Json(c.joint));
+    e.Set("control", c.control);
     e.Set("score", c.score).Set("statistic", c.score_statistic).Set("dof", c.dof);
     e.Set("p_value", c.p_value).Set("p_adjusted", c.p_adjusted);
     e.Set("variance_inflation", c.variance_inflation);

@@ -26,6 +26,46 @@ std::string GapText(const std::vector<int>& gaps, const std::vector<double>& nrm
          ")";
 }
 
+/// Verdict `none` when only controls (Mechanism::control) were accepted: the extended model
+/// holds a normal variation of the person, no mechanism passes beyond it.
+void NoneBeyondControls(const std::vector<Candidate>& library, const ExtensionOutcome& extension,
+                        const std::vector<int>& gaps_after, Diagnosis* d) {
+  std::string controls;
+  double gain = 0.0;
+  for (int c : extension.accepted) {
+    controls += (controls.empty() ? "" : ", ") + library[c].label;
+    gain = std::max(gain, d->candidates[c].heldout_gain);
+  }
+  d->cause = "none";
+  d->confidence = gaps_after.empty() ? 0.75 : 0.5;
+  d->reason = "a normal variation of the person that the calibration does not parameterise (" +
+              controls + Fmt(", held-out gain %.1f %%)", 100.0 * gain) +
+              " explains what the calibrated model misses, and no candidate mechanism passes on "
+              "top of it";
+  if (!gaps_after.empty()) {
+    d->reason += "; the extended model still does not reach the black box on " +
+                 GapText(gaps_after, d->extended_heldout_nrmse_per_output, *d);
+  }
+}
+
+/// The accepted candidates' names (mechanisms only) and the extension's parameters (controls'
+/// too: they are part of the extended model).
+void ListExtension(const std::vector<Candidate>& library, const ExtensionOutcome& extension,
+                   int person_parameters, Diagnosis* d) {
+  auto at = static_cast<Eigen::Index>(person_parameters);
+  for (int c : extension.accepted) {
+    if (!library[c].control) {
+      d->mechanisms.push_back(library[c].label);
+      d->mechanism_ids.push_back(library[c].id);
+    }
+    for (const auto& p : library[c].params) {
+      d->extension_parameters.push_back(
+          {library[c].label + ":" + p.name, p.unit, extension.fit.x(at), extension.fit.ci95(at)});
+      ++at;
+    }
+  }
+}
+
 }  // namespace
 
 std::vector<int> ReferenceGaps(const std::vector<double>& nrmse, const ReferenceResult& reference,
@@ -53,7 +93,12 @@ void MakeVerdict(const std::vector<Candidate>& library, const ExtensionOutcome& 
     if (cr.fitted && std::isfinite(cr.heldout_gain))
       best_gain = std::max(best_gain, cr.heldout_gain);
   }
-  if (extension.accepted.empty()) {
+  if (extension.cause < 0) {
+    if (!extension.accepted.empty()) {
+      NoneBeyondControls(library, extension, gaps_after, d);
+      ListExtension(library, extension, person_parameters, d);
+      return;
+    }
     if (!gaps_before.empty()) {
       d->cause = "unexplained";
       double worst = 0.0;
@@ -77,7 +122,7 @@ void MakeVerdict(const std::vector<Candidate>& library, const ExtensionOutcome& 
     }
     return;
   }
-  const std::string& id = library[extension.accepted[0]].id;
+  const std::string& id = library[extension.cause].id;
   d->cause = id;
   // An alternative competes for the share of its gain it loses once the accepted mechanisms are
   // in the model (fitted on top of them: the NRMSE it still removes there explains something
@@ -88,6 +133,7 @@ void MakeVerdict(const std::vector<Candidate>& library, const ExtensionOutcome& 
   const int m = ApplicableCount(library);
   double g_alt = 0.0;
   std::string alternative;
+  bool alternative_is_control = false;
   for (std::size_t c = 0; c < d->candidates.size(); ++c) {
     const CandidateResult& cr = d->candidates[c];
     if (!cr.fitted || cr.id == id || !std::isfinite(cr.heldout_gain) || cr.accepted ||
@@ -107,17 +153,27 @@ void MakeVerdict(const std::vector<Candidate>& library, const ExtensionOutcome& 
     if (g > g_alt) {
       g_alt = g;
       alternative = cr.label;
+      alternative_is_control = library[c].control;
     }
   }
   d->confidence =
       std::clamp((1.0 - extension.cause_lr_p) * (1.0 - g_alt / extension.cause_gain), 0.0, 1.0);
   if (d->confidence < kMinNameConfidence) {
-    d->cause = "unexplained";
+    const std::string compared = library[extension.cause].label +
+                                 Fmt(": held-out gain %.1f %%; ", 100.0 * extension.cause_gain) +
+                                 alternative + Fmt(": %.1f %%", 100.0 * g_alt);
     d->confidence = 1.0 - d->confidence;
-    d->reason = "the misfit is explained about as well by other candidates as by the best one (" +
-                library[extension.accepted[0]].label +
-                Fmt(": held-out gain %.1f %%; ", 100.0 * extension.cause_gain) + alternative +
-                Fmt(": %.1f %%): no single cause", 100.0 * g_alt);
+    if (alternative_is_control) {
+      d->cause = "none";
+      d->reason =
+          "the misfit is explained about as well by a normal variation of the person "
+          "that the calibration does not parameterise as by the best mechanism (" +
+          compared + ")";
+    } else {
+      d->cause = "unexplained";
+      d->reason = "the misfit is explained about as well by other candidates as by the best one (" +
+                  compared + "): no single cause";
+    }
     return;
   }
   d->reason = FindMechanism(id).description + " explains what the calibrated model misses";
@@ -126,16 +182,7 @@ void MakeVerdict(const std::vector<Candidate>& library, const ExtensionOutcome& 
     d->reason += "; but the extended model still does not reach the black box on " +
                  GapText(gaps_after, d->extended_heldout_nrmse_per_output, *d);
   }
-  auto at = static_cast<Eigen::Index>(person_parameters);
-  for (int c : extension.accepted) {
-    d->mechanisms.push_back(library[c].label);
-    d->mechanism_ids.push_back(library[c].id);
-    for (const auto& p : library[c].params) {
-      d->extension_parameters.push_back(
-          {library[c].label + ":" + p.name, p.unit, extension.fit.x(at), extension.fit.ci95(at)});
-      ++at;
-    }
-  }
+  ListExtension(library, extension, person_parameters, d);
 }
 
 }  // namespace fesim::diagnosis

@@ -8,14 +8,18 @@
 //       (hammerstein-mimo)"); confidence min(1, 0.5 + 0.5 (x/(gate·b) − 1)).
 //   nothing accepted, no gap                → `none`; confidence 1 − 0.5 min(1, g_best / g_min)
 //       (g_best the largest held-out gain of any fitted candidate).
-//   accepted                                → the first accepted mechanism; confidence
+//   controls only accepted                  → `none`: a normal variation of the person the
+//       calibration does not parameterise (mechanisms/mechanism.h Mechanism::control) explains
+//       the misfit and no mechanism passes on top of it; confidence 0.75 (0.5 with a gap left).
+//   a mechanism accepted                    → the first accepted mechanism; confidence
 //       c = (1 − p_LR) · (1 − g_alt / g), g_alt the best held-out gain of another id not accepted
 //       whose fit passed its training test (less the share it still removes on top of the accepted
 //       ones; nothing when its score test on top of them is no longer significant); capped at 0.45
 //       when a gap
 //       to the black box remains after the extension (the reason names the outputs): never a
 //       confident name on a model that does not fit. Below 0.25 another candidate explains about
-//       as much: `unexplained` naming both ("no single cause"), confidence 1 − c.
+//       as much: `unexplained` naming both ("no single cause"), confidence 1 − c — or `none`
+//       when that other candidate is a control (normal variation explains as much).
 #pragma once
 
 #include <string>

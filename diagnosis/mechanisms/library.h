@@ -90,5 +90,6 @@ Mechanism ArmSupportMechanism();
 Mechanism StictionMechanism();
 Mechanism SpasticityMechanism();
 Mechanism SensorDriftMechanism();
+Mechanism PassiveAsymmetryControl();  // a control (Mechanism::control)
 
 }  // namespace fesim::diagnosis

@@ -83,6 +83,8 @@ struct Candidate {
   /// others appended after the mechanism's own parameters), so that a tremor restarting at its
   /// own phase in each recording is fitted as such. Empty: one phase for every trial.
   std::vector<int> phase_per_trial;
+  /// A control (Mechanism::control): fitted and judged like a mechanism, never a cause.
+  bool control = false;
   bool applicable = true;
   std::string not_applicable_reason;
 };
@@ -102,7 +104,7 @@ using PlantFn = std::function<void(const PlantContext& ctx, sim::ModelParams* tr
                                    sim::SensorSuite* sensors, std::vector<NamedValue>* planted)>;
 
 struct Mechanism {
-  std::string id;           ///< PRODUCT.md id.
+  std::string id;           ///< PRODUCT.md id (a control's own id).
   std::string description;  ///< what it is, for the verdict sentence ("muscle fatigue (…)").
   /// It acts on the stimulation or on the measured output only, so it can extend a reduced model
   /// (diagnosis/reduced_model.h implements those forms).
@@ -116,18 +118,26 @@ struct Mechanism {
   /// The descriptive signature figures quoted as its evidence, from the residual summary of the
   /// output it acts on (or the largest).
   std::function<std::string(const OutputSignature& s)> evidence;
+  /// A control, not a mechanism: a way a normal person differs from the calibrated one that the
+  /// person parameters (person.h) do not express. It competes with the mechanisms in the
+  /// extension (extension.h) so that a mechanism is named only for what it explains beyond normal
+  /// variation; a misfit a control explains as well is `none` (verdict.h). No plant.
+  bool control = false;
 };
 
 /// The 13 mechanisms of PRODUCT.md, in its order (registry.cc).
 const std::vector<Mechanism>& Mechanisms();
-/// Their ids, in that order.
+/// The controls (Mechanism::control), registered after the mechanisms (registry.cc).
+const std::vector<Mechanism>& Controls();
+/// The mechanisms' ids, in that order.
 const std::vector<std::string>& MechanismIds();
-/// The mechanism with this id; std::invalid_argument naming the id and the allowed ones.
+/// The mechanism or control with this id; std::invalid_argument naming the id and the allowed
+/// ones.
 const Mechanism& FindMechanism(const std::string& id);
 
 /// The candidate list for a rig (free joints, channels, array) and data, every mechanism's in
-/// table order. With a reduced model, the mechanisms without reduced_model_form are listed as not
-/// applicable.
+/// table order, then every control's. With a reduced model, the mechanisms without
+/// reduced_model_form are listed as not applicable.
 std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const LibraryContext& ctx);
 
 }  // namespace fesim::diagnosis

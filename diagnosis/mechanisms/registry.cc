@@ -1,4 +1,5 @@
-// The mechanism table (mechanism.h): PRODUCT.md's 13 ids in its order, one file each.
+// The mechanism table (mechanism.h): PRODUCT.md's 13 ids in its order, one file each; then the
+// controls (Mechanism::control).
 #include <algorithm>
 #include <stdexcept>
 
@@ -25,6 +26,13 @@ const std::vector<Mechanism>& Mechanisms() {
   return table;
 }
 
+const std::vector<Mechanism>& Controls() {
+  static const std::vector<Mechanism> table = {
+      PassiveAsymmetryControl(),
+  };
+  return table;
+}
+
 const std::vector<std::string>& MechanismIds() {
   static const std::vector<std::string> ids = [] {
     std::vector<std::string> out;
@@ -35,11 +43,15 @@ const std::vector<std::string>& MechanismIds() {
 }
 
 const Mechanism& FindMechanism(const std::string& id) {
-  for (const auto& m : Mechanisms()) {
-    if (m.id == id) return m;
+  for (const auto* table : {&Mechanisms(), &Controls()}) {
+    for (const auto& m : *table) {
+      if (m.id == id) return m;
+    }
   }
   std::string allowed;
-  for (const auto& m : Mechanisms()) allowed += (allowed.empty() ? "" : ", ") + m.id;
+  for (const auto* table : {&Mechanisms(), &Controls()}) {
+    for (const auto& m : *table) allowed += (allowed.empty() ? "" : ", ") + m.id;
+  }
   throw std::invalid_argument("unknown mechanism '" + id + "' (allowed: " + allowed + ")");
 }
 
@@ -85,9 +97,14 @@ void SplitFreePhase(int trials, Candidate* c) {
 
 std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const LibraryContext& ctx) {
   std::vector<Candidate> out;
-  for (const auto& m : Mechanisms()) {
+  std::vector<const Mechanism*> table;
+  for (const auto& m : Mechanisms()) table.push_back(&m);
+  for (const auto& m : Controls()) table.push_back(&m);
+  for (const Mechanism* mp : table) {
+    const Mechanism& m = *mp;
     for (Candidate c : m.candidates(rig, ctx)) {
       c.id = m.id;
+      c.control = m.control;
       if (c.label.empty()) c.label = c.joint.empty() ? c.id : c.id + "@" + c.joint;
       if (!ctx.reduced_model.empty() && c.applicable && !m.reduced_model_form) {
         c.applicable = false;

@@ -11,6 +11,7 @@
 #include "scenarios/scenario.h"
 #include "sim/default_model.h"
 #include "sim/mechanisms.h"
+#include "sim/passive_joint.h"
 
 namespace fesim::diagnosis {
 namespace {
@@ -48,8 +49,15 @@ TEST(Mechanisms, EveryMechanismIdIsInTheLibraryAndArmSupportIsNotTestableOnTheHa
       EXPECT_GT(p.scale, 0.0);
     }
   }
-  EXPECT_EQ(ids, std::set<std::string>(MechanismIds().begin(), MechanismIds().end()));
+  std::set<std::string> expected(MechanismIds().begin(), MechanismIds().end());
+  for (const auto& m : Controls()) {
+    EXPECT_TRUE(m.control) << m.id;
+    EXPECT_FALSE(expected.count(m.id)) << m.id << " is both a control and a mechanism";
+    expected.insert(m.id);
+  }
+  EXPECT_EQ(ids, expected);
   EXPECT_EQ(MechanismIds().size(), 13u);
+  for (const auto& c : lib) EXPECT_EQ(c.control, FindMechanism(c.id).control) << c.label;
   for (const auto& c : lib) {
     if (c.id == "arm_support") {
       EXPECT_FALSE(c.applicable);
@@ -127,6 +135,34 @@ TEST(Mechanisms, StictionExcessIsAddedToTheCoulombLevelAndJointTorquesScaleWithS
   }
   EXPECT_DOUBLE_EQ(JointTorqueScale(rig, sim::kWristFlexion),
                    rig.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad);
+}
+
+TEST(Mechanisms, PassiveAsymmetryControlStiffensOneSideOfRestByTheCalibratedStiffness) {
+  // k₂ = a·k_j with k_j the stiffness the model has when the control is applied (the calibrated
+  // person's).
+  sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  rig.coordinates[sim::kMcpFlexion].passive.stiffness_nm_per_rad *= 1.7;  // a calibrated k
+  const auto& before = rig.coordinates[sim::kMcpFlexion].passive;
+  int found = 0;
+  for (const auto& c : CandidateLibrary(rig, HandContext())) {
+    if (c.label != "passive_asymmetry@mcp_flexion") continue;
+    ++found;
+    EXPECT_TRUE(c.control);
+    EXPECT_TRUE(FindMechanism(c.id).control);
+    Eigen::VectorXd x(1);
+    x << 0.6;
+    const sim::ModelParams m = ApplyModelParameters(rig, c.params, x);
+    const auto& pj = m.coordinates[sim::kMcpFlexion].passive;
+    EXPECT_DOUBLE_EQ(pj.quadratic_stiffness_nm_per_rad2, 0.6 * before.stiffness_nm_per_rad);
+    // k₂ (q₀ − q)² adds a·k_j·d² of flexing moment on both sides: the extension side (q < q₀)
+    // is that much stiffer, the flexion side that much softer.
+    const double d = 0.3, q0 = pj.rest_angle_rad, k = before.stiffness_nm_per_rad;
+    for (const double q : {q0 - d, q0 + d}) {
+      EXPECT_NEAR(sim::PassiveElasticTorque(pj, q) - sim::PassiveElasticTorque(before, q),
+                  0.6 * k * d * d, 1e-12);
+    }
+  }
+  EXPECT_EQ(found, 1);
 }
 
 TEST(Mechanisms, ArmSupportProfileStartsStepTenPercentOfTheForearmWeight) {

@@ -1,0 +1,121 @@
+#include "diagnosis/verdict.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "diagnosis/mechanisms/mechanism.h"
+#include "identification/fullmodel/full_model_fit.h"
+
+namespace fesim::diagnosis {
+namespace {
+
+/// The hand rig's library, a diagnosis whose model reaches the black box before and after the
+/// extension, and the candidates' results as diagnose.cc lays them out (library order).
+struct VerdictCase {
+  std::vector<Candidate> library;
+  Diagnosis d;
+  DiagnoseSettings settings;
+
+  VerdictCase() {
+    LibraryContext ctx;
+    ctx.outputs = {"q.wrist_flexion", "q.mcp_flexion", "q.pip_flexion"};
+    ctx.channels = {"ext", "flex"};
+    ctx.tremor_frequency_hz = {6.0, 6.0, 6.0};
+    library = CandidateLibrary(identification::fullmodel::DefaultHandRig(), ctx);
+    d.heldout.outputs = ctx.outputs;
+    d.reference.method = "hammerstein-mimo";
+    d.reference.heldout_nrmse_per_output = {0.3, 0.3, 0.3};
+    d.baseline_heldout_nrmse = 0.2;
+    d.baseline_heldout_nrmse_per_output = {0.2, 0.2, 0.2};
+    d.extended_heldout_nrmse_per_output = {0.15, 0.15, 0.15};
+    for (const auto& c : library) {
+      CandidateResult cr;
+      cr.id = c.id;
+      cr.label = c.label;
+      cr.control = c.control;
+      d.candidates.push_back(cr);
+    }
+  }
+
+  int Index(const std::string& label) const {
+    for (std::size_t c = 0; c < library.size(); ++c) {
+      if (library[c].label == label) return static_cast<int>(c);
+    }
+    ADD_FAILURE() << label;
+    return -1;
+  }
+
+  /// Marks `label` fitted with a passing training test and held-out gain `gain`.
+  void Fitted(const std::string& label, double gain, bool accepted) {
+    CandidateResult& cr = d.candidates[Index(label)];
+    cr.fitted = true;
+    cr.lr_p_adjusted = 1e-6;
+    cr.heldout_gain = gain;
+    cr.accepted = accepted;
+  }
+
+  ExtensionOutcome Outcome(const std::vector<std::string>& accepted, int cause) const {
+    ExtensionOutcome e;
+    int params = 0;
+    for (const auto& label : accepted) {
+      e.accepted.push_back(Index(label));
+      params += static_cast<int>(library[Index(label)].params.size());
+    }
+    e.cause = cause;
+    e.fit.x = Eigen::VectorXd::Constant(params, 0.5);
+    e.fit.ci95 = Eigen::VectorXd::Constant(params, 0.1);
+    e.on_top_reference.assign(library.size(), NAN);
+    return e;
+  }
+};
+
+TEST(Verdict, AMisfitOnlyAControlExplainsIsNoneWithTheControlNamedInTheReason) {
+  VerdictCase s;
+  s.Fitted("passive_asymmetry@wrist_flexion", 0.12, true);
+  s.Fitted("spasticity@wrist_flexion", 0.05, false);
+  const ExtensionOutcome e = s.Outcome({"passive_asymmetry@wrist_flexion"}, -1);
+  MakeVerdict(s.library, e, 0, s.settings, &s.d);
+  EXPECT_EQ(s.d.cause, "none");
+  EXPECT_NE(s.d.reason.find("passive_asymmetry@wrist_flexion"), std::string::npos) << s.d.reason;
+  EXPECT_TRUE(s.d.mechanisms.empty());
+  ASSERT_EQ(s.d.extension_parameters.size(), 1u);
+  EXPECT_EQ(s.d.extension_parameters[0].name, "passive_asymmetry@wrist_flexion:passive.asymmetry");
+}
+
+TEST(Verdict, AMechanismBeyondAControlIsNamedAndAControlAsGoodAsTheMechanismMakesItNone) {
+  VerdictCase s;
+  // A mechanism accepted on top of a control: named, the control's parameters kept.
+  s.Fitted("passive_asymmetry@wrist_flexion", 0.12, true);
+  s.Fitted("tremor@wrist_flexion", 0.30, true);
+  ExtensionOutcome e = s.Outcome({"passive_asymmetry@wrist_flexion", "tremor@wrist_flexion"},
+                                 s.Index("tremor@wrist_flexion"));
+  e.cause_lr_p = 1e-6;
+  e.cause_gain = 0.30;
+  MakeVerdict(s.library, e, 0, s.settings, &s.d);
+  EXPECT_EQ(s.d.cause, "tremor");
+  EXPECT_EQ(s.d.mechanisms, std::vector<std::string>{"tremor@wrist_flexion"});
+  EXPECT_GT(s.d.extension_parameters.size(), 1u);
+
+  // A mechanism accepted alone while a control not accepted explains as much: none.
+  VerdictCase t;
+  t.Fitted("spasticity@wrist_flexion", 0.050, true);
+  t.Fitted("passive_asymmetry@wrist_flexion", 0.049, false);
+  e = t.Outcome({"spasticity@wrist_flexion"}, t.Index("spasticity@wrist_flexion"));
+  e.cause_lr_p = 1e-6;
+  e.cause_gain = 0.050;
+  MakeVerdict(t.library, e, 0, t.settings, &t.d);
+  EXPECT_EQ(t.d.cause, "none") << t.d.reason;
+  EXPECT_NE(t.d.reason.find("normal variation"), std::string::npos) << t.d.reason;
+
+  // … and when the other candidate is a mechanism, `unexplained`.
+  VerdictCase u;
+  u.Fitted("spasticity@wrist_flexion", 0.050, true);
+  u.Fitted("stiction@wrist_flexion", 0.049, false);
+  MakeVerdict(u.library, e, 0, u.settings, &u.d);
+  EXPECT_EQ(u.d.cause, "unexplained") << u.d.reason;
+}
+
+}  // namespace
+}  // namespace fesim::diagnosis
