@@ -57,6 +57,14 @@ Args Parse(int argc, char** argv, int first, const std::vector<std::string>& fla
   return a;
 }
 
+std::string OutPath(const Args& args, const std::string& key, const std::string& fallback) {
+  if (!args.Has(key)) return fallback;
+  const std::string v = args.Get(key);
+  if (v.empty())
+    throw std::runtime_error("option --" + key + ": empty path (outputs need a place to go)");
+  return v;
+}
+
 std::vector<std::string> SplitList(const std::string& s) {
   std::vector<std::string> out;
   std::string cur;

@@ -22,6 +22,10 @@ struct Args {
 Args Parse(int argc, char** argv, int first, const std::vector<std::string>& flags,
            const std::vector<std::string>& valued);
 
+/// The output path option `key` ("out", "frames"), or `fallback` when it is absent. An empty
+/// value is refused (an empty --out would put DIR/<file> in the file system root).
+std::string OutPath(const Args& args, const std::string& key, const std::string& fallback);
+
 /// Splits "a,b,c" into its parts (empty parts dropped).
 std::vector<std::string> SplitList(const std::string& s);
 

@@ -48,6 +48,7 @@ int RunIdentify(int argc, char** argv) {
     for (const auto& m : methods) list += (list.empty() ? "" : ", ") + m.name;
     throw std::runtime_error("--method: unknown method '" + name + "' (allowed: " + list + ")");
   }
+  const std::string out = cli::OutPath(args, "out", "out/identify");
   std::vector<Trial> train, test;
   for (const auto& p : cli::SplitList(args.Get("train"))) train.push_back(ReadTrialCsv(p));
   for (const auto& p : cli::SplitList(args.Get("test"))) test.push_back(ReadTrialCsv(p));
@@ -60,7 +61,6 @@ int RunIdentify(int argc, char** argv) {
 
   const auto result = method->run(train, test, cli::ShowProgress);
 
-  const std::string out = args.Get("out", "out/identify");
   MakeDirs(out);
   WriteFileAtomic(out + "/model.yaml", result.model_yaml);
   for (std::size_t k = 0; k < result.predictions.size(); ++k) {

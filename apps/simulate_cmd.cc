@@ -59,7 +59,7 @@ Json StatsJson(const sim::TrialResult& r) {
 /// `fesim simulate STUDY.yaml`: every participant × protocol × repetition, in parallel.
 int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster::Cluster& job) {
   const Study st = LoadStudy(path, static_cast<std::uint64_t>(seed));
-  const std::string out = args.Get("out", "out/" + st.name);
+  const std::string out = cli::OutPath(args, "out", "out/" + st.name);
   const std::string hash = Fnv1a64Hex(st.source_text);
   const int threads =
       static_cast<int>(args.GetInt("threads", std::max(1u, std::thread::hardware_concurrency())));
@@ -275,7 +275,7 @@ int RunSimulate(int argc, char** argv, cluster::Cluster& job) {
   }
   Scenario sc = LoadScenario(args.positional[0]);
   sc.trial.seed = static_cast<std::uint64_t>(seed);
-  const std::string out = args.Get("out", "out/" + sc.name);
+  const std::string out = cli::OutPath(args, "out", "out/" + sc.name);
   if (sc.reaching) return RunReaching(sc, out, seed);
 
   const auto t0 = std::chrono::steady_clock::now();

@@ -565,7 +565,7 @@ static Scenario ParseScenarioText(const std::string& text, const std::string& pa
   const Node top(root, "", &sc.path);
   top.Keys({"name", "participant", "gravity_m_s2", "coordinates", "muscles", "electrodes",
             "support", "mechanisms", "stimulation", "sensors", "integrator"});
-  sc.name = top.Text("name");
+  sc.name = top.FileStem("name");
   double height = 1.75, mass = 75.0;
   if (top.Has("participant")) {
     const Node p = top.Child("participant");

@@ -104,6 +104,37 @@ class YamlNode {
     if (!c.node_.IsScalar()) FailKey(key, "expected text");
     return c.node_.as<std::string>();
   }
+  /// Text that becomes part of an output file name (`fesim simulate` writes DIR/<name>.csv):
+  /// non-empty, letters, digits, '.', '_' and '-' only, not starting with '.', so that it can
+  /// neither leave DIR ('..', '/') nor make a hidden file.
+  std::string FileStem(const std::string& key) const {
+    const std::string v = Text(key);
+    bool ok = !v.empty() && v.size() <= 200 && v[0] != '.';
+    for (const char c : v) {
+      ok = ok && ((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                  c == '.' || c == '_' || c == '-');
+    }
+    if (!ok) {
+      FailKey(key, "'" + ShownText(v) +
+                       "' cannot name output files (allowed: 1-200 of A-Z a-z 0-9 . _ -, not "
+                       "starting with '.')");
+    }
+    return v;
+  }
+  /// `s` for an error message: bytes outside printable ASCII as \xNN, at most 40 characters.
+  static std::string ShownText(const std::string& s) {
+    std::string out;
+    for (const char c : s.substr(0, 40)) {
+      const auto b = static_cast<unsigned char>(c);
+      if (b < 0x20 || b >= 0x7f) {
+        const char* hex = "0123456789abcdef";
+        out += std::string("\\x") + hex[b >> 4] + hex[b & 15];
+      } else {
+        out.push_back(c);
+      }
+    }
+    return s.size() > 40 ? out + "..." : out;
+  }
   std::string Choice(const std::string& key, const std::set<std::string>& allowed) const {
     std::string v = Text(key);
     if (!allowed.count(v)) {

@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -160,6 +161,52 @@ TEST(CliBadInput, SimulateStimulationCsvAndOutputDirectory) {
   const std::string sc = WriteScenario(dir, "tiny", "0.3");
   ExpectOneLineError(RunFesim({"simulate", sc, "--out", dir + "/file/out"}, err),
                      dir + "/file/out: cannot create directory: Not a directory");
+}
+
+// Issue 28: a scenario name that would leave --out ('../escaped'), make hidden files ('') or a
+// sub-directory ('a/b') is refused at load, before anything is simulated or written.
+TEST(CliOutputPaths, ScenarioNameCannotLeaveOrHideInTheOutputDirectory) {
+  const std::string dir = Dir("stem");
+  const std::string sub = dir + "/sub";
+  ::mkdir(sub.c_str(), 0755);
+  const std::string err = dir + "/err.txt";
+  for (const std::string name : {"../escaped", "", "a/b", ".hidden"}) {
+    const std::string sc = sub + "/sc.yaml";
+    WriteFileAtomic(sc, "name: \"" + name + "\"\n" +
+                            "stimulation: {duration_s: 0.3, type: constant, values_us: {}}\n");
+    ExpectOneLineError(RunFesim({"simulate", sc, "--out", sub + "/out"}, err),
+                       sc + ": name: '" + name + "' cannot name output files");
+    EXPECT_EQ(List(sub), std::vector<std::string>{"sc.yaml"}) << name;
+    EXPECT_EQ(List(dir).size(), 2u) << name;  // sub and err.txt: no escaped.csv
+  }
+}
+
+// Issue 28: `--out ""` is refused by every command that writes (it used to write /default.csv,
+// /manifest.json, /model.yaml ...), before reading the inputs.
+TEST(CliOutputPaths, EmptyOutIsRefusedByEveryWritingCommand) {
+  const std::string dir = Dir("empty_out");
+  const std::string err = dir + "/err.txt";
+  const std::string sc = WriteScenario(dir, "tiny", "0.3");
+  WriteFileAtomic(dir + "/t.csv", "time,u.bic,q.elbow_flexion\n0,0,0\n0.01,0,0\n");
+  const std::string study =
+      std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/bench_hand_array_quick.yaml";
+  const std::string bench = std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/default_study.yaml";
+  const std::vector<std::vector<std::string>> commands = {
+      {"simulate", sc, "--out", ""},
+      {"simulate", study, "--out="},
+      {"identify", "--method", "spline-arx", "--train", dir + "/t.csv", "--out", ""},
+      {"diagnose", dir + "/t.csv", "--scenario", sc, "--out", ""},
+      {"benchmark", bench, "--quick", "--out", ""},
+      {"render", dir + "/t.csv", "--scenario", sc, "--out", ""},
+  };
+  for (const auto& c : commands) {
+    ExpectOneLineError(RunFesim(c, err), "option --out: empty path");
+  }
+  ExpectOneLineError(RunFesim({"render", dir + "/t.csv", "--scenario", sc, "--frames", ""}, err),
+                     "option --frames: empty path");
+  std::vector<std::string> files = List(dir);
+  std::sort(files.begin(), files.end());
+  EXPECT_EQ(files, (std::vector<std::string>{"err.txt", "t.csv", "tiny.yaml"}));
 }
 
 // An integrator that cannot advance (stiff blow-up: 10 kN muscles, stiff joint limits, Simbody's

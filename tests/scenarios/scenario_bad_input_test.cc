@@ -51,5 +51,22 @@ TEST(ScenarioBadInput, MalformedNumbersNanInfAndWrongUnits) {
       "s.yaml: stimulation.values_us.ext: 200000 is outside [0, 300]");
 }
 
+// Issue 28: the name becomes DIR/<name>.csv, .sto and _truth.csv, so it is checked as a file
+// stem at load: nothing may leave DIR ('..', '/'), be hidden ('.x', '') or carry control bytes.
+TEST(ScenarioBadInput, NameMustBeAFileStem) {
+  const std::string stim = "stimulation: {type: constant, duration_s: 1, values_us: {}}\n";
+  const std::string allowed =
+      "' cannot name output files (allowed: 1-200 of A-Z a-z 0-9 . _ -, not starting with '.')";
+  EXPECT_EQ(ErrorOf("name: \"../escaped\"\n" + stim), "s.yaml: name: '../escaped" + allowed);
+  EXPECT_EQ(ErrorOf("name: \"\"\n" + stim), "s.yaml: name: '" + allowed);
+  EXPECT_EQ(ErrorOf("name: a/b\n" + stim), "s.yaml: name: 'a/b" + allowed);
+  EXPECT_EQ(ErrorOf("name: .hidden\n" + stim), "s.yaml: name: '.hidden" + allowed);
+  EXPECT_EQ(ErrorOf("name: \"a b\"\n" + stim), "s.yaml: name: 'a b" + allowed);
+  EXPECT_EQ(ErrorOf("name: \"x\\ty\\u00e9\"\n" + stim),
+            "s.yaml: name: 'x\\x09y\\xc3\\xa9" + allowed);
+  EXPECT_EQ(ErrorOf("name: " + std::string(201, 'a') + "\n" + stim).find("s.yaml: name: 'aaa"), 0u);
+  EXPECT_EQ(ParseScenario("name: Trial-1_v2.0\n" + stim, "s.yaml").name, "Trial-1_v2.0");
+}
+
 }  // namespace
 }  // namespace fesim
