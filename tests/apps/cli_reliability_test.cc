@@ -323,5 +323,53 @@ TEST(CliInterrupt, InterruptedStudyResumesWithTheSameBytes) {
   EXPECT_EQ(ReadFile(out + "/manifest.json"), ReadFile(dir + "/ref/manifest.json"));
 }
 
+// Issue 28: a finished study whose measured CSV was truncated since (still a valid CSV when cut
+// at a row boundary) or edited is not counted as finished on a rerun: the damaged file is named
+// and its trial simulated again, giving the original bytes.
+TEST(CliInterrupt, ResumedStudyRedoesAndNamesDamagedFiles) {
+  const std::string dir = Dir("study_damaged");
+  WriteScenario(dir, "rig", "0.4");
+  WriteFileAtomic(dir + "/st.yaml", R"(study: st
+scenario: rig.yaml
+cohort: {size: 2, seed: 3}
+protocols:
+  - {name: hold, stimulation: {duration_s: 0.4, type: constant, values_us: {bic: 150}}}
+)");
+  const std::string out = dir + "/out";
+  const std::string err = dir + "/err.txt";
+  const std::vector<std::string> run = {"simulate", dir + "/st.yaml", "--threads",
+                                        "2",        "--out",          out};
+  ASSERT_EQ(RunFesim(run, err).exit_code, 0) << ReadFile(err);
+  const std::string measured = ReadFile(out + "/p1/hold_r1.csv");
+  const std::string truth = ReadFile(out + "/p2/hold_r1_truth.csv");
+  const std::string manifest = ReadFile(out + "/manifest.json");
+  // An untouched study resumes entirely from the earlier run.
+  Result r = RunFesim(run, err);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("(0 simulated, 2 from an earlier run)"), std::string::npos) << r.err;
+  // Damage: cut the measured CSV after its last complete row but one; change one digit of a
+  // truth file (same size); delete the manifest.
+  const std::size_t cut = measured.rfind('\n', measured.size() - 2) + 1;
+  ASSERT_EQ(::truncate((out + "/p1/hold_r1.csv").c_str(), static_cast<off_t>(cut)), 0);
+  std::string edited = truth;
+  const std::size_t digit = edited.find_last_of("0123456789");
+  edited[digit] = edited[digit] == '1' ? '2' : '1';
+  WriteFileAtomic(out + "/p2/hold_r1_truth.csv", edited);
+  std::remove((out + "/manifest.json").c_str());
+  r = RunFesim(run, err);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find(out + "/p1/hold_r1.csv: " + std::to_string(cut) + " bytes, " +
+                       std::to_string(measured.size()) + " were written"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find(out + "/p2/hold_r1_truth.csv: contents differ from what was written"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("(2 simulated, 0 from an earlier run)"), std::string::npos) << r.err;
+  EXPECT_EQ(ReadFile(out + "/p1/hold_r1.csv"), measured);
+  EXPECT_EQ(ReadFile(out + "/p2/hold_r1_truth.csv"), truth);
+  EXPECT_EQ(ReadFile(out + "/manifest.json"), manifest);
+}
+
 }  // namespace
 }  // namespace fesim
