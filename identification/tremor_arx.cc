@@ -12,6 +12,7 @@
 #include "identification/method_support.h"
 #include "identification/metrics.h"
 #include "identification/nnls.h"
+#include "identification/spectrum.h"
 
 namespace fesim::identification {
 namespace {
@@ -232,7 +233,6 @@ RunResult Algorithm1(const Problem& P, const TremorOptions& opt) {
 std::vector<double> PeriodogramPeaks(const Problem& P, const RunResult& rr, double f_lo,
                                      double f_hi, int count) {
   const double T = P.data->sample_period_s;
-  Eigen::Index n_max = 0;
   std::vector<Eigen::VectorXd> res;
   const int k0 = FirstRow(P.o);
   for (std::size_t t = 0; t < P.data->y.size(); ++t) {
@@ -247,21 +247,11 @@ std::vector<double> PeriodogramPeaks(const Problem& P, const RunResult& rr, doub
       e(k) = v;
     }
     res.push_back(e);
-    n_max = std::max(n_max, y.size());
   }
-  const double df = 1.0 / (4.0 * static_cast<double>(n_max) * T);
-  std::vector<double> f_grid, power;
-  for (double f = f_lo; f <= f_hi; f += df) {
-    const double w = 2.0 * kPi * f * T;
-    double p = 0.0;
-    for (const auto& e : res) {
-      std::complex<double> acc = 0.0;
-      for (Eigen::Index k = 0; k < e.size(); ++k) acc += e(k) * std::polar(1.0, -w * k);
-      p += std::norm(acc);
-    }
-    f_grid.push_back(f);
-    power.push_back(p);
-  }
+  // O(N log N) zoomed DFT (identification/spectrum.h) on the 4x zero-padded grid.
+  const Periodogram spectrum = SummedPeriodogram(res, T, f_lo, f_hi);
+  const std::vector<double>& f_grid = spectrum.f_hz;
+  const std::vector<double>& power = spectrum.power;
   std::vector<std::pair<double, double>> peaks;  // (power, f)
   for (std::size_t i = 0; i < power.size(); ++i) {
     const bool left = i == 0 || power[i] >= power[i - 1];
