@@ -82,8 +82,27 @@ struct Problem {
   double omega;  // rad/sample; < 0 means no tremor regressors
   double s_min, s_max;
   int constraint_points;
-  std::vector<Eigen::VectorXd> s;  // normalised inputs
+  std::vector<Eigen::VectorXd> s;      // normalised inputs
+  std::vector<Eigen::MatrixXd> s_pow;  // s^0 … s^m per sample (rows of PolyRow), per trial
+  std::vector<Eigen::VectorXd> cos_wk, sin_wk;  // cos(ω k), sin(ω k) per trial when ω ≥ 0
 
+  /// Sets ω (rad/sample; < 0: no tremor regressors) and tabulates cos(ω k), sin(ω k), which
+  /// every iteration of Algorithm 1 needs.
+  void SetOmega(double w) {
+    omega = w;
+    cos_wk.clear();
+    sin_wk.clear();
+    if (w < 0.0) return;
+    for (const auto& y : data->y) {
+      Eigen::VectorXd c(y.size()), sn(y.size());
+      for (Eigen::Index k = 0; k < y.size(); ++k) {
+        c(k) = std::cos(w * k);
+        sn(k) = std::sin(w * k);
+      }
+      cos_wk.push_back(std::move(c));
+      sin_wk.push_back(std::move(sn));
+    }
+  }
   bool HasTremor() const { return omega >= 0.0; }
   int TremorCols() const { return HasTremor() ? 2 * static_cast<int>(data->y.size()) : 0; }
   Eigen::Index Rows() const {
@@ -93,13 +112,14 @@ struct Problem {
   }
   double Tremor(const Eigen::VectorXd& lam, std::size_t t, Eigen::Index k) const {
     if (!HasTremor()) return 0.0;
-    return lam(2 * t) * std::cos(omega * k) + lam(2 * t + 1) * std::sin(omega * k);
+    return lam(2 * t) * cos_wk[t](k) + lam(2 * t + 1) * sin_wk[t](k);
   }
 };
 
-/// θ_n of eq. (17) subject to h' ≥ 0 on [s_min, s_max] (grid + exact cutting planes).
+/// θ_n of eq. (17) subject to h' ≥ 0 on [s_min, s_max] (grid + exact cutting planes); the 95 %
+/// half-widths only `with_ci` (the iterations need θ_n alone).
 LinearLsResult NonlinearStep(const Problem& P, const Eigen::VectorXd& a, const Eigen::VectorXd& b,
-                             const Eigen::VectorXd& lam) {
+                             const Eigen::VectorXd& lam, bool with_ci) {
   const TremorOrders& o = P.o;
   const int k0 = FirstRow(o);
   const int m = o.poly_degree;
@@ -112,9 +132,13 @@ LinearLsResult NonlinearStep(const Problem& P, const Eigen::VectorXd& a, const E
       double yn = y(k);
       for (int i = 1; i <= o.poles_l; ++i) yn += a(i - 1) * y(k - i);
       Y(r) = yn - P.Tremor(lam, t, k);
-      Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(m + 1);
-      for (int j = 0; j <= o.zeros_n; ++j) row += b(j) * PolyRow(m, P.s[t](k - o.delay_m - j));
-      Phi.row(r) = row;
+    }
+    // Row k: Σ_j b_j PolyRow(s(k − m_P − j)), the same sums in the same order, per block.
+    const Eigen::Index rows = std::max<Eigen::Index>(0, y.size() - k0);
+    auto block = Phi.middleRows(r - rows, rows);
+    block.setZero();
+    for (int j = 0; j <= o.zeros_n; ++j) {
+      block += b(j) * P.s_pow[t].middleRows(k0 - o.delay_m - j, rows);
     }
   }
   std::vector<double> pts;
@@ -133,13 +157,12 @@ LinearLsResult NonlinearStep(const Problem& P, const Eigen::VectorXd& a, const E
     pts.push_back(at);
   }
   res.cost = (Phi * res.theta - Y).squaredNorm();
-  const Eigen::MatrixXd jtj = Phi.transpose() * Phi;
-  res.ci95_half_width = SolveLinearLs(Phi, Y).ci95_half_width;
+  if (with_ci) res.ci95_half_width = SolveLinearLs(Phi, Y).ci95_half_width;
   return res;
 }
 
-/// θ_l = [a; b; λ per trial] of eq. (21).
-LinearLsResult LinearStep(const Problem& P, const Eigen::VectorXd& beta) {
+/// θ_l = [a; b; λ per trial] of eq. (21); the cost and 95 % half-widths only `with_ci`.
+LinearLsResult LinearStep(const Problem& P, const Eigen::VectorXd& beta, bool with_ci) {
   const TremorOrders& o = P.o;
   const int k0 = FirstRow(o);
   const int p = o.poles_l + o.zeros_n + 1 + P.TremorCols();
@@ -155,13 +178,16 @@ LinearLsResult LinearStep(const Problem& P, const Eigen::VectorXd& beta) {
       for (int j = 0; j <= o.zeros_n; ++j) Phi(r, o.poles_l + j) = h(k - o.delay_m - j);
       if (P.HasTremor()) {
         const int c = o.poles_l + o.zeros_n + 1 + 2 * static_cast<int>(t);
-        Phi(r, c) = std::cos(P.omega * k);
-        Phi(r, c + 1) = std::sin(P.omega * k);
+        Phi(r, c) = P.cos_wk[t](k);
+        Phi(r, c + 1) = P.sin_wk[t](k);
       }
       Y(r) = y(k);
     }
   }
-  return SolveLinearLs(Phi, Y);
+  if (with_ci) return SolveLinearLs(Phi, Y);
+  LinearLsResult res;
+  res.theta = Phi.colPivHouseholderQr().solve(Y);  // as SolveLinearLs
+  return res;
 }
 
 double Cost(const Problem& P, const Eigen::VectorXd& beta, const Eigen::VectorXd& a,
@@ -202,8 +228,8 @@ RunResult Algorithm1(const Problem& P, const TremorOptions& opt) {
   for (const auto& y : P.data->y) scale += y.squaredNorm();
   double v_prev = std::numeric_limits<double>::infinity();
   for (rr.iterations = 1; rr.iterations <= opt.max_iterations; ++rr.iterations) {
-    rr.beta = NonlinearStep(P, rr.a, rr.b, rr.lam).theta;
-    const Eigen::VectorXd th = LinearStep(P, rr.beta).theta;
+    rr.beta = NonlinearStep(P, rr.a, rr.b, rr.lam, false).theta;
+    const Eigen::VectorXd th = LinearStep(P, rr.beta, false).theta;
     rr.a = th.head(o.poles_l);
     rr.b = th.segment(o.poles_l, o.zeros_n + 1);
     rr.lam = th.tail(P.TremorCols());
@@ -222,8 +248,8 @@ RunResult Algorithm1(const Problem& P, const TremorOptions& opt) {
   }
   rr.iterations = std::min(rr.iterations, opt.max_iterations);
   if (!rr.convergence.converged) rr.convergence = {false, "iteration_limit", rr.iterations};
-  rr.beta_ci = NonlinearStep(P, rr.a, rr.b, rr.lam).ci95_half_width;
-  rr.l_ci = LinearStep(P, rr.beta).ci95_half_width;
+  rr.beta_ci = NonlinearStep(P, rr.a, rr.b, rr.lam, true).ci95_half_width;
+  rr.l_ci = LinearStep(P, rr.beta, true).ci95_half_width;
   return rr;
 }
 
@@ -278,6 +304,10 @@ Problem MakeProblem(const TremorData& data, const TremorOptions& opt, double u_s
   P.s_max = -INFINITY;
   for (const auto& u : data.u_us) {
     P.s.emplace_back(u / u_scale);
+    Eigen::MatrixXd pw(u.size(), opt.orders.poly_degree + 1);
+    for (Eigen::Index k = 0; k < u.size(); ++k)
+      pw.row(k) = PolyRow(opt.orders.poly_degree, P.s.back()(k));
+    P.s_pow.push_back(std::move(pw));
     P.s_min = std::min(P.s_min, P.s.back().minCoeff());
     P.s_max = std::max(P.s_max, P.s.back().maxCoeff());
   }
@@ -351,7 +381,7 @@ TremorFit FitTremorArx(const TremorData& data, const TremorOptions& options, dou
     const RunResult free = Algorithm1(low, options);
     const auto cost_at = [&](double f) {
       Problem Q = P;
-      Q.omega = 2.0 * kPi * f * T;
+      Q.SetOmega(2.0 * kPi * f * T);
       return Algorithm1(Q, options).cost;
     };
     // The 3 largest periodogram peaks compete on V_N of the full fit (input harmonics and noise
@@ -389,7 +419,7 @@ TremorFit FitTremorArx(const TremorData& data, const TremorOptions& options, dou
     }
     f_hz = 0.5 * (lo + hi);
   }
-  P.omega = 2.0 * kPi * f_hz * T;
+  P.SetOmega(2.0 * kPi * f_hz * T);
   const RunResult rr = Algorithm1(P, options);
   TremorFit fit;
   TremorModel& m = fit.model;
