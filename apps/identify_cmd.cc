@@ -50,8 +50,16 @@ int RunIdentify(int argc, char** argv) {
   }
   const std::string out = cli::OutPath(args, "out", "out/identify");
   std::vector<Trial> train, test;
-  for (const auto& p : cli::SplitList(args.Get("train"))) train.push_back(ReadTrialCsv(p));
-  for (const auto& p : cli::SplitList(args.Get("test"))) test.push_back(ReadTrialCsv(p));
+  // Each trial keeps its file as `source` metadata, so that data errors found by the methods
+  // name it (identification/method_support.h).
+  for (const auto& p : cli::SplitList(args.Get("train"))) {
+    train.push_back(ReadTrialCsv(p));
+    train.back().metadata["source"] = p;
+  }
+  for (const auto& p : cli::SplitList(args.Get("test"))) {
+    test.push_back(ReadTrialCsv(p));
+    test.back().metadata["source"] = p;
+  }
   if (train.empty()) throw std::runtime_error("--train: no files given");
   if (args.Has("scenario")) {
     const std::string scenario = args.Get("scenario");

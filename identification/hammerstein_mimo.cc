@@ -806,8 +806,10 @@ struct MimoFitted {
   std::vector<std::string> warnings;
 };
 
-MimoFitted FitMimoOnTrials(const std::vector<Trial>& train, const ProgressFn& progress) {
-  if (train.empty()) throw std::runtime_error("--train: no trials");
+MimoFitted FitMimoOnTrials(const std::vector<Trial>& train_rows, const ProgressFn& progress) {
+  if (train_rows.empty()) throw std::runtime_error("--train: no trials");
+  // The rows of the angle sensor (a hand-rig record interleaves other sensors' rows).
+  const std::vector<Trial> train = SensorRows(train_rows, train_rows[0].NamesWithPrefix("q."));
   MimoColumns cols{train[0].NamesWithPrefix("u."), train[0].NamesWithPrefix("q.")};
   if (cols.inputs.empty()) throw std::runtime_error("train trial 0: no u.* input column");
   if (cols.outputs.empty()) throw std::runtime_error("train trial 0: no q.* output column");
@@ -887,8 +889,12 @@ MimoFitted FitMimoOnTrials(const std::vector<Trial>& train, const ProgressFn& pr
   return {cols, set, fit, y, warnings};
 }
 
-MethodResult RunHammersteinMimo(const std::vector<Trial>& train, const std::vector<Trial>& test,
-                                const ProgressFn& progress) {
+MethodResult RunHammersteinMimo(const std::vector<Trial>& train_rows,
+                                const std::vector<Trial>& test_rows, const ProgressFn& progress) {
+  if (train_rows.empty()) throw std::runtime_error("--train: no trials");
+  const std::vector<std::string> outputs = train_rows[0].NamesWithPrefix("q.");
+  const std::vector<Trial> train = SensorRows(train_rows, outputs);
+  const std::vector<Trial> test = SensorRows(test_rows, outputs);
   const MimoFitted fitted = FitMimoOnTrials(train, progress);
   const MimoColumns& cols = fitted.cols;
   const SteadyStateSet& set = fitted.set;

@@ -419,7 +419,7 @@ Prepared Prepare(const std::vector<Trial>& trials, const SisoColumns& cols, cons
                    "orders and spline knots");
     const double T = UniformSamplePeriod(trials[t], label);
     if (t == 0) p.data.sample_period_s = T;
-    if (std::abs(T - p.data.sample_period_s) > 1e-6 * T) {
+    if (std::abs(T - p.data.sample_period_s) > 1e-3 * T) {
       throw std::runtime_error(label + ": sample period differs from trial 0");
     }
     const Eigen::MatrixXd uy = RequireColumns(trials[t], {cols.input, cols.output}, label);
@@ -503,11 +503,13 @@ struct SplineFitted {
   MethodResult result;  ///< model_yaml and warnings filled.
 };
 
-SplineFitted FitSplineOnTrials(bool oe, const std::vector<Trial>& train,
+SplineFitted FitSplineOnTrials(bool oe, const std::vector<Trial>& train_rows,
                                const ProgressFn& progress) {
   const std::string method = oe ? "spline-oe" : "spline-arx";
-  if (train.empty()) throw std::runtime_error("--train: no trials");
-  const SisoColumns cols = PickColumns(train[0], "train trial 0");
+  if (train_rows.empty()) throw std::runtime_error("--train: no trials");
+  const SisoColumns cols = PickColumns(train_rows[0], "train trial 0");
+  // The rows of the output's sensor (a record may interleave other sensors' rows).
+  const std::vector<Trial> train = SensorRows(train_rows, {cols.output});
   const SplineOptions options = ReadOptions(train[0]);
   const SplineOrders& o = options.orders;
   const int min_samples = 4 * (o.poles_l + o.zeros_n + o.delay_d + o.knots_m + 2);
@@ -568,11 +570,13 @@ SplineFitted FitSplineOnTrials(bool oe, const std::vector<Trial>& train,
   return {cols, min_samples, tr, alg1, final_rep, metrics, result};
 }
 
-MethodResult RunSpline(bool oe, const std::vector<Trial>& train, const std::vector<Trial>& test,
-                       const ProgressFn& progress) {
+MethodResult RunSpline(bool oe, const std::vector<Trial>& train_rows,
+                       const std::vector<Trial>& test_rows, const ProgressFn& progress) {
   const std::string method = oe ? "spline-oe" : "spline-arx";
-  SplineFitted fitted = FitSplineOnTrials(oe, train, progress);
+  SplineFitted fitted = FitSplineOnTrials(oe, train_rows, progress);
   const SisoColumns& cols = fitted.cols;
+  const std::vector<Trial> train = SensorRows(train_rows, {cols.output});
+  const std::vector<Trial> test = SensorRows(test_rows, {cols.output});
   const int min_samples = fitted.min_samples;
   const Prepared& tr = fitted.tr;
   const SplineFitReport& alg1 = fitted.alg1;

@@ -516,10 +516,13 @@ TremorColumns PickTremorColumns(const Trial& t, const std::string& label) {
   return {us[0], us[1], qs[0]};
 }
 
-MethodResult RunTremor(const std::vector<Trial>& train, const std::vector<Trial>& test,
+MethodResult RunTremor(const std::vector<Trial>& train_rows, const std::vector<Trial>& test_rows,
                        const ProgressFn& progress) {
-  if (train.empty()) throw std::runtime_error("--train: no trials");
-  const TremorColumns cols = PickTremorColumns(train[0], "train trial 0");
+  if (train_rows.empty()) throw std::runtime_error("--train: no trials");
+  const TremorColumns cols = PickTremorColumns(train_rows[0], "train trial 0");
+  // The rows of the output's sensor (a record may interleave other sensors' rows).
+  const std::vector<Trial> train = SensorRows(train_rows, {cols.output});
+  const std::vector<Trial> test = SensorRows(test_rows, {cols.output});
   MetadataOptions md(train[0].metadata, "tremor");
   TremorOptions opt;
   const bool orders_given = train[0].metadata.count("tremor.poles_l") ||
@@ -551,7 +554,7 @@ MethodResult RunTremor(const std::vector<Trial>& train, const std::vector<Trial>
       const std::string label = what + " trial " + std::to_string(t);
       const double T = UniformSamplePeriod(trials[t], label);
       if (t == 0) d.sample_period_s = T;
-      if (std::abs(T - d.sample_period_s) > 1e-6 * T) {
+      if (std::abs(T - d.sample_period_s) > 1e-3 * T) {
         throw std::runtime_error(label + ": sample period differs from trial 0");
       }
       const Eigen::MatrixXd x =

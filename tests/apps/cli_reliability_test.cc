@@ -371,5 +371,53 @@ protocols:
   EXPECT_EQ(ReadFile(out + "/manifest.json"), manifest);
 }
 
+// Issue 28: the README's simulate -> identify workflow on a shipped rig whose measured trials
+// interleave 60 Hz angle rows with 100 Hz torque rows: identify takes the angle sensor's rows
+// (it used to fail with "column time is not uniformly sampled (near t = 0.01 s)").
+TEST(CliSampling, IdentifyReadsTheHandRigsMixedRateTrials) {
+  const std::string dir = Dir("mixed_rates");
+  const std::string err = dir + "/err.txt";
+  const std::string study =
+      std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/bench_hand_array_quick.yaml";
+  ASSERT_EQ(RunFesim({"simulate", study, "--threads", "2", "--out", dir + "/t"}, err).exit_code, 0)
+      << ReadFile(err);
+  const Trial raw = ReadTrialCsv(dir + "/t/p1/step_grid_r1.csv");
+  ASSERT_TRUE(raw.Has("tau.elbow_flexion"));  // the torque rows are there
+  // The quick study stimulates two of six channels: two muscle units are what its steady states
+  // identify (the default, one per channel, needs more than it has).
+  for (const char* r : {"1", "2"}) {
+    WriteFileAtomic(dir + "/r" + r + ".csv",
+                    "# hammerstein.muscles_l: 2\n" +
+                        ReadFile(dir + "/t/p1/step_grid_r" + std::string(r) + ".csv"));
+  }
+  const Result r = RunFesim({"identify", "--method", "hammerstein-mimo", "--train", dir + "/r1.csv",
+                             "--test", dir + "/r2.csv", "--out", dir + "/x"},
+                            err);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const Trial pred = ReadTrialCsv(dir + "/x/prediction_0.csv");
+  ASSERT_GT(pred.size(), 100u);
+  for (std::size_t i = 0; i < 100; ++i) EXPECT_NEAR(pred.time[i], i / 60.0, 1e-9) << i;
+  EXPECT_LT(pred.size(), raw.size());
+}
+
+// Issue 28: a trial whose time column is in ms (a 100 Hz record read as 0.1 Hz) is refused with
+// the reason, naming the file and column; it used to run 42 s and exit 0 without a word.
+TEST(CliSampling, ImplausibleSampleRateIsRefusedNamingFileAndColumn) {
+  const std::string dir = Dir("time_ms");
+  std::string csv = "time,u.fcr,u.ecr,q.wrist_flexion\n";
+  for (int k = 0; k < 2000; ++k) {
+    csv += std::to_string(10 * k) + "," + std::to_string(30 + k % 100) + ",45," +
+           std::to_string(0.001 * (k % 37)) + "\n";
+  }
+  WriteFileAtomic(dir + "/ms.csv", csv);
+  ExpectOneLineError(RunFesim({"identify", "--method", "tremor-arx", "--train", dir + "/ms.csv",
+                               "--out", dir + "/x"},
+                              dir + "/err.txt"),
+                     "train trial 0 (" + dir +
+                         "/ms.csv): column time: sample period 10 s (0.1 Hz) is implausible for "
+                         "a measured trial (allowed: 1e-05 to 1 s; time in ms?)");
+  EXPECT_FALSE(Exists(dir + "/x"));
+}
+
 }  // namespace
 }  // namespace fesim
