@@ -65,6 +65,16 @@ std::string OutPath(const Args& args, const std::string& key, const std::string&
   return v;
 }
 
+int Threads(const Args& args, int fallback) {
+  if (!args.Has("threads")) return fallback;
+  const long n = args.GetInt("threads", fallback);
+  if (n < 1 || n > kMaxThreads) {
+    throw std::runtime_error("option --threads: " + std::to_string(n) + " is outside [1, " +
+                             std::to_string(kMaxThreads) + "]");
+  }
+  return static_cast<int>(n);
+}
+
 std::vector<std::string> SplitList(const std::string& s) {
   std::vector<std::string> out;
   std::string cur;

@@ -26,6 +26,12 @@ Args Parse(int argc, char** argv, int first, const std::vector<std::string>& fla
 /// value is refused (an empty --out would put DIR/<file> in the file system root).
 std::string OutPath(const Args& args, const std::string& key, const std::string& fallback);
 
+/// Thread counts every command accepts for --threads.
+inline constexpr long kMaxThreads = 256;
+/// --threads: `fallback` when absent, else an integer in [1, kMaxThreads] (std::runtime_error
+/// naming the option and the range otherwise).
+int Threads(const Args& args, int fallback);
+
 /// Splits "a,b,c" into its parts (empty parts dropped).
 std::vector<std::string> SplitList(const std::string& s);
 

@@ -64,8 +64,8 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
   const std::string out = cli::OutPath(args, "out", "out/" + st.name);
   const std::string hash = Fnv1a64Hex(st.source_text);
   const int threads =
-      static_cast<int>(args.GetInt("threads", std::max(1u, std::thread::hardware_concurrency())));
-  if (threads < 1) throw std::runtime_error("option --threads: must be >= 1");
+      cli::Threads(args, static_cast<int>(std::min<unsigned>(
+                             std::max(1u, std::thread::hardware_concurrency()), cli::kMaxThreads)));
   const auto t0 = std::chrono::steady_clock::now();
 
   // Each item's files as bytes (measured CSV, truth CSV, integration statistics), made on
@@ -297,6 +297,7 @@ int RunSimulate(int argc, char** argv, cluster::Cluster& job) {
   if (args.positional.size() != 1) {
     throw std::runtime_error("expected one SCENARIO.yaml argument (see --help)");
   }
+  cli::Threads(args, 1);  // checked before any work, also for a single scenario (one thread)
   const long seed = args.GetInt("seed", 1);
   if (seed < 0)
     throw std::runtime_error("option --seed: " + std::to_string(seed) + " is outside [0, 2^63)");

@@ -125,6 +125,23 @@ double UniformSamplePeriod(const Trial& trial, const std::string& label) {
   return T;
 }
 
+void RequireVaryingOutput(const std::vector<Trial>& trials, const std::string& column,
+                          const std::string& what) {
+  double first = NAN;
+  for (const Trial& t : trials) {
+    if (!t.Has(column)) return;  // missing columns are reported where they are read
+    for (double v : t.Column(column)) {
+      if (!std::isfinite(v)) continue;
+      if (std::isnan(first)) first = v;
+      if (v != first) return;
+    }
+  }
+  if (std::isnan(first)) return;
+  throw std::runtime_error(what + ": output column " + column + " is constant (" + Num(first) +
+                           " in every sample): nothing to identify (the regressor matrix would "
+                           "be rank deficient)");
+}
+
 void RequireSamples(const Trial& trial, std::size_t min_samples, const std::string& label,
                     const std::string& why) {
   if (trial.size() < min_samples) {

@@ -48,6 +48,12 @@ inline constexpr double kMaxSamplePeriodS = 1.0;
 /// point t_0 + i T by more than kTimeStampTolerance·T. Needs ≥ 2 samples.
 double UniformSamplePeriod(const Trial& trial, const std::string& label);
 
+/// Throws std::runtime_error naming `what` (e.g. "train") and the column when `column` holds the
+/// same value in every finite sample of every trial: nothing to identify, and the fit would stop
+/// at a rank-deficient regressor matrix without saying why.
+void RequireVaryingOutput(const std::vector<Trial>& trials, const std::string& column,
+                          const std::string& what);
+
 /// Throws std::runtime_error unless `trial` has at least `min_samples` samples.
 void RequireSamples(const Trial& trial, std::size_t min_samples, const std::string& label,
                     const std::string& why);

@@ -510,6 +510,7 @@ SplineFitted FitSplineOnTrials(bool oe, const std::vector<Trial>& train_rows,
   const SisoColumns cols = PickColumns(train_rows[0], "train trial 0");
   // The rows of the output's sensor (a record may interleave other sensors' rows).
   const std::vector<Trial> train = SensorRows(train_rows, {cols.output});
+  RequireVaryingOutput(train, cols.output, "train");
   const SplineOptions options = ReadOptions(train[0]);
   const SplineOrders& o = options.orders;
   const int min_samples = 4 * (o.poles_l + o.zeros_n + o.delay_d + o.knots_m + 2);

@@ -523,6 +523,7 @@ MethodResult RunTremor(const std::vector<Trial>& train_rows, const std::vector<T
   // The rows of the output's sensor (a record may interleave other sensors' rows).
   const std::vector<Trial> train = SensorRows(train_rows, {cols.output});
   const std::vector<Trial> test = SensorRows(test_rows, {cols.output});
+  RequireVaryingOutput(train, cols.output, "train");
   MetadataOptions md(train[0].metadata, "tremor");
   TremorOptions opt;
   const bool orders_given = train[0].metadata.count("tremor.poles_l") ||

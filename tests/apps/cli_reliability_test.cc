@@ -419,5 +419,26 @@ TEST(CliSampling, ImplausibleSampleRateIsRefusedNamingFileAndColumn) {
   EXPECT_FALSE(Exists(dir + "/x"));
 }
 
+// Issue 28: one --threads rule, [1, 256], for every command that takes it (simulate accepted
+// 100000, benchmark capped at 256 and accepted 0).
+TEST(CliOptions, OneThreadsRuleForEveryCommand) {
+  const std::string dir = Dir("threads");
+  const std::string err = dir + "/err.txt";
+  const std::string sc = WriteScenario(dir, "tiny", "0.3");
+  WriteFileAtomic(dir + "/t.csv", "time,u.bic,q.elbow_flexion\n0,0,0\n0.01,0,0\n");
+  const std::string bench = std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/default_study.yaml";
+  for (const std::string n : {"100000", "0", "-3", "257"}) {
+    ExpectOneLineError(RunFesim({"simulate", sc, "--threads", n, "--out", dir + "/o"}, err),
+                       "option --threads: " + n + " is outside [1, 256]");
+    ExpectOneLineError(RunFesim({"benchmark", bench, "--threads", n, "--out", dir + "/o"}, err),
+                       "option --threads: " + n + " is outside [1, 256]");
+    ExpectOneLineError(RunFesim({"diagnose", dir + "/t.csv", "--scenario", sc, "--threads", n,
+                                 "--out", dir + "/o"},
+                                err),
+                       "option --threads: " + n + " is outside [1, 256]");
+  }
+  EXPECT_FALSE(Exists(dir + "/o"));
+}
+
 }  // namespace
 }  // namespace fesim

@@ -10,6 +10,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "identification/spline_hammerstein.h"
+#include "identification/tremor_arx.h"
+
 namespace fesim::identification {
 namespace {
 
@@ -120,6 +123,38 @@ TEST(RequireColumns, ErrorsNameTheTrialsFile) {
               "(NaN/dropouts must be removed first)");
   }
   EXPECT_THROW(RequireColumns(t, {"q.x"}, "x"), std::runtime_error);
+}
+
+// Issue 28: a constant output is named as the cause, instead of the fit's "regressor matrix is
+// rank deficient".
+TEST(RequireVaryingOutput, ConstantOutputIsNamed) {
+  Trial t = Uniform(200, 0.01, 9);
+  std::vector<double> fcr, ecr;
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    fcr.push_back(30.0 + static_cast<double>(k % 50));
+    ecr.push_back(45.0);
+  }
+  t.AddColumn("u.fcr", fcr);
+  t.AddColumn("u.ecr", ecr);
+  t.MutableColumn("q.wrist_flexion")[3] = NAN;  // a dropout does not make it vary
+  const std::string expected =
+      "train: output column q.wrist_flexion is constant (0.1 in every sample): nothing to "
+      "identify (the regressor matrix would be rank deficient)";
+  for (const MethodEntry& m : {TremorArxMethod(), SplineArxMethod()}) {
+    try {
+      Trial one = t;
+      if (m.name != "tremor-arx") {  // spline-arx: one input
+        one.names.erase(one.names.begin() + 2);
+        one.columns.erase(one.columns.begin() + 2);
+      }
+      m.run({one}, {}, nullptr);
+      ADD_FAILURE() << m.name << ": no error";
+    } catch (const std::runtime_error& e) {
+      EXPECT_EQ(std::string(e.what()), expected) << m.name;
+    }
+  }
+  t.MutableColumn("q.wrist_flexion")[7] = 0.2;
+  EXPECT_NO_THROW(RequireVaryingOutput({t}, "q.wrist_flexion", "train"));
 }
 
 }  // namespace
