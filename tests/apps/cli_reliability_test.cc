@@ -290,13 +290,13 @@ TEST(CliInterrupt, InterruptedStudyResumesWithTheSameBytes) {
       << ReadFile(err);
   const std::string out = dir + "/out";
   const pid_t pid = Spawn({"simulate", study, "--threads", "1", "--out", out}, err);
-  // Stopped once the first trial is on disk (its measured CSV is written last).
+  // Stopped once the first trial is finished: its files are on disk and, written last, its
+  // record of their sizes and hashes in out/cache.
   bool some = false;
   for (int waited_ms = 0; waited_ms < 300000 && !some; waited_ms += 10) {
-    if (Exists(out + "/p1")) {
-      for (const auto& f : List(out + "/p1")) {
-        some =
-            some || (f.find("_truth") == std::string::npos && f.find(".tmp.") == std::string::npos);
+    if (Exists(out + "/cache")) {
+      for (const auto& f : List(out + "/cache")) {
+        some = some || f.find(".tmp.") == std::string::npos;
       }
     }
     if (!some) std::this_thread::sleep_for(std::chrono::milliseconds(10));
