@@ -42,6 +42,33 @@ Eigen::MatrixXd RequireColumns(const Trial& trial, const std::vector<std::string
   return out;
 }
 
+Eigen::VectorXd OutputColumn(const Trial& trial, const std::string& name, const std::string& label,
+                             std::size_t* missing) {
+  if (!trial.Has(name)) {
+    throw std::runtime_error(Named(trial, label) + ": column " + name + " is missing");
+  }
+  const auto& col = trial.Column(name);
+  Eigen::VectorXd y(static_cast<Eigen::Index>(col.size()));
+  *missing = 0;
+  for (std::size_t i = 0; i < col.size(); ++i) {
+    y(static_cast<Eigen::Index>(i)) = col[i];
+    if (!std::isfinite(col[i])) ++*missing;
+  }
+  return y;
+}
+
+void KeepMeasuredPairs(std::vector<double>* y, std::vector<double>* yhat) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < y->size(); ++i) {
+    if (!std::isfinite((*y)[i])) continue;
+    (*y)[n] = (*y)[i];
+    (*yhat)[n] = (*yhat)[i];
+    ++n;
+  }
+  y->resize(n);
+  yhat->resize(n);
+}
+
 Trial SensorRows(const Trial& trial, const std::vector<std::string>& needed) {
   const std::size_t n = trial.size();
   std::vector<char> mine(n, 0), other(n, 0);
@@ -276,6 +303,21 @@ Eigen::VectorXd FilterBA(const Eigen::VectorXd& b, const Eigen::VectorXd& a, int
 
 LinearLsResult SolveLinearLs(const Eigen::MatrixXd& Phi, const Eigen::VectorXd& Y) {
   if (Phi.rows() != Y.size()) throw std::invalid_argument("SolveLinearLs: size mismatch");
+  if (!Phi.allFinite() || !Y.allFinite()) {
+    // Rows that touch a missing sample (NaN: a tracker dropout in an output or its lags) are
+    // dropped: the equation-error fit uses the complete rows only.
+    std::vector<Eigen::Index> keep;
+    for (Eigen::Index i = 0; i < Phi.rows(); ++i) {
+      if (std::isfinite(Y(i)) && Phi.row(i).allFinite()) keep.push_back(i);
+    }
+    Eigen::MatrixXd P(static_cast<Eigen::Index>(keep.size()), Phi.cols());
+    Eigen::VectorXd y(static_cast<Eigen::Index>(keep.size()));
+    for (std::size_t k = 0; k < keep.size(); ++k) {
+      P.row(static_cast<Eigen::Index>(k)) = Phi.row(keep[k]);
+      y(static_cast<Eigen::Index>(k)) = Y(keep[k]);
+    }
+    return SolveLinearLs(P, y);
+  }
   LinearLsResult r;
   r.theta = Phi.colPivHouseholderQr().solve(Y);
   r.cost = (Phi * r.theta - Y).squaredNorm();

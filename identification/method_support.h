@@ -19,6 +19,15 @@ namespace fesim::identification {
 Eigen::MatrixXd RequireColumns(const Trial& trial, const std::vector<std::string>& names,
                                const std::string& label);
 
+/// The output column `name` of `trial`; NaN samples (tracker dropouts) are kept and counted in
+/// *missing. Throws std::runtime_error naming the trial and column when it is absent.
+Eigen::VectorXd OutputColumn(const Trial& trial, const std::string& name, const std::string& label,
+                             std::size_t* missing);
+
+/// Keeps the pairs (y_i, ŷ_i) whose measured y_i is finite: the fit metrics of a record with
+/// missing samples are over the samples it has.
+void KeepMeasuredPairs(std::vector<double>* y, std::vector<double>* yhat);
+
 /// Tolerance of a time stamp about the uniform grid t_0 + i T, as a fraction of T: rounded
 /// (a 60 Hz log written to 4 decimals is off by ≤ 0.3 %) or jittered tracker time stamps pass,
 /// a missing or doubled row does not.
@@ -115,7 +124,8 @@ Eigen::VectorXd FilterBA(const Eigen::VectorXd& b, const Eigen::VectorXd& a, int
                          const Eigen::VectorXd& x);
 
 /// Ordinary least squares min ‖Φθ − Y‖ with 95 % half-widths 1.96 √diag(σ²(ΦᵀΦ)⁻¹),
-/// σ² = ‖r‖²/(N − p) (conditional on any other parameter block held fixed).
+/// σ² = ‖r‖²/(N − p) (conditional on any other parameter block held fixed). Rows holding a NaN
+/// (in Y or Φ: a missing output sample or one of its lags) are left out; N counts the others.
 struct LinearLsResult {
   Eigen::VectorXd theta;
   Eigen::VectorXd ci95_half_width;
