@@ -75,6 +75,21 @@ std::pair<double, double> SlopeMinimum(const Eigen::VectorXd& beta, double lo, d
 
 int FirstRow(const TremorOrders& o) { return std::max(o.poles_l, o.delay_m + o.zeros_n); }
 
+/// Leaves out the rows of a regression that touch a missing output sample (a NaN in Y or in Φ:
+/// the sample itself or one of its lags). Complete data are left as they are.
+void DropRowsWithMissingSamples(Eigen::MatrixXd* Phi, Eigen::VectorXd* Y) {
+  if (Y->allFinite() && Phi->allFinite()) return;
+  Eigen::Index n = 0;
+  for (Eigen::Index i = 0; i < Y->size(); ++i) {
+    if (!std::isfinite((*Y)(i)) || !Phi->row(i).allFinite()) continue;
+    Phi->row(n) = Phi->row(i);
+    (*Y)(n) = (*Y)(i);
+    ++n;
+  }
+  Phi->conservativeResize(n, Eigen::NoChange);
+  Y->conservativeResize(n);
+}
+
 struct Problem {
   const TremorData* data;
   TremorOrders o;
@@ -141,6 +156,7 @@ LinearLsResult NonlinearStep(const Problem& P, const Eigen::VectorXd& a, const E
       block += b(j) * P.s_pow[t].middleRows(k0 - o.delay_m - j, rows);
     }
   }
+  DropRowsWithMissingSamples(&Phi, &Y);
   std::vector<double> pts;
   pts.reserve(static_cast<std::size_t>(P.constraint_points));
   for (int g = 0; g < P.constraint_points; ++g) {
@@ -184,6 +200,7 @@ LinearLsResult LinearStep(const Problem& P, const Eigen::VectorXd& beta, bool wi
       Y(r) = y(k);
     }
   }
+  DropRowsWithMissingSamples(&Phi, &Y);
   if (with_ci) return SolveLinearLs(Phi, Y);
   LinearLsResult res;
   res.theta = Phi.colPivHouseholderQr().solve(Y);  // as SolveLinearLs
@@ -203,7 +220,7 @@ double Cost(const Problem& P, const Eigen::VectorXd& beta, const Eigen::VectorXd
       double e = y(k) - P.Tremor(lam, t, k);
       for (int i = 1; i <= o.poles_l; ++i) e += a(i - 1) * y(k - i);
       for (int j = 0; j <= o.zeros_n; ++j) e -= b(j) * h(k - o.delay_m - j);
-      v += e * e;
+      if (std::isfinite(e)) v += e * e;  // a missing output sample is not in the cost
     }
   }
   return v;
@@ -225,7 +242,9 @@ RunResult Algorithm1(const Problem& P, const TremorOptions& opt) {
   rr.b = Eigen::VectorXd::Constant(o.zeros_n + 1, 1.0 / (o.zeros_n + 1));
   rr.lam = Eigen::VectorXd::Zero(P.TremorCols());
   double scale = 0.0;
-  for (const auto& y : P.data->y) scale += y.squaredNorm();
+  for (const auto& y : P.data->y) {
+    scale += y.allFinite() ? y.squaredNorm() : y.array().isFinite().select(y, 0.0).squaredNorm();
+  }
   double v_prev = std::numeric_limits<double>::infinity();
   for (rr.iterations = 1; rr.iterations <= opt.max_iterations; ++rr.iterations) {
     rr.beta = NonlinearStep(P, rr.a, rr.b, rr.lam, false).theta;
@@ -270,7 +289,7 @@ std::vector<double> PeriodogramPeaks(const Problem& P, const RunResult& rr, doub
       for (int j = 0; j <= P.o.zeros_n; ++j) {
         v -= rr.b(j) * PolyValue(rr.beta, P.s[t](k - P.o.delay_m - j));
       }
-      e(k) = v;
+      e(k) = std::isfinite(v) ? v : 0.0;  // a residual touching a missing sample: none
     }
     res.push_back(e);
   }
@@ -445,10 +464,26 @@ TremorFit FitTremorArx(const TremorData& data, const TremorOptions& options, dou
 
 namespace {
 
+/// The measured output as the simulation's initial samples: a missing (NaN) one among the first
+/// max(l_P, m_P + n_P) takes the next measured value.
+Eigen::VectorXd InitialSamples(const TremorModel& m, const Eigen::VectorXd& y) {
+  Eigen::VectorXd init = y;
+  const Eigen::Index k0 = std::min<Eigen::Index>(FirstRow(m.orders), y.size());
+  for (Eigen::Index k = k0 - 1; k >= 0; --k) {
+    if (std::isfinite(init(k))) continue;
+    Eigen::Index next = k + 1;
+    while (next < y.size() && !std::isfinite(init(next))) ++next;
+    init(k) = next < y.size() ? init(next) : 0.0;
+  }
+  return init;
+}
+
+/// The simulated output ŷ and the Best Fit over the measured samples.
 double SimBestFit(const TremorModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y) {
-  const Eigen::VectorXd yh = SimulateTremorArx(m, u, y);
-  return BestFitPercent(std::vector<double>(y.data(), y.data() + y.size()),
-                        std::vector<double>(yh.data(), yh.data() + yh.size()));
+  const Eigen::VectorXd yh = SimulateTremorArx(m, u, InitialSamples(m, y));
+  std::vector<double> yv(y.data(), y.data() + y.size()), yhv(yh.data(), yh.data() + yh.size());
+  KeepMeasuredPairs(&yv, &yhv);
+  return BestFitPercent(yv, yhv);
 }
 
 }  // namespace
@@ -542,14 +577,16 @@ MethodResult RunTremor(const std::vector<Trial>& train_rows, const std::vector<T
   for (std::size_t t = 0; t < train.size(); ++t) {
     const std::string label = "train trial " + std::to_string(t);
     RequireSamples(train[t], 50, label, "ARX orders");
-    raw.push_back(RequireColumns(train[t], {cols.agonist, cols.antagonist, cols.output}, label));
+    raw.push_back(RequireColumns(train[t], {cols.agonist, cols.antagonist}, label));
     c.c_agonist_us = std::min(c.c_agonist_us, raw.back().col(0).minCoeff());
     c.c_antagonist_us = std::min(c.c_antagonist_us, raw.back().col(1).minCoeff());
   }
   c.c_agonist_us = md.Real("c_agonist_us", c.c_agonist_us, 0.0, 300.0);
   c.c_antagonist_us = md.Real("c_antagonist_us", c.c_antagonist_us, 0.0, 300.0);
   md.RejectUnknown();
-  const auto to_data = [&](const std::vector<Trial>& trials, const std::string& what) {
+  // Output samples may be missing (tracker dropouts, NaN); inputs must be complete.
+  const auto to_data = [&](const std::vector<Trial>& trials, const std::string& what,
+                           std::vector<std::size_t>* missing) {
     TremorData d;
     for (std::size_t t = 0; t < trials.size(); ++t) {
       const std::string label = what + " trial " + std::to_string(t);
@@ -558,16 +595,22 @@ MethodResult RunTremor(const std::vector<Trial>& train_rows, const std::vector<T
       if (std::abs(T - d.sample_period_s) > 1e-3 * T) {
         throw std::runtime_error(label + ": sample period differs from trial 0");
       }
-      const Eigen::MatrixXd x =
-          RequireColumns(trials[t], {cols.agonist, cols.antagonist, cols.output}, label);
+      const Eigen::MatrixXd x = RequireColumns(trials[t], {cols.agonist, cols.antagonist}, label);
+      std::size_t n_missing = 0;
+      Eigen::VectorXd y = OutputColumn(trials[t], cols.output, label, &n_missing);
+      if (n_missing == static_cast<std::size_t>(y.size())) {
+        throw std::runtime_error(label + ": column " + cols.output + " has no measured sample");
+      }
+      missing->push_back(n_missing);
       Eigen::VectorXd u(x.rows());
       for (Eigen::Index k = 0; k < x.rows(); ++k) u(k) = CoactivationCombine(c, x(k, 0), x(k, 1));
       d.u_us.push_back(u);
-      d.y.emplace_back(x.col(2));
+      d.y.push_back(std::move(y));
     }
     return d;
   };
-  const TremorData tr = to_data(train, "train");
+  std::vector<std::size_t> train_missing, test_missing;
+  const TremorData tr = to_data(train, "train", &train_missing);
   double u_scale = 0.0;
   for (const auto& u : tr.u_us) u_scale = std::max(u_scale, u.cwiseAbs().maxCoeff());
   if (!(u_scale > 0.0)) throw std::runtime_error("train: combined input u is identically zero");
@@ -644,18 +687,22 @@ MethodResult RunTremor(const std::vector<Trial>& train_rows, const std::vector<T
   }
   const bool has_test = !test.empty();
   if (has_test) PickTremorColumns(test[0], "test trial 0");
-  const TremorData ev = has_test ? to_data(test, "test") : tr;
+  const TremorData ev = has_test ? to_data(test, "test", &test_missing) : tr;
+  const std::vector<std::size_t>& ev_missing = has_test ? test_missing : train_missing;
   const std::vector<Trial>& eval = has_test ? test : train;
   Json fits = Json::Array();
   for (std::size_t t = 0; t < ev.y.size(); ++t) {
-    const Eigen::VectorXd yh = SimulateTremorArx(m, ev.u_us[t], ev.y[t]);
-    const std::vector<double> yv(ev.y[t].data(), ev.y[t].data() + ev.y[t].size());
+    const Eigen::VectorXd yh = SimulateTremorArx(m, ev.u_us[t], InitialSamples(m, ev.y[t]));
     std::vector<double> yhv(yh.data(), yh.data() + yh.size());
+    // The metrics are over the measured samples; the prediction covers every row.
+    std::vector<double> yv(ev.y[t].data(), ev.y[t].data() + ev.y[t].size()), yhm = yhv;
+    KeepMeasuredPairs(&yv, &yhm);
     Json f = Json::Object();
     f.Set("trial", static_cast<int>(t));
-    f.Set("best_fit_percent", BestFitPercent(yv, yhv));
-    f.Set("normalised_error", NormalisedError(yv, yhv));
-    f.Set("rms_rad", Rms(yv, yhv));
+    f.Set("best_fit_percent", BestFitPercent(yv, yhm));
+    f.Set("normalised_error", NormalisedError(yv, yhm));
+    f.Set("rms_rad", Rms(yv, yhm));
+    f.Set("missing_samples", static_cast<double>(ev_missing[t]));
     fits.Push(f);
     Trial pred;
     pred.metadata["source"] = "fesim identify --method tremor-arx";
@@ -666,6 +713,9 @@ MethodResult RunTremor(const std::vector<Trial>& train_rows, const std::vector<T
     result.predictions.push_back(std::move(pred));
   }
   metrics.Set(has_test ? "test" : "train", fits);
+  std::size_t n_train_missing = 0;
+  for (std::size_t n : train_missing) n_train_missing += n;
+  metrics.Set("train_missing_samples", static_cast<double>(n_train_missing));
   metrics.Set("prediction", "simulation from the first max(l_P, m_P + n_P) measured samples");
   metrics.Set("iterations", fit.iterations);
   metrics.Set("converged", fit.convergence.converged);
