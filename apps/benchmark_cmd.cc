@@ -46,10 +46,8 @@ int RunBenchmark(int argc, char** argv, cluster::Cluster& job) {
       args.positional.empty() ? std::string("scenarios/default_study.yaml") : args.positional[0];
   benchmark::BenchmarkOptions o;
   o.quick = args.Has("quick");
-  o.out_dir = args.Get("out", o.quick ? "out/benchmark-quick" : "out/benchmark");
-  const long threads = args.GetInt("threads", 0);
-  if (threads < 0 || threads > 256) throw std::runtime_error("--threads: must be in [0, 256]");
-  o.threads = static_cast<int>(threads);
+  o.out_dir = cli::OutPath(args, "out", o.quick ? "out/benchmark-quick" : "out/benchmark");
+  o.threads = cli::Threads(args, 0);  // 0 (not given): all cores, 1 per rank under mpirun
   const long seed = args.GetInt("seed", 1);
   if (seed < 0) throw std::runtime_error("--seed: must be >= 0");
   o.seed = static_cast<std::uint64_t>(seed);

@@ -57,6 +57,24 @@ Args Parse(int argc, char** argv, int first, const std::vector<std::string>& fla
   return a;
 }
 
+std::string OutPath(const Args& args, const std::string& key, const std::string& fallback) {
+  if (!args.Has(key)) return fallback;
+  const std::string v = args.Get(key);
+  if (v.empty())
+    throw std::runtime_error("option --" + key + ": empty path (outputs need a place to go)");
+  return v;
+}
+
+int Threads(const Args& args, int fallback) {
+  if (!args.Has("threads")) return fallback;
+  const long n = args.GetInt("threads", fallback);
+  if (n < 1 || n > kMaxThreads) {
+    throw std::runtime_error("option --threads: " + std::to_string(n) + " is outside [1, " +
+                             std::to_string(kMaxThreads) + "]");
+  }
+  return static_cast<int>(n);
+}
+
 std::vector<std::string> SplitList(const std::string& s) {
   std::vector<std::string> out;
   std::string cur;

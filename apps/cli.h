@@ -22,6 +22,16 @@ struct Args {
 Args Parse(int argc, char** argv, int first, const std::vector<std::string>& flags,
            const std::vector<std::string>& valued);
 
+/// The output path option `key` ("out", "frames"), or `fallback` when it is absent. An empty
+/// value is refused (an empty --out would put DIR/<file> in the file system root).
+std::string OutPath(const Args& args, const std::string& key, const std::string& fallback);
+
+/// Thread counts every command accepts for --threads.
+inline constexpr long kMaxThreads = 256;
+/// --threads: `fallback` when absent, else an integer in [1, kMaxThreads] (std::runtime_error
+/// naming the option and the range otherwise).
+int Threads(const Args& args, int fallback);
+
 /// Splits "a,b,c" into its parts (empty parts dropped).
 std::vector<std::string> SplitList(const std::string& s);
 

@@ -71,11 +71,12 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
     }
   }
   // On an MPI job, one thread per rank unless asked (the ranks share the cores).
-  const long threads = args.GetInt(
-      "threads", job.size() > 1 ? 1u : std::max(1u, std::thread::hardware_concurrency()));
-  if (threads < 1 || threads > 256) {
-    throw std::runtime_error("--threads: " + std::to_string(threads) + " is outside [1, 256]");
-  }
+  const int threads = cli::Threads(
+      args, job.size() > 1
+                ? 1
+                : static_cast<int>(std::min<unsigned>(
+                      std::max(1u, std::thread::hardware_concurrency()), cli::kMaxThreads)));
+  const std::string out = cli::OutPath(args, "out", "out/diagnose");
   const Scenario scenario = LoadScenario(args.Get("scenario"));
   // Resume cache key: the contents of the rig and of every measured file, in order.
   std::string cache_inputs = "rig " + Fnv1a64Hex(ReadFile(args.Get("scenario")));
@@ -89,7 +90,6 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
   }
   if (trials.empty()) throw std::runtime_error("no measured trial given");
   inputs += "; rig `" + args.Get("scenario") + "`.";
-  const std::string out = args.Get("out", "out/diagnose");
   // Expensive stages are cached under DIR/cache as they finish: a killed run resumes.
   // Layout 3: a candidate's probe changed (score-test θ of layout 2 do not fit the library).
   // Layout 4: the second round's score tests are screened with the baseline's directions, and

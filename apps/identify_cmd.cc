@@ -48,9 +48,18 @@ int RunIdentify(int argc, char** argv) {
     for (const auto& m : methods) list += (list.empty() ? "" : ", ") + m.name;
     throw std::runtime_error("--method: unknown method '" + name + "' (allowed: " + list + ")");
   }
+  const std::string out = cli::OutPath(args, "out", "out/identify");
   std::vector<Trial> train, test;
-  for (const auto& p : cli::SplitList(args.Get("train"))) train.push_back(ReadTrialCsv(p));
-  for (const auto& p : cli::SplitList(args.Get("test"))) test.push_back(ReadTrialCsv(p));
+  // Each trial keeps its file as `source` metadata, so that data errors found by the methods
+  // name it (identification/method_support.h).
+  for (const auto& p : cli::SplitList(args.Get("train"))) {
+    train.push_back(ReadTrialCsv(p));
+    train.back().metadata["source"] = p;
+  }
+  for (const auto& p : cli::SplitList(args.Get("test"))) {
+    test.push_back(ReadTrialCsv(p));
+    test.back().metadata["source"] = p;
+  }
   if (train.empty()) throw std::runtime_error("--train: no files given");
   if (args.Has("scenario")) {
     const std::string scenario = args.Get("scenario");
@@ -60,7 +69,6 @@ int RunIdentify(int argc, char** argv) {
 
   const auto result = method->run(train, test, cli::ShowProgress);
 
-  const std::string out = args.Get("out", "out/identify");
   MakeDirs(out);
   WriteFileAtomic(out + "/model.yaml", result.model_yaml);
   for (std::size_t k = 0; k < result.predictions.size(); ++k) {

@@ -143,10 +143,8 @@ int RunRender(int argc, char** argv) {
   if (!args.Has("out") && !args.Has("frames")) {
     throw std::runtime_error("--out MOVIE.mp4 or --frames DIR is required (see --help)");
   }
-  if (args.Has("out") && args.Get("out").empty()) throw std::runtime_error("--out: empty path");
-  if (args.Has("frames") && args.Get("frames").empty()) {
-    throw std::runtime_error("--frames: empty path");
-  }
+  cli::OutPath(args, "out", "");  // refuses an empty path
+  cli::OutPath(args, "frames", "");
   const bool mp4 = args.Has("out");
   const int width = ImageSide(args, "width", kDefaultWidthPx, mp4);
   const int height = ImageSide(args, "height", kDefaultHeightPx, mp4);

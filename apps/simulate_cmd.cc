@@ -41,6 +41,8 @@ void PrintHelp() {
       "protocol x repetition of its virtual cohort on --threads threads (default: all cores)\n"
       "and writes DIR/p<k>/<protocol>_r<r>.csv and _truth.csv plus DIR/manifest.json with\n"
       "every participant's drawn parameters. Results do not depend on the thread count.\n"
+      "DIR/cache records the size and hash of each file written: a rerun into DIR simulates\n"
+      "only the trials that are missing or whose files no longer match (named on stderr).\n"
       "Under mpirun (mpirun -np N fesim simulate STUDY.yaml) the trials are spread over the\n"
       "ranks and rank 0 writes the same files; the bytes do not depend on N either.\n");
 }
@@ -59,11 +61,11 @@ Json StatsJson(const sim::TrialResult& r) {
 /// `fesim simulate STUDY.yaml`: every participant × protocol × repetition, in parallel.
 int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster::Cluster& job) {
   const Study st = LoadStudy(path, static_cast<std::uint64_t>(seed));
-  const std::string out = args.Get("out", "out/" + st.name);
+  const std::string out = cli::OutPath(args, "out", "out/" + st.name);
   const std::string hash = Fnv1a64Hex(st.source_text);
   const int threads =
-      static_cast<int>(args.GetInt("threads", std::max(1u, std::thread::hardware_concurrency())));
-  if (threads < 1) throw std::runtime_error("option --threads: must be >= 1");
+      cli::Threads(args, static_cast<int>(std::min<unsigned>(
+                             std::max(1u, std::thread::hardware_concurrency()), cli::kMaxThreads)));
   const auto t0 = std::chrono::steady_clock::now();
 
   // Each item's files as bytes (measured CSV, truth CSV, integration statistics), made on
@@ -104,26 +106,47 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
   const auto truth_path = [&](std::size_t i) {
     return out + "/" + st.items[i].file_stem + "_truth.csv";
   };
-  // Rank 0 finds the items a previous run finished (same study text, seed and version); the
-  // integration statistics of every item end up in `stats` on rank 0.
+  // A finished item has a record in DIR/cache (keyed by version, study text, seed and item) of
+  // the size and hash of each file as written, stored after both files. Rank 0 counts an item
+  // as finished only when every file still matches its record; a damaged file (truncated,
+  // edited) is named and its item simulated again. The integration statistics of every item end
+  // up in `stats` on rank 0.
+  ResultCache records(out + "/cache", FESIM_VERSION, "study-files-1");
+  const auto record_key = [&](std::size_t i) {
+    return std::vector<std::string>{"study " + hash, "seed " + seed_text, st.items[i].file_stem};
+  };
   std::vector<std::string> stats(st.items.size());
   std::string pending_text;
   if (job.is_root()) {
     for (std::size_t i = 0; i < st.items.size(); ++i) {
       bool finished = false;
-      if (RegularFileExists(measured_path(i)) && RegularFileExists(truth_path(i))) {
-        try {
-          const Trial t = ReadTrialCsv(truth_path(i));
-          const auto meta = [&](const char* key) {
-            const auto it = t.metadata.find(key);
-            return it == t.metadata.end() ? std::string() : it->second;
-          };
-          finished = meta("study_hash") == hash && meta("study_seed") == seed_text &&
-                     meta("fesim_version") == FESIM_VERSION && !meta("integration").empty();
-          if (finished) stats[i] = meta("integration");
-        } catch (const std::exception&) {
-          finished = false;  // unreadable: simulated again
+      try {
+        Json record;
+        if (records.Load(record_key(i), &record)) {
+          const Json* files = record.Find("files");
+          const Json* integration = record.Find("integration");
+          if (files == nullptr || !files->IsArray() || integration == nullptr ||
+              !integration->IsString()) {
+            throw std::runtime_error(records.Path(record_key(i)) +
+                                     ".json: expected {files, integration}");
+          }
+          std::string damage;
+          for (const Json& f : files->Items()) {
+            const std::string why = CheckWrittenFile(out, f);
+            if (!why.empty() && damage.empty()) damage = why;
+          }
+          finished = damage.empty();
+          if (finished) {
+            stats[i] = integration->AsString();
+          } else {
+            std::fprintf(stderr, "fesim simulate: %s; study item %s is simulated again\n",
+                         damage.c_str(), st.items[i].file_stem.c_str());
+          }
         }
+      } catch (const std::exception& e) {
+        // A damaged record (e.g. a file system that lost its end): the item is simulated again.
+        std::fprintf(stderr, "fesim simulate: %s; study item %s is simulated again\n", e.what(),
+                     st.items[i].file_stem.c_str());
       }
       if (!finished) pending_text += std::to_string(i) + " ";
     }
@@ -144,9 +167,18 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
         if (o.ok) {
           const Json j = Json::Parse(o.payload, "study item " + st.items[i].file_stem);
           MakeDirs(out + "/p" + std::to_string(st.items[i].participant + 1));
-          WriteFileAtomic(truth_path(i), j.Find("truth")->AsString());
-          WriteFileAtomic(measured_path(i), j.Find("measured")->AsString());  // last: complete
+          const std::string& truth = j.Find("truth")->AsString();
+          const std::string& measured = j.Find("measured")->AsString();
+          WriteFileAtomic(truth_path(i), truth);
+          WriteFileAtomic(measured_path(i), measured);
           stats[i] = j.Find("integration")->AsString();
+          // Last: the item counts as finished once both files are in place.
+          Json files = Json::Array();
+          files.Push(WrittenFileRecord(st.items[i].file_stem + "_truth.csv", truth));
+          files.Push(WrittenFileRecord(st.items[i].file_stem + ".csv", measured));
+          Json record = Json::Object();
+          record.Set("files", files).Set("integration", stats[i]);
+          records.Store(record_key(i), record);
         }
         std::lock_guard<std::mutex> lock(progress_mutex);
         const double elapsed =
@@ -265,6 +297,7 @@ int RunSimulate(int argc, char** argv, cluster::Cluster& job) {
   if (args.positional.size() != 1) {
     throw std::runtime_error("expected one SCENARIO.yaml argument (see --help)");
   }
+  cli::Threads(args, 1);  // checked before any work, also for a single scenario (one thread)
   const long seed = args.GetInt("seed", 1);
   if (seed < 0)
     throw std::runtime_error("option --seed: " + std::to_string(seed) + " is outside [0, 2^63)");
@@ -275,7 +308,7 @@ int RunSimulate(int argc, char** argv, cluster::Cluster& job) {
   }
   Scenario sc = LoadScenario(args.positional[0]);
   sc.trial.seed = static_cast<std::uint64_t>(seed);
-  const std::string out = args.Get("out", "out/" + sc.name);
+  const std::string out = cli::OutPath(args, "out", "out/" + sc.name);
   if (sc.reaching) return RunReaching(sc, out, seed);
 
   const auto t0 = std::chrono::steady_clock::now();

@@ -83,6 +83,27 @@ std::string HashAndFormat(Trial* t) {
   return FormatTrialCsv(*t);
 }
 
+/// Reads a cached trial back and checks it is the one written: its `trial_hash` metadata is the
+/// hash of its contents without it (FormatTrialCsv of what ReadTrialCsv returns is the bytes
+/// written), so a file truncated at a row boundary or edited since is caught. "" when intact,
+/// else why not.
+std::string ReadIntactTrial(const std::string& path, Trial* out) {
+  try {
+    *out = ReadTrialCsv(path);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  Trial t = *out;
+  const auto it = t.metadata.find("trial_hash");
+  if (it == t.metadata.end()) return path + ": no trial_hash";
+  const std::string recorded = it->second;
+  t.metadata.erase("trial_hash");
+  if (Fnv1a64Hex(FormatTrialCsv(t)) != recorded) {
+    return path + ": contents differ from what was written (trial_hash " + recorded + ")";
+  }
+  return "";
+}
+
 }  // namespace
 
 namespace {
@@ -289,10 +310,17 @@ StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
   loop.Run(st.name + " trial", n, [&](std::size_t i) {
     const StudyItem& item = st.items[i];
     const std::string stem = dir + "/" + item.file_stem;
-    if (RegularFileExists(stem + ".csv") && RegularFileExists(stem + "_truth.csv")) {
-      out.measured[i] = ReadTrialCsv(stem + ".csv");
-      out.truth[i] = ReadTrialCsv(stem + "_truth.csv");
-    } else {
+    bool cached = RegularFileExists(stem + ".csv") && RegularFileExists(stem + "_truth.csv");
+    if (cached) {
+      // A damaged file (truncated, edited) is named and its trial simulated again.
+      std::string why = ReadIntactTrial(stem + ".csv", &out.measured[i]);
+      if (why.empty()) why = ReadIntactTrial(stem + "_truth.csv", &out.truth[i]);
+      if (!why.empty()) {
+        std::fprintf(stderr, "\nfesim benchmark: %s; trial simulated again\n", why.c_str());
+        cached = false;
+      }
+    }
+    if (!cached) {
       sim::TrialRequest req = item.scenario.trial;
       req.seed = item.noise_seed;
       req.name = item.file_stem;

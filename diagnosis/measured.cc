@@ -6,6 +6,8 @@
 #include <set>
 #include <stdexcept>
 
+#include "identification/method_support.h"
+
 namespace fesim::diagnosis {
 namespace {
 
@@ -81,69 +83,6 @@ void Validate(const sim::ModelParams& rig, const std::vector<Trial>& measured,
   if (channels->empty()) throw std::runtime_error("diagnose: no trial stimulates any channel");
 }
 
-/// The rows of `trial` that belong to its outputs' sensor. A measured record's time column is the
-/// union of its sensors' grids. A row with a finite q.* output belongs to it. A row without one
-/// belongs to another sensor when another measured column (not an input u.*) is finite there;
-/// otherwise it is a tracker dropout — kept (its NaN samples do not count in the fit, and dropping
-/// it would make the sampling look non-uniform) — when it lies on the outputs' grid, continued
-/// from the last output row by the median step between output rows within a quarter step (the
-/// median is the sampling step while dropouts are the minority), and an input-only
-/// row of a faster input log when it does not. The grid is continued locally from the last output
-/// row, so rounded or jittered time stamps do not drift off it (a grid from the first row and the
-/// smallest rounded step lost most rows of a 60 Hz tracker log written to 4 decimals).
-Trial OutputRows(const Trial& trial, const std::vector<std::string>& outputs) {
-  const std::size_t n = trial.size();
-  std::vector<char> output(n, 0), other(n, 0);
-  for (std::size_t k = 0; k < trial.names.size(); ++k) {
-    const bool is_output =
-        std::find(outputs.begin(), outputs.end(), trial.names[k]) != outputs.end();
-    const bool is_input = trial.names[k].rfind("u.", 0) == 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!std::isfinite(trial.columns[k][i])) continue;
-      if (is_output)
-        output[i] = 1;
-      else if (!is_input)
-        other[i] = 1;
-    }
-  }
-  std::vector<double> steps;
-  long last = -1;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!output[i]) continue;
-    if (last >= 0) steps.push_back(trial.time[i] - trial.time[last]);
-    last = static_cast<long>(i);
-  }
-  double step = 0.0;
-  if (!steps.empty()) {
-    std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
-    step = steps[steps.size() / 2];
-  }
-  std::vector<std::size_t> rows;
-  double last_time = NAN;
-  for (std::size_t i = 0; i < n; ++i) {
-    bool keep = output[i] != 0;
-    if (!keep && !other[i]) {
-      const double k =
-          step > 0.0 && std::isfinite(last_time) ? (trial.time[i] - last_time) / step : 1.0;
-      keep = std::round(k) >= 1.0 && std::abs(k - std::round(k)) <= 0.25;
-    }
-    if (!keep) continue;
-    rows.push_back(i);
-    last_time = trial.time[i];
-  }
-  if (rows.size() == n) return trial;
-  Trial out;
-  out.metadata = trial.metadata;
-  for (std::size_t i : rows) out.time.push_back(trial.time[i]);
-  for (std::size_t k = 0; k < trial.names.size(); ++k) {
-    std::vector<double> col;
-    col.reserve(rows.size());
-    for (std::size_t i : rows) col.push_back(trial.columns[k][i]);
-    out.AddColumn(trial.names[k], std::move(col));
-  }
-  return out;
-}
-
 }  // namespace
 
 bool IsUniformlySampled(const std::vector<double>& time) {
@@ -205,7 +144,9 @@ MeasuredData PrepareMeasured(const sim::ModelParams& rig, const std::vector<Tria
   std::vector<Trial> trials;
   trials.reserve(measured.size());
   for (std::size_t k = 0; k < measured.size(); ++k) {
-    trials.push_back(OutputRows(measured[k], measured[k].NamesWithPrefix("q.")));
+    // The rows of the outputs' sensor and its dropouts on its grid (a measured record's time
+    // column is the union of its sensors' grids); the rule `fesim identify` uses.
+    trials.push_back(identification::SensorRows(measured[k], measured[k].NamesWithPrefix("q.")));
     if (!IsUniformlySampled(trials.back().time)) {
       const std::size_t before = trials.back().size();
       trials.back() = ResampleToUniform(trials.back(), Label(measured[k], k));

@@ -147,14 +147,21 @@ FilterLanes PairFilters(const JointFilter& f0, const JointFilter& f1) {
 /// allowed when both lanes are the same filter. Each lane does the scalar recursion's operations
 /// in the same order, so the results equal a one-joint-at-a-time loop's bit for bit; the pair
 /// halves the instructions of this throughput-bound loop (≈ 43 % of the dynamic step before).
+///
+/// kWeighted: each residual is multiplied by the sample's weight w_l[k], 1 for a measured sample
+/// and 0 for a missing one (its ỹ stored as 0), so a missing sample is not in the loss. Records
+/// without missing samples run the unweighted loop (the same bits as before weights existed).
+template <bool kWeighted>
 void SimulatePair(const FilterLanes& c, const double* z0, const double* z1, const double* y0,
-                  const double* y1, Eigen::Index N, double* out0, double* out1) {
+                  const double* y1, const double* w0, const double* w1, Eigen::Index N,
+                  double* out0, double* out1) {
   if (N <= 0) return;
   Lanes2 x1 = {z0[0], z1[0]}, x2 = x1, x3 = x1;
   for (Eigen::Index k = 0; k < N; ++k) {
     const Lanes2 z = {z0[k], z1[k]};
     const Lanes2 y = {y0[k], y1[k]};
-    const Lanes2 o = y - (c.c2 * x2 + c.c3 * x3);
+    Lanes2 o = y - (c.c2 * x2 + c.c3 * x3);
+    if constexpr (kWeighted) o *= Lanes2{w0[k], w1[k]};
     out0[k] = o[0];
     out1[k] = o[1];
     const Lanes2 n1 = c.a11 * x1 + c.b1 * z;
@@ -176,8 +183,9 @@ struct DifferenceSums {
 /// SimulatePair with both lanes on one joint's z and ỹ (two perturbed parameter sets), fused with
 /// the normal-equation sums of the differences d_l(k) = out_l(k) − r(k) from the unperturbed
 /// residual r: nothing is stored, and the sums fill the recursion's latency-bound loop.
+template <bool kWeighted>
 DifferenceSums SimulatePairDifferences(const FilterLanes& c, const double* z, const double* yt,
-                                       const double* r, Eigen::Index N) {
+                                       const double* w, const double* r, Eigen::Index N) {
   DifferenceSums out;
   if (N <= 0) return out;
   Lanes2 x1 = {z[0], z[0]}, x2 = x1, x3 = x1;
@@ -186,7 +194,8 @@ DifferenceSums SimulatePairDifferences(const FilterLanes& c, const double* z, co
   for (Eigen::Index k = 0; k < N; ++k) {
     const Lanes2 zk = {z[k], z[k]};
     const Lanes2 rk = {r[k], r[k]};
-    const Lanes2 d = (Lanes2{yt[k], yt[k]} - (c.c2 * x2 + c.c3 * x3)) - rk;
+    Lanes2 d = (Lanes2{yt[k], yt[k]} - (c.c2 * x2 + c.c3 * x3)) - rk;
+    if constexpr (kWeighted) d *= Lanes2{w[k], w[k]};  // (r is 0 at a missing sample)
     dd += d * d;
     db += d * rk;
     d01 += d[0] * d[1];
@@ -249,9 +258,11 @@ struct SensitivitySums {
 /// SimulatePair (the residuals, bit for bit: the same filter coefficients and operations) fused
 /// with the propagation of the sensitivity states v, u and the sums of SensitivitySums, one
 /// chain per lane (out0 == out1 allowed when both lanes are the same chain).
+template <bool kWeighted>
 void SimulatePairSensitivities(const SensitivityLanes& c, const double* z0, const double* z1,
-                               const double* y0, const double* y1, Eigen::Index N, double* out0,
-                               double* out1, SensitivitySums* s0, SensitivitySums* s1) {
+                               const double* y0, const double* y1, const double* w0,
+                               const double* w1, Eigen::Index N, double* out0, double* out1,
+                               SensitivitySums* s0, SensitivitySums* s1) {
   *s0 = {};
   *s1 = {};
   if (N <= 0) return;
@@ -262,11 +273,17 @@ void SimulatePairSensitivities(const SensitivityLanes& c, const double* z0, cons
     const Lanes2 z = {z0[k], z1[k]};
     const Lanes2 y = {y0[k], y1[k]};
     const Lanes2 yhat = c.c2 * x2 + c.c3 * x3;
-    const Lanes2 o = y - yhat;
+    Lanes2 o = y - yhat;
+    Lanes2 a = yhat - v;
+    Lanes2 b = yhat - u;
+    if constexpr (kWeighted) {  // a missing sample: no residual, no Jacobian row
+      const Lanes2 w = {w0[k], w1[k]};
+      o *= w;
+      a *= w;
+      b *= w;
+    }
     out0[k] = o[0];
     out1[k] = o[1];
-    const Lanes2 a = yhat - v;
-    const Lanes2 b = yhat - u;
     aa += a * a;
     bb += b * b;
     ab += a * b;
@@ -295,10 +312,18 @@ class DynamicProblem {
   DynamicProblem(const std::vector<MimoTrialData>& trials, const HammersteinMimoParams& p)
       : q_(p.d_rad.rows()) {
     const auto phi = SigmoidsFromCutoffs(p.psi);
+    bool missing = false;
+    for (const auto& t : trials) missing = missing || !t.y_rad.allFinite();
     for (const auto& t : trials) {
       Z_.emplace_back(ActivationMatrix(phi, t.u_us) * p.d_rad.transpose());
       Yt_.emplace_back((-t.y_rad).rowwise() + p.rest_rad.transpose());
       n_res_ += t.u_us.rows() * q_;
+      if (missing) {  // weights 1 (measured) / 0 (missing, its ỹ stored as 0)
+        const Eigen::MatrixXd w = t.y_rad.array().isFinite().cast<double>();
+        Yt_.back() = (w.array() > 0.0).select(Yt_.back(), 0.0);
+        W_.push_back(w);
+      }
+      measured_ += static_cast<Eigen::Index>(t.y_rad.array().isFinite().count());
     }
     rows_per_joint_ = n_res_ / std::max<Eigen::Index>(q_, 1);
     // One chain per (trial, joint); consecutive chains of equal length run in pairs, one per
@@ -318,6 +343,8 @@ class DynamicProblem {
   }
 
   Eigen::Index residuals() const { return n_res_; }
+  /// The residuals of measured samples (those of missing ones are 0).
+  Eigen::Index measured() const { return measured_; }
 
   /// r(Θ), Θ = [Ω, μ_1 … μ_q].
   Eigen::VectorXd Residual(const Eigen::VectorXd& theta) const {
@@ -329,9 +356,14 @@ class DynamicProblem {
     }
     Eigen::VectorXd r(n_res_);
     ForEachPair([&](const Chain& a, const Chain& b, Eigen::Index N) {
-      SimulatePair(PairFilters(f[a.filter], f[b.filter]), Z_[a.trial].col(a.joint).data(),
-                   Z_[b.trial].col(b.joint).data(), Yt_[a.trial].col(a.joint).data(),
-                   Yt_[b.trial].col(b.joint).data(), N, r.data() + a.offset, r.data() + b.offset);
+      const auto run = [&](auto weighted) {
+        SimulatePair<decltype(weighted)::value>(
+            PairFilters(f[a.filter], f[b.filter]), Z_[a.trial].col(a.joint).data(),
+            Z_[b.trial].col(b.joint).data(), Yt_[a.trial].col(a.joint).data(),
+            Yt_[b.trial].col(b.joint).data(), Weights(a), Weights(b), N, r.data() + a.offset,
+            r.data() + b.offset);
+      };
+      W_.empty() ? run(std::false_type{}) : run(std::true_type{});
     });
     return r;
   }
@@ -359,10 +391,14 @@ class DynamicProblem {
     };
     ForEachPair([&](const Chain& a, const Chain& b, Eigen::Index N) {
       SensitivitySums sa, sb;
-      SimulatePairSensitivities(PairSensitivities(f[a.filter], f[b.filter]),
-                                Z_[a.trial].col(a.joint).data(), Z_[b.trial].col(b.joint).data(),
-                                Yt_[a.trial].col(a.joint).data(), Yt_[b.trial].col(b.joint).data(),
-                                N, r.data() + a.offset, r.data() + b.offset, &sa, &sb);
+      const auto run = [&](auto weighted) {
+        SimulatePairSensitivities<decltype(weighted)::value>(
+            PairSensitivities(f[a.filter], f[b.filter]), Z_[a.trial].col(a.joint).data(),
+            Z_[b.trial].col(b.joint).data(), Yt_[a.trial].col(a.joint).data(),
+            Yt_[b.trial].col(b.joint).data(), Weights(a), Weights(b), N, r.data() + a.offset,
+            r.data() + b.offset, &sa, &sb);
+      };
+      W_.empty() ? run(std::false_type{}) : run(std::true_type{});
       add(a, sa);
       if (&a != &b) add(b, sb);
     });
@@ -384,11 +420,16 @@ class DynamicProblem {
     jtr->setZero(q_ + 1);
     for (const Chain& c : chains_) {
       const Eigen::Index i = c.joint;
-      const DifferenceSums d = SimulatePairDifferences(
+      const FilterLanes lanes =
           PairFilters(DiscretiseJointDynamics(theta(0) + h0, theta(1 + i), c.period_s),
-                      DiscretiseJointDynamics(theta(0), theta(1 + i) + h(i), c.period_s)),
-          Z_[c.trial].col(i).data(), Yt_[c.trial].col(i).data(), r0.data() + c.offset,
-          Z_[c.trial].rows());
+                      DiscretiseJointDynamics(theta(0), theta(1 + i) + h(i), c.period_s));
+      const DifferenceSums d =
+          W_.empty() ? SimulatePairDifferences<false>(lanes, Z_[c.trial].col(i).data(),
+                                                      Yt_[c.trial].col(i).data(), nullptr,
+                                                      r0.data() + c.offset, Z_[c.trial].rows())
+                     : SimulatePairDifferences<true>(lanes, Z_[c.trial].col(i).data(),
+                                                     Yt_[c.trial].col(i).data(), Weights(c),
+                                                     r0.data() + c.offset, Z_[c.trial].rows());
       (*jtj)(0, 0) += d.dd0 / (h0 * h0);
       (*jtj)(0, 1 + i) += d.d01 / (h0 * h(i));
       (*jtj)(1 + i, 1 + i) += d.dd1 / (h(i) * h(i));
@@ -406,6 +447,11 @@ class DynamicProblem {
     double period_s;     // T
   };
 
+  /// The weights of a chain's samples (nullptr when no trial has a missing sample).
+  const double* Weights(const Chain& c) const {
+    return W_.empty() ? nullptr : W_[c.trial].col(c.joint).data();
+  }
+
   template <typename F>
   void ForEachPair(const F& f) const {
     for (std::size_t c = 0; c < chains_.size();) {
@@ -419,7 +465,8 @@ class DynamicProblem {
 
   Eigen::Index q_;
   std::vector<Eigen::MatrixXd> Z_, Yt_;  // ẑ of eq. (43) and ỹ, fixed during the search
-  Eigen::Index n_res_ = 0, rows_per_joint_ = 0;
+  std::vector<Eigen::MatrixXd> W_;       // sample weights when some output sample is missing
+  Eigen::Index n_res_ = 0, rows_per_joint_ = 0, measured_ = 0;
   std::vector<double> periods_;
   std::vector<Chain> chains_;
 };
@@ -566,8 +613,23 @@ SteadyStateSet ExtractSteadyState(const std::vector<MimoTrialData>& trials, doub
       const Eigen::Index len = k - start;
       if (len >= min_len) {
         const Eigen::Index w = std::min<Eigen::Index>(win, len);
-        us.emplace_back(t.u_us.row(start).transpose());
-        ys.emplace_back(t.y_rad.middleRows(k - w, w).colwise().mean().transpose());
+        const auto window = t.y_rad.middleRows(k - w, w);
+        if (window.allFinite()) {
+          us.emplace_back(t.u_us.row(start).transpose());
+          ys.emplace_back(window.colwise().mean().transpose());
+        } else {
+          // Missing samples (NaN): the mean of the measured ones, per output; a step whose
+          // window misses an output entirely gives no steady-state point.
+          const Eigen::ArrayXXd measured = window.array().isFinite().cast<double>();
+          const Eigen::ArrayXd count = measured.colwise().sum().transpose();
+          if ((count > 0.0).all()) {
+            us.emplace_back(t.u_us.row(start).transpose());
+            ys.emplace_back(
+                (window.array().isFinite().select(window, 0.0).colwise().sum().transpose().array() /
+                 count)
+                    .matrix());
+          }
+        }
       }
       start = k;
     }
@@ -689,7 +751,6 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
   const auto t0 = Clock::now();
   const Eigen::Index q = fit->params.d_rad.rows();
   const DynamicProblem problem(trials, fit->params);
-  const Eigen::Index n_res = problem.residuals();
   const bool exact = options.dynamic_jacobian == DynamicJacobian::kExactSensitivities;
   // Exact path: every residual evaluation also propagates the sensitivities and keeps JᵀJ, Jᵀr
   // for its Θ. LevenbergMarquardt asks for the normal equations only at the point it evaluated
@@ -750,7 +811,7 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
   fit->params.omega_rad_s = best.x(0);
   fit->params.mu_s = best.x.tail(q);
   fit->dynamic_cost = best.cost;
-  fit->theta_ci95 = ConfidenceHalfWidths95(best.jtj, best.cost, n_res);
+  fit->theta_ci95 = ConfidenceHalfWidths95(best.jtj, best.cost, problem.measured());
   fit->total_wall_s += Seconds(t0);
 }
 
@@ -770,8 +831,16 @@ HammersteinMimoFit FitHammersteinMimo(const std::vector<MimoTrialData>& trials,
       ++zeros;
     }
   }
-  rest = zeros > 0 ? Eigen::VectorXd(rest / zeros)
-                   : Eigen::VectorXd(trials[0].y_rad.row(0).transpose());
+  if (zeros > 0) {
+    rest /= zeros;
+  } else {  // the first measured sample of each output
+    const Eigen::MatrixXd& y0 = trials[0].y_rad;
+    for (Eigen::Index i = 0; i < q; ++i) {
+      Eigen::Index k = 0;
+      while (k + 1 < y0.rows() && !std::isfinite(y0(k, i))) ++k;
+      rest(i) = y0(k, i);
+    }
+  }
   HammersteinMimoFit fit = FitHammersteinStatic(set, rest, options);
   FitHammersteinDynamic(trials, options, &fit);
   return fit;
@@ -789,7 +858,17 @@ MimoTrialData ReadMimo(const Trial& trial, const MimoColumns& cols, const std::s
   MimoTrialData d;
   d.sample_period_s = UniformSamplePeriod(trial, label);
   d.u_us = RequireColumns(trial, cols.inputs, label);
-  d.y_rad = RequireColumns(trial, cols.outputs, label);
+  // Output samples may be missing (tracker dropouts, NaN): the dynamic step leaves them out of
+  // its loss, the static step averages the measured ones.
+  d.y_rad.resize(d.u_us.rows(), static_cast<Eigen::Index>(cols.outputs.size()));
+  for (std::size_t i = 0; i < cols.outputs.size(); ++i) {
+    std::size_t missing = 0;
+    d.y_rad.col(static_cast<Eigen::Index>(i)) =
+        OutputColumn(trial, cols.outputs[i], label, &missing);
+    if (missing == static_cast<std::size_t>(d.y_rad.rows())) {
+      throw std::runtime_error(label + ": column " + cols.outputs[i] + " has no measured sample");
+    }
+  }
   if ((d.u_us.array() < 0.0).any() || (d.u_us.array() > 300.0).any()) {
     throw std::runtime_error(label + ": u.* pulse widths must lie in [0, 300] us");
   }
@@ -806,8 +885,10 @@ struct MimoFitted {
   std::vector<std::string> warnings;
 };
 
-MimoFitted FitMimoOnTrials(const std::vector<Trial>& train, const ProgressFn& progress) {
-  if (train.empty()) throw std::runtime_error("--train: no trials");
+MimoFitted FitMimoOnTrials(const std::vector<Trial>& train_rows, const ProgressFn& progress) {
+  if (train_rows.empty()) throw std::runtime_error("--train: no trials");
+  // The rows of the angle sensor (a hand-rig record interleaves other sensors' rows).
+  const std::vector<Trial> train = SensorRows(train_rows, train_rows[0].NamesWithPrefix("q."));
   MimoColumns cols{train[0].NamesWithPrefix("u."), train[0].NamesWithPrefix("q.")};
   if (cols.inputs.empty()) throw std::runtime_error("train trial 0: no u.* input column");
   if (cols.outputs.empty()) throw std::runtime_error("train trial 0: no q.* output column");
@@ -887,8 +968,12 @@ MimoFitted FitMimoOnTrials(const std::vector<Trial>& train, const ProgressFn& pr
   return {cols, set, fit, y, warnings};
 }
 
-MethodResult RunHammersteinMimo(const std::vector<Trial>& train, const std::vector<Trial>& test,
-                                const ProgressFn& progress) {
+MethodResult RunHammersteinMimo(const std::vector<Trial>& train_rows,
+                                const std::vector<Trial>& test_rows, const ProgressFn& progress) {
+  if (train_rows.empty()) throw std::runtime_error("--train: no trials");
+  const std::vector<std::string> outputs = train_rows[0].NamesWithPrefix("q.");
+  const std::vector<Trial> train = SensorRows(train_rows, outputs);
+  const std::vector<Trial> test = SensorRows(test_rows, outputs);
   const MimoFitted fitted = FitMimoOnTrials(train, progress);
   const MimoColumns& cols = fitted.cols;
   const SteadyStateSet& set = fitted.set;
@@ -917,14 +1002,19 @@ MethodResult RunHammersteinMimo(const std::vector<Trial>& train, const std::vect
     pred.time = eval[t].time;
     for (int k = 0; k < n; ++k) pred.AddColumn(cols.inputs[k], eval[t].Column(cols.inputs[k]));
     for (int i = 0; i < q; ++i) {
-      const std::vector<double> yv(d.y_rad.col(i).data(), d.y_rad.col(i).data() + d.y_rad.rows());
+      std::vector<double> yv(d.y_rad.col(i).data(), d.y_rad.col(i).data() + d.y_rad.rows());
       std::vector<double> yh(yhat.col(i).data(), yhat.col(i).data() + yhat.rows());
+      // The metrics are over the measured samples; the prediction covers every row.
+      std::vector<double> yhm = yh;
+      const std::size_t all = yv.size();
+      KeepMeasuredPairs(&yv, &yhm);
       Json jf = Json::Object();
-      jf.Set("best_fit_percent", BestFitPercent(yv, yh));
-      const double ne = NormalisedError(yv, yh);
+      jf.Set("best_fit_percent", BestFitPercent(yv, yhm));
+      const double ne = NormalisedError(yv, yhm);
       jf.Set("normalised_error", ne);
       ne_sum[static_cast<std::size_t>(i)] += ne;
-      jf.Set("rms_rad", Rms(yv, yh));
+      jf.Set("rms_rad", Rms(yv, yhm));
+      jf.Set("missing_samples", static_cast<double>(all - yv.size()));
       joints.Set(cols.outputs[i], jf);
       pred.AddColumn(cols.outputs[i], std::move(yh));
     }
@@ -952,6 +1042,13 @@ MethodResult RunHammersteinMimo(const std::vector<Trial>& train, const std::vect
   m.Set("prediction", "simulation from the steady state of the first input (not one-step-ahead)");
   m.Set("steady_state_points", static_cast<int>(set.u_us.rows()));
   m.Set(has_test ? "test" : "train", fits);
+  std::size_t train_missing = 0;
+  for (const Trial& t : train) {
+    for (const auto& y : cols.outputs) {
+      for (double v : t.Column(y)) train_missing += std::isfinite(v) ? 0 : 1;
+    }
+  }
+  m.Set("train_missing_samples", static_cast<double>(train_missing));
   m.Set("mean_normalised_error", mean_ne);
   m.Set("static_cost_rad2", fit.static_cost);
   m.Set("dynamic_cost_rad2", fit.dynamic_cost);

@@ -19,9 +19,49 @@ namespace fesim::identification {
 Eigen::MatrixXd RequireColumns(const Trial& trial, const std::vector<std::string>& names,
                                const std::string& label);
 
-/// Sampling period, s, of a uniformly sampled trial (relative jitter ≤ 1e-6, else
-/// std::runtime_error naming `label`). Needs ≥ 2 samples.
+/// The output column `name` of `trial`; NaN samples (tracker dropouts) are kept and counted in
+/// *missing. Throws std::runtime_error naming the trial and column when it is absent.
+Eigen::VectorXd OutputColumn(const Trial& trial, const std::string& name, const std::string& label,
+                             std::size_t* missing);
+
+/// Keeps the pairs (y_i, ŷ_i) whose measured y_i is finite: the fit metrics of a record with
+/// missing samples are over the samples it has.
+void KeepMeasuredPairs(std::vector<double>* y, std::vector<double>* yhat);
+
+/// Tolerance of a time stamp about the uniform grid t_0 + i T, as a fraction of T: rounded
+/// (a 60 Hz log written to 4 decimals is off by ≤ 0.3 %) or jittered tracker time stamps pass,
+/// a missing or doubled row does not.
+inline constexpr double kTimeStampTolerance = 0.25;
+
+/// The rows of `trial` that belong to the sensor of the `needed` columns. A measured record's
+/// time column is the union of its sensors' grids (`fesim simulate` on the hand rig interleaves
+/// 60 Hz angle rows with 100 Hz torque rows, NaN where a sensor did not sample): a row where some
+/// needed column is finite is kept; one where none is but another measured column (not an input
+/// u.*) is belongs to another sensor and is dropped; one where no measured column is finite is a
+/// dropout of this sensor, kept, when it lies on the sensor's grid (continued from the last kept
+/// row by the median step between rows with a needed value, within kTimeStampTolerance of a
+/// step), and dropped otherwise. Returns a copy of `trial` when every row is kept.
+Trial SensorRows(const Trial& trial, const std::vector<std::string>& needed);
+/// SensorRows of each trial.
+std::vector<Trial> SensorRows(const std::vector<Trial>& trials,
+                              const std::vector<std::string>& needed);
+
+/// Plausible sample periods of a measured trial, s: 10 µs (100 kHz) to 1 s (1 Hz). A record
+/// outside them has its time column in other units (ms) or is not a sensor log.
+inline constexpr double kMinSamplePeriodS = 1e-5;
+inline constexpr double kMaxSamplePeriodS = 1.0;
+
+/// Sampling period T, s, of a uniformly sampled trial: (t_last − t_0)/(N − 1). Throws
+/// std::runtime_error naming `label` (and the trial's file, its `source` metadata) and column
+/// time when T is outside [kMinSamplePeriodS, kMaxSamplePeriodS] or a time stamp is off its grid
+/// point t_0 + i T by more than kTimeStampTolerance·T. Needs ≥ 2 samples.
 double UniformSamplePeriod(const Trial& trial, const std::string& label);
+
+/// Throws std::runtime_error naming `what` (e.g. "train") and the column when `column` holds the
+/// same value in every finite sample of every trial: nothing to identify, and the fit would stop
+/// at a rank-deficient regressor matrix without saying why.
+void RequireVaryingOutput(const std::vector<Trial>& trials, const std::string& column,
+                          const std::string& what);
 
 /// Throws std::runtime_error unless `trial` has at least `min_samples` samples.
 void RequireSamples(const Trial& trial, std::size_t min_samples, const std::string& label,
@@ -84,7 +124,8 @@ Eigen::VectorXd FilterBA(const Eigen::VectorXd& b, const Eigen::VectorXd& a, int
                          const Eigen::VectorXd& x);
 
 /// Ordinary least squares min ‖Φθ − Y‖ with 95 % half-widths 1.96 √diag(σ²(ΦᵀΦ)⁻¹),
-/// σ² = ‖r‖²/(N − p) (conditional on any other parameter block held fixed).
+/// σ² = ‖r‖²/(N − p) (conditional on any other parameter block held fixed). Rows holding a NaN
+/// (in Y or Φ: a missing output sample or one of its lags) are left out; N counts the others.
 struct LinearLsResult {
   Eigen::VectorXd theta;
   Eigen::VectorXd ci95_half_width;

@@ -46,10 +46,16 @@ Eigen::VectorXd SplineValues(const Eigen::VectorXd& knots, const Eigen::VectorXd
 
 int FirstRow(const SplineOrders& o) { return std::max(o.poles_l, o.zeros_n + o.delay_d); }
 
+/// Σ y² over the measured (finite) samples.
 double SumSquares(const SisoData& data) {
   double s = 0.0;
-  for (const auto& y : data.y) s += y.squaredNorm();
+  for (const auto& y : data.y) s += y.array().isFinite().select(y, 0.0).squaredNorm();
   return s;
+}
+
+/// ‖e‖² over the finite entries: a residual of a missing output sample (NaN) is left out.
+double SquaredNormOfMeasured(const Eigen::VectorXd& e) {
+  return e.array().isFinite().select(e, 0.0).squaredNorm();
 }
 
 void Normalise(SplineHammersteinModel* m) {
@@ -250,7 +256,7 @@ double SplineArxCost(const SisoData& data, const SplineHammersteinModel& model) 
     for (int j = 0; j <= o.zeros_n; ++j) {
       e -= model.linear.b(j) * fu.segment(k0 - o.delay_d - j, N);
     }
-    v += e.squaredNorm();
+    v += SquaredNormOfMeasured(e);
   }
   return v;
 }
@@ -258,7 +264,7 @@ double SplineArxCost(const SisoData& data, const SplineHammersteinModel& model) 
 double SplineOeCost(const SisoData& data, const SplineHammersteinModel& model) {
   double v = 0.0;
   for (std::size_t t = 0; t < data.y.size(); ++t) {
-    v += (data.y[t] - SimulateSplineHammerstein(model, data.u_us[t])).squaredNorm();
+    v += SquaredNormOfMeasured(data.y[t] - SimulateSplineHammerstein(model, data.u_us[t]));
   }
   return v;
 }
@@ -318,8 +324,11 @@ SplineFitReport FitSplineOe(const SisoData& data, const Eigen::VectorXd& knots_u
   const ThetaAProblem bounds = ThetaABounds(o);
   // Start inside the stability box (a start outside it would be projected by the first LM step).
   m.linear.a = m.linear.a.cwiseMax(bounds.lower).cwiseMin(bounds.upper);
-  Eigen::Index n_res = 0;
-  for (const auto& y : data.y) n_res += y.size();
+  Eigen::Index n_res = 0, n_measured = 0;
+  for (const auto& y : data.y) {
+    n_res += y.size();
+    n_measured += y.array().isFinite().count();
+  }
   const double scale = SumSquares(data);
   double v_prev = std::numeric_limits<double>::infinity();
   LmResult lm;
@@ -336,6 +345,9 @@ SplineFitReport FitSplineOe(const SisoData& data, const Eigen::VectorXd& knots_u
         const Eigen::Index N = data.y[t].size();
         r.segment(k, N) = data.y[t] - FilterBA(g.theta, a, o.delay_d, fu[t]);
         k += N;
+      }
+      for (Eigen::Index i = 0; i < r.size(); ++i) {
+        if (!std::isfinite(r(i))) r(i) = 0.0;  // a missing output sample is not in the loss
       }
       return r;
     };
@@ -364,7 +376,7 @@ SplineFitReport FitSplineOe(const SisoData& data, const Eigen::VectorXd& knots_u
   for (const auto& u : data.u_us) fu.push_back(SplineValues(knots_us, m.beta, u));
   rep.b_ci95 = OeNumeratorStep(data, fu, o, m.linear.a).ci95_half_width;
   // θ_a: the LM Jacobian at the last step (scale-invariant: a is unaffected by normalisation).
-  rep.a_ci95 = ConfidenceHalfWidths95(lm.jtj, lm.cost, n_res);
+  rep.a_ci95 = ConfidenceHalfWidths95(lm.jtj, lm.cost, n_measured);
   rep.wall_s = Seconds(t0);
   return rep;
 }
@@ -400,14 +412,19 @@ SisoColumns PickColumns(const Trial& trial, const std::string& label) {
 /// zero initial conditions are relative to); 0 when the input starts non-zero.
 double InitialBaseline(const Eigen::VectorXd& u_us, const Eigen::VectorXd& y) {
   double base = 0.0;
-  Eigen::Index n = 0;
-  while (n < u_us.size() && u_us(n) == 0.0) base += y(n++);
-  return n > 0 ? base / static_cast<double>(n) : 0.0;
+  Eigen::Index n = 0, measured = 0;
+  for (; n < u_us.size() && u_us(n) == 0.0; ++n) {
+    if (!std::isfinite(y(n))) continue;  // a missing sample
+    base += y(n);
+    ++measured;
+  }
+  return measured > 0 ? base / static_cast<double>(measured) : 0.0;
 }
 
 struct Prepared {
   SisoData data;
   std::vector<double> baselines;
+  std::vector<std::size_t> missing;  ///< missing (NaN) output samples per trial.
 };
 
 Prepared Prepare(const std::vector<Trial>& trials, const SisoColumns& cols, const std::string& what,
@@ -419,14 +436,22 @@ Prepared Prepare(const std::vector<Trial>& trials, const SisoColumns& cols, cons
                    "orders and spline knots");
     const double T = UniformSamplePeriod(trials[t], label);
     if (t == 0) p.data.sample_period_s = T;
-    if (std::abs(T - p.data.sample_period_s) > 1e-6 * T) {
+    if (std::abs(T - p.data.sample_period_s) > 1e-3 * T) {
       throw std::runtime_error(label + ": sample period differs from trial 0");
     }
-    const Eigen::MatrixXd uy = RequireColumns(trials[t], {cols.input, cols.output}, label);
-    const double base = InitialBaseline(uy.col(0), uy.col(1));
+    // Inputs must be complete; output samples may be missing (tracker dropouts, NaN): the
+    // equation-error rows touching them are dropped, the output-error loss skips them.
+    const Eigen::MatrixXd u = RequireColumns(trials[t], {cols.input}, label);
+    std::size_t missing = 0;
+    const Eigen::VectorXd y = OutputColumn(trials[t], cols.output, label, &missing);
+    if (missing == static_cast<std::size_t>(y.size())) {
+      throw std::runtime_error(label + ": column " + cols.output + " has no measured sample");
+    }
+    const double base = InitialBaseline(u.col(0), y);
     p.baselines.push_back(base);
-    p.data.u_us.emplace_back(uy.col(0));
-    p.data.y.emplace_back(uy.col(1).array() - base);
+    p.missing.push_back(missing);
+    p.data.u_us.emplace_back(u.col(0));
+    p.data.y.emplace_back(y.array() - base);
   }
   return p;
 }
@@ -503,11 +528,14 @@ struct SplineFitted {
   MethodResult result;  ///< model_yaml and warnings filled.
 };
 
-SplineFitted FitSplineOnTrials(bool oe, const std::vector<Trial>& train,
+SplineFitted FitSplineOnTrials(bool oe, const std::vector<Trial>& train_rows,
                                const ProgressFn& progress) {
   const std::string method = oe ? "spline-oe" : "spline-arx";
-  if (train.empty()) throw std::runtime_error("--train: no trials");
-  const SisoColumns cols = PickColumns(train[0], "train trial 0");
+  if (train_rows.empty()) throw std::runtime_error("--train: no trials");
+  const SisoColumns cols = PickColumns(train_rows[0], "train trial 0");
+  // The rows of the output's sensor (a record may interleave other sensors' rows).
+  const std::vector<Trial> train = SensorRows(train_rows, {cols.output});
+  RequireVaryingOutput(train, cols.output, "train");
   const SplineOptions options = ReadOptions(train[0]);
   const SplineOrders& o = options.orders;
   const int min_samples = 4 * (o.poles_l + o.zeros_n + o.delay_d + o.knots_m + 2);
@@ -568,11 +596,13 @@ SplineFitted FitSplineOnTrials(bool oe, const std::vector<Trial>& train,
   return {cols, min_samples, tr, alg1, final_rep, metrics, result};
 }
 
-MethodResult RunSpline(bool oe, const std::vector<Trial>& train, const std::vector<Trial>& test,
-                       const ProgressFn& progress) {
+MethodResult RunSpline(bool oe, const std::vector<Trial>& train_rows,
+                       const std::vector<Trial>& test_rows, const ProgressFn& progress) {
   const std::string method = oe ? "spline-oe" : "spline-arx";
-  SplineFitted fitted = FitSplineOnTrials(oe, train, progress);
+  SplineFitted fitted = FitSplineOnTrials(oe, train_rows, progress);
   const SisoColumns& cols = fitted.cols;
+  const std::vector<Trial> train = SensorRows(train_rows, {cols.output});
+  const std::vector<Trial> test = SensorRows(test_rows, {cols.output});
   const int min_samples = fitted.min_samples;
   const Prepared& tr = fitted.tr;
   const SplineFitReport& alg1 = fitted.alg1;
@@ -588,18 +618,23 @@ MethodResult RunSpline(bool oe, const std::vector<Trial>& train, const std::vect
     const Eigen::VectorXd yhat =
         SimulateSplineHammerstein(final_rep.model, ev.data.u_us[t]).array() + ev.baselines[t];
     const Eigen::VectorXd y = ev.data.y[t].array() + ev.baselines[t];
-    std::vector<double> yv(y.data(), y.data() + y.size());
-    std::vector<double> yh(yhat.data(), yhat.data() + yhat.size());
+    const std::vector<double> yh(yhat.data(), yhat.data() + yhat.size());
+    // The metrics are over the measured samples; the prediction covers every row.
+    std::vector<double> yv(y.data(), y.data() + y.size()), yhv = yh;
+    KeepMeasuredPairs(&yv, &yhv);
     Json f = Json::Object();
     f.Set("trial", static_cast<int>(t));
-    f.Set("best_fit_percent", BestFitPercent(yv, yh));
-    f.Set("normalised_error", NormalisedError(yv, yh));
-    f.Set("rms", Rms(yv, yh));
+    f.Set("best_fit_percent", BestFitPercent(yv, yhv));
+    f.Set("normalised_error", NormalisedError(yv, yhv));
+    f.Set("rms", Rms(yv, yhv));
+    f.Set("missing_samples", static_cast<double>(ev.missing[t]));
     if (oe) {
       const Eigen::VectorXd y1 =
           SimulateSplineHammerstein(alg1.model, ev.data.u_us[t]).array() + ev.baselines[t];
-      f.Set("algorithm1_best_fit_percent",
-            BestFitPercent(yv, std::vector<double>(y1.data(), y1.data() + y1.size())));
+      std::vector<double> ym(y.data(), y.data() + y.size());
+      std::vector<double> y1v(y1.data(), y1.data() + y1.size());
+      KeepMeasuredPairs(&ym, &y1v);
+      f.Set("algorithm1_best_fit_percent", BestFitPercent(ym, y1v));
     }
     fits.Push(f);
     Trial pred;
@@ -611,6 +646,9 @@ MethodResult RunSpline(bool oe, const std::vector<Trial>& train, const std::vect
     result.predictions.push_back(std::move(pred));
   }
   metrics.Set(has_test ? "test" : "train", fits);
+  std::size_t train_missing = 0;
+  for (std::size_t m : tr.missing) train_missing += m;
+  metrics.Set("train_missing_samples", static_cast<double>(train_missing));
   metrics.Set("prediction", "simulation with zero initial conditions (not one-step-ahead)");
   result.metrics = metrics;
   if (progress) progress(1.0, "done");

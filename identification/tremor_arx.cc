@@ -12,6 +12,7 @@
 #include "identification/method_support.h"
 #include "identification/metrics.h"
 #include "identification/nnls.h"
+#include "identification/spectrum.h"
 
 namespace fesim::identification {
 namespace {
@@ -74,6 +75,21 @@ std::pair<double, double> SlopeMinimum(const Eigen::VectorXd& beta, double lo, d
 
 int FirstRow(const TremorOrders& o) { return std::max(o.poles_l, o.delay_m + o.zeros_n); }
 
+/// Leaves out the rows of a regression that touch a missing output sample (a NaN in Y or in Φ:
+/// the sample itself or one of its lags). Complete data are left as they are.
+void DropRowsWithMissingSamples(Eigen::MatrixXd* Phi, Eigen::VectorXd* Y) {
+  if (Y->allFinite() && Phi->allFinite()) return;
+  Eigen::Index n = 0;
+  for (Eigen::Index i = 0; i < Y->size(); ++i) {
+    if (!std::isfinite((*Y)(i)) || !Phi->row(i).allFinite()) continue;
+    Phi->row(n) = Phi->row(i);
+    (*Y)(n) = (*Y)(i);
+    ++n;
+  }
+  Phi->conservativeResize(n, Eigen::NoChange);
+  Y->conservativeResize(n);
+}
+
 struct Problem {
   const TremorData* data;
   TremorOrders o;
@@ -81,8 +97,27 @@ struct Problem {
   double omega;  // rad/sample; < 0 means no tremor regressors
   double s_min, s_max;
   int constraint_points;
-  std::vector<Eigen::VectorXd> s;  // normalised inputs
+  std::vector<Eigen::VectorXd> s;      // normalised inputs
+  std::vector<Eigen::MatrixXd> s_pow;  // s^0 … s^m per sample (rows of PolyRow), per trial
+  std::vector<Eigen::VectorXd> cos_wk, sin_wk;  // cos(ω k), sin(ω k) per trial when ω ≥ 0
 
+  /// Sets ω (rad/sample; < 0: no tremor regressors) and tabulates cos(ω k), sin(ω k), which
+  /// every iteration of Algorithm 1 needs.
+  void SetOmega(double w) {
+    omega = w;
+    cos_wk.clear();
+    sin_wk.clear();
+    if (w < 0.0) return;
+    for (const auto& y : data->y) {
+      Eigen::VectorXd c(y.size()), sn(y.size());
+      for (Eigen::Index k = 0; k < y.size(); ++k) {
+        c(k) = std::cos(w * k);
+        sn(k) = std::sin(w * k);
+      }
+      cos_wk.push_back(std::move(c));
+      sin_wk.push_back(std::move(sn));
+    }
+  }
   bool HasTremor() const { return omega >= 0.0; }
   int TremorCols() const { return HasTremor() ? 2 * static_cast<int>(data->y.size()) : 0; }
   Eigen::Index Rows() const {
@@ -92,13 +127,14 @@ struct Problem {
   }
   double Tremor(const Eigen::VectorXd& lam, std::size_t t, Eigen::Index k) const {
     if (!HasTremor()) return 0.0;
-    return lam(2 * t) * std::cos(omega * k) + lam(2 * t + 1) * std::sin(omega * k);
+    return lam(2 * t) * cos_wk[t](k) + lam(2 * t + 1) * sin_wk[t](k);
   }
 };
 
-/// θ_n of eq. (17) subject to h' ≥ 0 on [s_min, s_max] (grid + exact cutting planes).
+/// θ_n of eq. (17) subject to h' ≥ 0 on [s_min, s_max] (grid + exact cutting planes); the 95 %
+/// half-widths only `with_ci` (the iterations need θ_n alone).
 LinearLsResult NonlinearStep(const Problem& P, const Eigen::VectorXd& a, const Eigen::VectorXd& b,
-                             const Eigen::VectorXd& lam) {
+                             const Eigen::VectorXd& lam, bool with_ci) {
   const TremorOrders& o = P.o;
   const int k0 = FirstRow(o);
   const int m = o.poly_degree;
@@ -111,11 +147,16 @@ LinearLsResult NonlinearStep(const Problem& P, const Eigen::VectorXd& a, const E
       double yn = y(k);
       for (int i = 1; i <= o.poles_l; ++i) yn += a(i - 1) * y(k - i);
       Y(r) = yn - P.Tremor(lam, t, k);
-      Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(m + 1);
-      for (int j = 0; j <= o.zeros_n; ++j) row += b(j) * PolyRow(m, P.s[t](k - o.delay_m - j));
-      Phi.row(r) = row;
+    }
+    // Row k: Σ_j b_j PolyRow(s(k − m_P − j)), the same sums in the same order, per block.
+    const Eigen::Index rows = std::max<Eigen::Index>(0, y.size() - k0);
+    auto block = Phi.middleRows(r - rows, rows);
+    block.setZero();
+    for (int j = 0; j <= o.zeros_n; ++j) {
+      block += b(j) * P.s_pow[t].middleRows(k0 - o.delay_m - j, rows);
     }
   }
+  DropRowsWithMissingSamples(&Phi, &Y);
   std::vector<double> pts;
   pts.reserve(static_cast<std::size_t>(P.constraint_points));
   for (int g = 0; g < P.constraint_points; ++g) {
@@ -132,13 +173,12 @@ LinearLsResult NonlinearStep(const Problem& P, const Eigen::VectorXd& a, const E
     pts.push_back(at);
   }
   res.cost = (Phi * res.theta - Y).squaredNorm();
-  const Eigen::MatrixXd jtj = Phi.transpose() * Phi;
-  res.ci95_half_width = SolveLinearLs(Phi, Y).ci95_half_width;
+  if (with_ci) res.ci95_half_width = SolveLinearLs(Phi, Y).ci95_half_width;
   return res;
 }
 
-/// θ_l = [a; b; λ per trial] of eq. (21).
-LinearLsResult LinearStep(const Problem& P, const Eigen::VectorXd& beta) {
+/// θ_l = [a; b; λ per trial] of eq. (21); the cost and 95 % half-widths only `with_ci`.
+LinearLsResult LinearStep(const Problem& P, const Eigen::VectorXd& beta, bool with_ci) {
   const TremorOrders& o = P.o;
   const int k0 = FirstRow(o);
   const int p = o.poles_l + o.zeros_n + 1 + P.TremorCols();
@@ -154,13 +194,17 @@ LinearLsResult LinearStep(const Problem& P, const Eigen::VectorXd& beta) {
       for (int j = 0; j <= o.zeros_n; ++j) Phi(r, o.poles_l + j) = h(k - o.delay_m - j);
       if (P.HasTremor()) {
         const int c = o.poles_l + o.zeros_n + 1 + 2 * static_cast<int>(t);
-        Phi(r, c) = std::cos(P.omega * k);
-        Phi(r, c + 1) = std::sin(P.omega * k);
+        Phi(r, c) = P.cos_wk[t](k);
+        Phi(r, c + 1) = P.sin_wk[t](k);
       }
       Y(r) = y(k);
     }
   }
-  return SolveLinearLs(Phi, Y);
+  DropRowsWithMissingSamples(&Phi, &Y);
+  if (with_ci) return SolveLinearLs(Phi, Y);
+  LinearLsResult res;
+  res.theta = Phi.colPivHouseholderQr().solve(Y);  // as SolveLinearLs
+  return res;
 }
 
 double Cost(const Problem& P, const Eigen::VectorXd& beta, const Eigen::VectorXd& a,
@@ -176,7 +220,7 @@ double Cost(const Problem& P, const Eigen::VectorXd& beta, const Eigen::VectorXd
       double e = y(k) - P.Tremor(lam, t, k);
       for (int i = 1; i <= o.poles_l; ++i) e += a(i - 1) * y(k - i);
       for (int j = 0; j <= o.zeros_n; ++j) e -= b(j) * h(k - o.delay_m - j);
-      v += e * e;
+      if (std::isfinite(e)) v += e * e;  // a missing output sample is not in the cost
     }
   }
   return v;
@@ -198,11 +242,13 @@ RunResult Algorithm1(const Problem& P, const TremorOptions& opt) {
   rr.b = Eigen::VectorXd::Constant(o.zeros_n + 1, 1.0 / (o.zeros_n + 1));
   rr.lam = Eigen::VectorXd::Zero(P.TremorCols());
   double scale = 0.0;
-  for (const auto& y : P.data->y) scale += y.squaredNorm();
+  for (const auto& y : P.data->y) {
+    scale += y.allFinite() ? y.squaredNorm() : y.array().isFinite().select(y, 0.0).squaredNorm();
+  }
   double v_prev = std::numeric_limits<double>::infinity();
   for (rr.iterations = 1; rr.iterations <= opt.max_iterations; ++rr.iterations) {
-    rr.beta = NonlinearStep(P, rr.a, rr.b, rr.lam).theta;
-    const Eigen::VectorXd th = LinearStep(P, rr.beta).theta;
+    rr.beta = NonlinearStep(P, rr.a, rr.b, rr.lam, false).theta;
+    const Eigen::VectorXd th = LinearStep(P, rr.beta, false).theta;
     rr.a = th.head(o.poles_l);
     rr.b = th.segment(o.poles_l, o.zeros_n + 1);
     rr.lam = th.tail(P.TremorCols());
@@ -221,8 +267,8 @@ RunResult Algorithm1(const Problem& P, const TremorOptions& opt) {
   }
   rr.iterations = std::min(rr.iterations, opt.max_iterations);
   if (!rr.convergence.converged) rr.convergence = {false, "iteration_limit", rr.iterations};
-  rr.beta_ci = NonlinearStep(P, rr.a, rr.b, rr.lam).ci95_half_width;
-  rr.l_ci = LinearStep(P, rr.beta).ci95_half_width;
+  rr.beta_ci = NonlinearStep(P, rr.a, rr.b, rr.lam, true).ci95_half_width;
+  rr.l_ci = LinearStep(P, rr.beta, true).ci95_half_width;
   return rr;
 }
 
@@ -232,7 +278,6 @@ RunResult Algorithm1(const Problem& P, const TremorOptions& opt) {
 std::vector<double> PeriodogramPeaks(const Problem& P, const RunResult& rr, double f_lo,
                                      double f_hi, int count) {
   const double T = P.data->sample_period_s;
-  Eigen::Index n_max = 0;
   std::vector<Eigen::VectorXd> res;
   const int k0 = FirstRow(P.o);
   for (std::size_t t = 0; t < P.data->y.size(); ++t) {
@@ -244,24 +289,14 @@ std::vector<double> PeriodogramPeaks(const Problem& P, const RunResult& rr, doub
       for (int j = 0; j <= P.o.zeros_n; ++j) {
         v -= rr.b(j) * PolyValue(rr.beta, P.s[t](k - P.o.delay_m - j));
       }
-      e(k) = v;
+      e(k) = std::isfinite(v) ? v : 0.0;  // a residual touching a missing sample: none
     }
     res.push_back(e);
-    n_max = std::max(n_max, y.size());
   }
-  const double df = 1.0 / (4.0 * static_cast<double>(n_max) * T);
-  std::vector<double> f_grid, power;
-  for (double f = f_lo; f <= f_hi; f += df) {
-    const double w = 2.0 * kPi * f * T;
-    double p = 0.0;
-    for (const auto& e : res) {
-      std::complex<double> acc = 0.0;
-      for (Eigen::Index k = 0; k < e.size(); ++k) acc += e(k) * std::polar(1.0, -w * k);
-      p += std::norm(acc);
-    }
-    f_grid.push_back(f);
-    power.push_back(p);
-  }
+  // O(N log N) zoomed DFT (identification/spectrum.h) on the 4x zero-padded grid.
+  const Periodogram spectrum = SummedPeriodogram(res, T, f_lo, f_hi);
+  const std::vector<double>& f_grid = spectrum.f_hz;
+  const std::vector<double>& power = spectrum.power;
   std::vector<std::pair<double, double>> peaks;  // (power, f)
   for (std::size_t i = 0; i < power.size(); ++i) {
     const bool left = i == 0 || power[i] >= power[i - 1];
@@ -288,6 +323,10 @@ Problem MakeProblem(const TremorData& data, const TremorOptions& opt, double u_s
   P.s_max = -INFINITY;
   for (const auto& u : data.u_us) {
     P.s.emplace_back(u / u_scale);
+    Eigen::MatrixXd pw(u.size(), opt.orders.poly_degree + 1);
+    for (Eigen::Index k = 0; k < u.size(); ++k)
+      pw.row(k) = PolyRow(opt.orders.poly_degree, P.s.back()(k));
+    P.s_pow.push_back(std::move(pw));
     P.s_min = std::min(P.s_min, P.s.back().minCoeff());
     P.s_max = std::max(P.s_max, P.s.back().maxCoeff());
   }
@@ -361,7 +400,7 @@ TremorFit FitTremorArx(const TremorData& data, const TremorOptions& options, dou
     const RunResult free = Algorithm1(low, options);
     const auto cost_at = [&](double f) {
       Problem Q = P;
-      Q.omega = 2.0 * kPi * f * T;
+      Q.SetOmega(2.0 * kPi * f * T);
       return Algorithm1(Q, options).cost;
     };
     // The 3 largest periodogram peaks compete on V_N of the full fit (input harmonics and noise
@@ -399,7 +438,7 @@ TremorFit FitTremorArx(const TremorData& data, const TremorOptions& options, dou
     }
     f_hz = 0.5 * (lo + hi);
   }
-  P.omega = 2.0 * kPi * f_hz * T;
+  P.SetOmega(2.0 * kPi * f_hz * T);
   const RunResult rr = Algorithm1(P, options);
   TremorFit fit;
   TremorModel& m = fit.model;
@@ -425,10 +464,26 @@ TremorFit FitTremorArx(const TremorData& data, const TremorOptions& options, dou
 
 namespace {
 
+/// The measured output as the simulation's initial samples: a missing (NaN) one among the first
+/// max(l_P, m_P + n_P) takes the next measured value.
+Eigen::VectorXd InitialSamples(const TremorModel& m, const Eigen::VectorXd& y) {
+  Eigen::VectorXd init = y;
+  const Eigen::Index k0 = std::min<Eigen::Index>(FirstRow(m.orders), y.size());
+  for (Eigen::Index k = k0 - 1; k >= 0; --k) {
+    if (std::isfinite(init(k))) continue;
+    Eigen::Index next = k + 1;
+    while (next < y.size() && !std::isfinite(init(next))) ++next;
+    init(k) = next < y.size() ? init(next) : 0.0;
+  }
+  return init;
+}
+
+/// The simulated output ŷ and the Best Fit over the measured samples.
 double SimBestFit(const TremorModel& m, const Eigen::VectorXd& u, const Eigen::VectorXd& y) {
-  const Eigen::VectorXd yh = SimulateTremorArx(m, u, y);
-  return BestFitPercent(std::vector<double>(y.data(), y.data() + y.size()),
-                        std::vector<double>(yh.data(), yh.data() + yh.size()));
+  const Eigen::VectorXd yh = SimulateTremorArx(m, u, InitialSamples(m, y));
+  std::vector<double> yv(y.data(), y.data() + y.size()), yhv(yh.data(), yh.data() + yh.size());
+  KeepMeasuredPairs(&yv, &yhv);
+  return BestFitPercent(yv, yhv);
 }
 
 }  // namespace
@@ -496,10 +551,14 @@ TremorColumns PickTremorColumns(const Trial& t, const std::string& label) {
   return {us[0], us[1], qs[0]};
 }
 
-MethodResult RunTremor(const std::vector<Trial>& train, const std::vector<Trial>& test,
+MethodResult RunTremor(const std::vector<Trial>& train_rows, const std::vector<Trial>& test_rows,
                        const ProgressFn& progress) {
-  if (train.empty()) throw std::runtime_error("--train: no trials");
-  const TremorColumns cols = PickTremorColumns(train[0], "train trial 0");
+  if (train_rows.empty()) throw std::runtime_error("--train: no trials");
+  const TremorColumns cols = PickTremorColumns(train_rows[0], "train trial 0");
+  // The rows of the output's sensor (a record may interleave other sensors' rows).
+  const std::vector<Trial> train = SensorRows(train_rows, {cols.output});
+  const std::vector<Trial> test = SensorRows(test_rows, {cols.output});
+  RequireVaryingOutput(train, cols.output, "train");
   MetadataOptions md(train[0].metadata, "tremor");
   TremorOptions opt;
   const bool orders_given = train[0].metadata.count("tremor.poles_l") ||
@@ -518,32 +577,40 @@ MethodResult RunTremor(const std::vector<Trial>& train, const std::vector<Trial>
   for (std::size_t t = 0; t < train.size(); ++t) {
     const std::string label = "train trial " + std::to_string(t);
     RequireSamples(train[t], 50, label, "ARX orders");
-    raw.push_back(RequireColumns(train[t], {cols.agonist, cols.antagonist, cols.output}, label));
+    raw.push_back(RequireColumns(train[t], {cols.agonist, cols.antagonist}, label));
     c.c_agonist_us = std::min(c.c_agonist_us, raw.back().col(0).minCoeff());
     c.c_antagonist_us = std::min(c.c_antagonist_us, raw.back().col(1).minCoeff());
   }
   c.c_agonist_us = md.Real("c_agonist_us", c.c_agonist_us, 0.0, 300.0);
   c.c_antagonist_us = md.Real("c_antagonist_us", c.c_antagonist_us, 0.0, 300.0);
   md.RejectUnknown();
-  const auto to_data = [&](const std::vector<Trial>& trials, const std::string& what) {
+  // Output samples may be missing (tracker dropouts, NaN); inputs must be complete.
+  const auto to_data = [&](const std::vector<Trial>& trials, const std::string& what,
+                           std::vector<std::size_t>* missing) {
     TremorData d;
     for (std::size_t t = 0; t < trials.size(); ++t) {
       const std::string label = what + " trial " + std::to_string(t);
       const double T = UniformSamplePeriod(trials[t], label);
       if (t == 0) d.sample_period_s = T;
-      if (std::abs(T - d.sample_period_s) > 1e-6 * T) {
+      if (std::abs(T - d.sample_period_s) > 1e-3 * T) {
         throw std::runtime_error(label + ": sample period differs from trial 0");
       }
-      const Eigen::MatrixXd x =
-          RequireColumns(trials[t], {cols.agonist, cols.antagonist, cols.output}, label);
+      const Eigen::MatrixXd x = RequireColumns(trials[t], {cols.agonist, cols.antagonist}, label);
+      std::size_t n_missing = 0;
+      Eigen::VectorXd y = OutputColumn(trials[t], cols.output, label, &n_missing);
+      if (n_missing == static_cast<std::size_t>(y.size())) {
+        throw std::runtime_error(label + ": column " + cols.output + " has no measured sample");
+      }
+      missing->push_back(n_missing);
       Eigen::VectorXd u(x.rows());
       for (Eigen::Index k = 0; k < x.rows(); ++k) u(k) = CoactivationCombine(c, x(k, 0), x(k, 1));
       d.u_us.push_back(u);
-      d.y.emplace_back(x.col(2));
+      d.y.push_back(std::move(y));
     }
     return d;
   };
-  const TremorData tr = to_data(train, "train");
+  std::vector<std::size_t> train_missing, test_missing;
+  const TremorData tr = to_data(train, "train", &train_missing);
   double u_scale = 0.0;
   for (const auto& u : tr.u_us) u_scale = std::max(u_scale, u.cwiseAbs().maxCoeff());
   if (!(u_scale > 0.0)) throw std::runtime_error("train: combined input u is identically zero");
@@ -620,18 +687,22 @@ MethodResult RunTremor(const std::vector<Trial>& train, const std::vector<Trial>
   }
   const bool has_test = !test.empty();
   if (has_test) PickTremorColumns(test[0], "test trial 0");
-  const TremorData ev = has_test ? to_data(test, "test") : tr;
+  const TremorData ev = has_test ? to_data(test, "test", &test_missing) : tr;
+  const std::vector<std::size_t>& ev_missing = has_test ? test_missing : train_missing;
   const std::vector<Trial>& eval = has_test ? test : train;
   Json fits = Json::Array();
   for (std::size_t t = 0; t < ev.y.size(); ++t) {
-    const Eigen::VectorXd yh = SimulateTremorArx(m, ev.u_us[t], ev.y[t]);
-    const std::vector<double> yv(ev.y[t].data(), ev.y[t].data() + ev.y[t].size());
+    const Eigen::VectorXd yh = SimulateTremorArx(m, ev.u_us[t], InitialSamples(m, ev.y[t]));
     std::vector<double> yhv(yh.data(), yh.data() + yh.size());
+    // The metrics are over the measured samples; the prediction covers every row.
+    std::vector<double> yv(ev.y[t].data(), ev.y[t].data() + ev.y[t].size()), yhm = yhv;
+    KeepMeasuredPairs(&yv, &yhm);
     Json f = Json::Object();
     f.Set("trial", static_cast<int>(t));
-    f.Set("best_fit_percent", BestFitPercent(yv, yhv));
-    f.Set("normalised_error", NormalisedError(yv, yhv));
-    f.Set("rms_rad", Rms(yv, yhv));
+    f.Set("best_fit_percent", BestFitPercent(yv, yhm));
+    f.Set("normalised_error", NormalisedError(yv, yhm));
+    f.Set("rms_rad", Rms(yv, yhm));
+    f.Set("missing_samples", static_cast<double>(ev_missing[t]));
     fits.Push(f);
     Trial pred;
     pred.metadata["source"] = "fesim identify --method tremor-arx";
@@ -642,6 +713,9 @@ MethodResult RunTremor(const std::vector<Trial>& train, const std::vector<Trial>
     result.predictions.push_back(std::move(pred));
   }
   metrics.Set(has_test ? "test" : "train", fits);
+  std::size_t n_train_missing = 0;
+  for (std::size_t n : train_missing) n_train_missing += n;
+  metrics.Set("train_missing_samples", static_cast<double>(n_train_missing));
   metrics.Set("prediction", "simulation from the first max(l_P, m_P + n_P) measured samples");
   metrics.Set("iterations", fit.iterations);
   metrics.Set("converged", fit.convergence.converged);

@@ -5,6 +5,7 @@
 
 #include <cerrno>
 #include <charconv>
+#include <cstdint>
 #include <cstring>
 #include <stdexcept>
 
@@ -31,6 +32,42 @@ std::vector<std::string> MakeDirs(const std::string& path) {
 bool RegularFileExists(const std::string& path) {
   struct stat st {};
   return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+Json WrittenFileRecord(const std::string& relative_path, const std::string& contents) {
+  Json j = Json::Object();
+  j.Set("path", relative_path)
+      .Set("bytes", static_cast<double>(contents.size()))
+      .Set("fnv1a64", Fnv1a64Hex(contents));
+  return j;
+}
+
+std::string CheckWrittenFile(const std::string& dir, const Json& record) {
+  const Json* path = record.Find("path");
+  const Json* bytes = record.Find("bytes");
+  const Json* hash = record.Find("fnv1a64");
+  if (path == nullptr || !path->IsString() || bytes == nullptr || !bytes->IsNumber() ||
+      hash == nullptr || !hash->IsString()) {
+    throw std::runtime_error("written-file record: expected {path, bytes, fnv1a64}");
+  }
+  const std::string file = dir + "/" + path->AsString();
+  struct stat st {};
+  if (::stat(file.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return file + ": missing";
+  const auto expected = static_cast<std::uint64_t>(bytes->AsNumber());
+  if (static_cast<std::uint64_t>(st.st_size) != expected) {
+    return file + ": " + std::to_string(st.st_size) + " bytes, " + std::to_string(expected) +
+           " were written";
+  }
+  std::string contents;
+  try {
+    contents = ReadFile(file);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  if (Fnv1a64Hex(contents) != hash->AsString()) {
+    return file + ": contents differ from what was written (same size, other hash)";
+  }
+  return "";
 }
 
 ResultCache::ResultCache(std::string dir, std::string version, std::string layout)

@@ -22,6 +22,16 @@ std::vector<std::string> MakeDirs(const std::string& path);
 /// True when `path` is a regular file.
 bool RegularFileExists(const std::string& path);
 
+/// What a run wrote to one output file, so that a resumed run can tell a complete file from one
+/// damaged since (truncated, edited): {"path": path relative to the output directory, "bytes":
+/// size, "fnv1a64": Fnv1a64Hex(contents)}.
+Json WrittenFileRecord(const std::string& relative_path, const std::string& contents);
+
+/// "" when `dir`/record.path holds exactly the recorded bytes, else why not, naming the file
+/// (e.g. "out/p1/a_r1.csv: 5000 bytes, 61234 were written"). Never throws on a missing or
+/// unreadable file; throws std::runtime_error on a malformed record.
+std::string CheckWrittenFile(const std::string& dir, const Json& record);
+
 class ResultCache {
  public:
   /// Entries live in `dir` (created on the first Store); `version` and `layout` enter every key.

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <functional>
 #include <set>
 #include <sstream>
@@ -548,6 +549,60 @@ void LoadSensor(const Node& n, const std::string& unit, double scale, sim::Senso
   }
 }
 
+/// Bytes per cell of a trial CSV as FormatTrialCsv writes it (17 significant digits, sign,
+/// exponent, comma), an upper estimate used to size the outputs before simulating.
+constexpr double kCsvBytesPerCell = 24.0;
+
+/// Refuses a trial whose records could not be written and read back: the truth record
+/// (truth_rate_hz × duration rows × every channel, coordinate and muscle column) or the measured
+/// one (the union of the sensors' grids) estimated above the trial file limit of ReadTrialCsv
+/// (kMaxTrialFileBytes), naming the rate key that makes it so. A huge in-range request (20 kHz
+/// truth for an hour: 72 million rows) used to end in a bare std::bad_alloc mid-simulation.
+void CheckOutputSize(const Node& top, const sim::ModelParams& m, const sim::TrialRequest& t) {
+  const sim::SensorSuite& s = t.sensors;
+  const double channels = static_cast<double>(m.channels.size());
+  const double muscles = static_cast<double>(m.muscles.size());
+  const double truth_cols = 1.0 + channels + 3.0 * sim::kNumCoordinates + 2.0 * muscles +
+                            static_cast<double>(s.torques.coordinates.size());
+  const double truth_bytes = (t.duration_s * s.truth_rate_hz + 1.0) * truth_cols * kCsvBytesPerCell;
+  struct Part {
+    const char* key;
+    const sim::SensorParams* sensor;
+  };
+  const Part sensors[] = {{"sensors.angles.rate_hz", &s.angles},
+                          {"sensors.velocities.rate_hz", &s.velocities},
+                          {"sensors.torques.rate_hz", &s.torques}};
+  const double measured_cols =
+      1.0 + channels +
+      static_cast<double>(s.angles.coordinates.size() + s.velocities.coordinates.size() +
+                          s.torques.coordinates.size());
+  double measured_rows = 0.0, fastest = 0.0;
+  const char* fastest_key = sensors[0].key;
+  for (const Part& p : sensors) {
+    if (p.sensor->coordinates.empty()) continue;  // writes no rows
+    measured_rows += t.duration_s * p.sensor->rate_hz + 1.0;
+    if (p.sensor->rate_hz > fastest) {
+      fastest = p.sensor->rate_hz;
+      fastest_key = p.key;
+    }
+  }
+  const double measured_bytes = measured_rows * measured_cols * kCsvBytesPerCell;
+  const auto limit = static_cast<double>(kMaxTrialFileBytes);
+  if (truth_bytes <= limit && measured_bytes <= limit) return;
+  const bool truth = truth_bytes >= measured_bytes;
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "%s: %g Hz for %g s makes the %s record ~%.3g rows x %.0f columns (~%.1f GB as "
+                "CSV), more than the %.0f GiB a trial file may hold; lower the rate or "
+                "stimulation.duration_s",
+                truth ? "sensors.truth_rate_hz" : fastest_key, truth ? s.truth_rate_hz : fastest,
+                t.duration_s, truth ? "truth" : "measured",
+                truth ? t.duration_s * s.truth_rate_hz + 1.0 : measured_rows,
+                truth ? truth_cols : measured_cols, (truth ? truth_bytes : measured_bytes) / 1e9,
+                limit / 1073741824.0);
+  top.Fail(buf);
+}
+
 }  // namespace
 
 // The parser proper; ParseScenario below names the file in any stray yaml-cpp exception.
@@ -565,7 +620,7 @@ static Scenario ParseScenarioText(const std::string& text, const std::string& pa
   const Node top(root, "", &sc.path);
   top.Keys({"name", "participant", "gravity_m_s2", "coordinates", "muscles", "electrodes",
             "support", "mechanisms", "stimulation", "sensors", "integrator"});
-  sc.name = top.Text("name");
+  sc.name = top.FileStem("name");
   double height = 1.75, mass = 75.0;
   if (top.Has("participant")) {
     const Node p = top.Child("participant");
@@ -635,6 +690,7 @@ static Scenario ParseScenarioText(const std::string& text, const std::string& pa
   } catch (const std::exception& e) {
     top.FailKey("electrodes", e.what());
   }
+  if (!sc.reaching) CheckOutputSize(top, m, t);
   return sc;
 }
 

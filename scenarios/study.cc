@@ -113,7 +113,7 @@ Study LoadStudyChecked(const std::string& path, std::uint64_t noise_seed) {
   }
   const Node top(root, "", &st.path);
   top.Keys({"study", "scenario", "repetitions", "cohort", "protocols"});
-  st.name = top.Text("study");
+  st.name = top.FileStem("study");
   const std::string scenario_text = top.Text("scenario");
   const std::string base_path =
       scenario_text[0] == '/' ? scenario_text : Directory(path) + scenario_text;
@@ -158,7 +158,7 @@ Study LoadStudyChecked(const std::string& path, std::uint64_t noise_seed) {
     const Node p = protocols.Item(i);
     p.Keys({"name", "stimulation"});
     p.Child("stimulation");
-    list.push_back({p.Text("name"), root["protocols"][i]["stimulation"]});
+    list.push_back({p.FileStem("name"), root["protocols"][i]["stimulation"]});
     for (std::size_t j = 0; j < i; ++j) {
       if (list[j].name == list[i].name)
         p.FailKey("name", "duplicate protocol '" + list[i].name + "'");

@@ -48,23 +48,8 @@ void SplitComma(const std::string& line, std::vector<std::string>* out) {
   out->resize(n);
 }
 
-/// A cell or name as shown in an error message: control bytes as \xNN and at most 40 characters,
-/// so that the message stays one short line whatever the file holds.
-std::string Shown(const std::string& s) {
-  std::string out;
-  for (const char c : s.substr(0, 40)) {
-    const auto b = static_cast<unsigned char>(c);
-    if (b < 0x20 || b == 0x7f) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\x%02x", b);
-      out += buf;
-    } else {
-      out.push_back(c);
-    }
-  }
-  if (s.size() > 40) out += "...";
-  return out;
-}
+/// A cell or name as shown in an error message (one short line whatever the file holds).
+std::string Shown(const std::string& s) { return ShownInMessage(s); }
 
 [[noreturn]] void Fail(const std::string& source, std::size_t line, const std::string& what) {
   throw std::runtime_error(source + ":" + std::to_string(line) + ": " + what);
@@ -136,7 +121,10 @@ Trial ParseTrialCsv(const std::string& text, const std::string& source) {
   std::vector<std::string> cells;
   std::vector<char> unit;  // 'u': pulse width in [0, 300] µs; 'q': angle in rad; 0: unchecked
   // Lines are cut from `text` directly (no stream copy): a large file costs its text once.
-  for (std::size_t pos = 0; pos < text.size();) {
+  // A leading UTF-8 byte order mark is skipped (it would make the header 'time' look unequal
+  // to 'time').
+  const std::size_t start = text.rfind("\xEF\xBB\xBF", 0) == 0 ? 3 : 0;
+  for (std::size_t pos = start; pos < text.size();) {
     std::size_t eol = text.find('\n', pos);
     if (eol == std::string::npos) eol = text.size();
     line.assign(text, pos, eol - pos);
@@ -387,6 +375,37 @@ std::string ReadFile(const std::string& path) {
   while (in.read(buf, sizeof buf) || in.gcount() > 0) text.append(buf, in.gcount());
   if (in.bad()) throw std::runtime_error(path + ": read error: " + std::strerror(errno));
   return text;
+}
+
+std::string ShownInMessage(const std::string& bytes) {
+  constexpr std::size_t kMaxShown = 40;
+  const std::size_t end = std::min(bytes.size(), kMaxShown);
+  std::string out;
+  for (std::size_t i = 0; i < end;) {
+    const auto b = static_cast<unsigned char>(bytes[i]);
+    // Length of the UTF-8 sequence this byte starts (0: not a lead byte; C0, C1 and F5-FF
+    // never start a valid sequence).
+    const std::size_t len = b < 0x80                ? 1
+                            : b >= 0xc2 && b < 0xe0 ? 2
+                            : b >= 0xe0 && b < 0xf0 ? 3
+                            : b >= 0xf0 && b < 0xf5 ? 4
+                                                    : 0;
+    bool ok = len > 0 && i + len <= end && !(len == 1 && (b < 0x20 || b == 0x7f));
+    for (std::size_t k = 1; ok && k < len; ++k) {
+      ok = (static_cast<unsigned char>(bytes[i + k]) & 0xc0) == 0x80;
+    }
+    if (ok) {
+      out.append(bytes, i, len);
+      i += len;
+      continue;
+    }
+    char buf[8];
+    std::snprintf(buf, sizeof buf, "\\x%02x", b);
+    out += buf;
+    ++i;
+  }
+  if (bytes.size() > kMaxShown) out += "...";
+  return out;
 }
 
 std::string Fnv1a64Hex(const std::string& bytes) {

@@ -81,6 +81,10 @@ void UnregisterTempFile(int slot);
 /// For signal handlers (async-signal-safe): the path in `slot`, or "".
 const char* RegisteredTempFile(int slot);
 
+/// `bytes` as shown in a one-line error message: control bytes and bytes that are not valid
+/// UTF-8 (binary garbage) as \xNN, at most 40 bytes of input followed by "..." when longer.
+std::string ShownInMessage(const std::string& bytes);
+
 /// FNV-1a 64-bit hash of `bytes` as 16 lower-case hex digits (cache keys, manifest hashes).
 std::string Fnv1a64Hex(const std::string& bytes);
 

@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "scenarios/trial.h"
+
 namespace fesim::internal {
 
 inline std::string Fmt(double v) {
@@ -49,9 +51,10 @@ class YamlNode {
   }
   std::string Join(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
 
-  /// Requires a mapping whose keys are all in `allowed`.
+  /// Requires a mapping whose keys are all in `allowed`, each given once.
   void Keys(const std::set<std::string>& allowed) const {
     if (!node_.IsMap()) Fail("expected a mapping");
+    RequireUniqueKeys();
     for (const auto& kv : node_) {
       const auto k = kv.first.as<std::string>();
       if (!allowed.count(k)) {
@@ -103,6 +106,23 @@ class YamlNode {
     const YamlNode c = Child(key);
     if (!c.node_.IsScalar()) FailKey(key, "expected text");
     return c.node_.as<std::string>();
+  }
+  /// Text that becomes part of an output file name (`fesim simulate` writes DIR/<name>.csv):
+  /// non-empty, letters, digits, '.', '_' and '-' only, not starting with '.', so that it can
+  /// neither leave DIR ('..', '/') nor make a hidden file.
+  std::string FileStem(const std::string& key) const {
+    const std::string v = Text(key);
+    bool ok = !v.empty() && v.size() <= 200 && v[0] != '.';
+    for (const char c : v) {
+      ok = ok && ((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                  c == '.' || c == '_' || c == '-');
+    }
+    if (!ok) {
+      FailKey(key, "'" + ShownInMessage(v) +
+                       "' cannot name output files (allowed: 1-200 of A-Z a-z 0-9 . _ -, not "
+                       "starting with '.')");
+    }
+    return v;
   }
   std::string Choice(const std::string& key, const std::set<std::string>& allowed) const {
     std::string v = Text(key);
@@ -178,15 +198,35 @@ class YamlNode {
     }
     return out;
   }
-  /// Keys of a mapping, in file order.
+  /// Keys of a mapping, in file order, each given once.
   std::vector<std::string> MapKeys() const {
     if (!node_.IsMap()) Fail("expected a mapping");
+    RequireUniqueKeys();
     std::vector<std::string> k;
     for (const auto& kv : node_) k.push_back(kv.first.as<std::string>());
     return k;
   }
 
  private:
+  /// yaml-cpp keeps both entries of a key given twice and finds the first: a silently ignored
+  /// setting. Refused, naming both lines.
+  void RequireUniqueKeys() const {
+    std::vector<std::pair<std::string, int>> seen;
+    for (const auto& kv : node_) {
+      const auto k = kv.first.as<std::string>();
+      const int line = kv.first.Mark().line + 1;
+      for (const auto& [name, first_line] : seen) {
+        if (name == k) {
+          throw std::runtime_error(*file_ + ":" + std::to_string(line) + ": " +
+                                   ShownInMessage(Join(k)) + ": key given twice (lines " +
+                                   std::to_string(first_line) + " and " + std::to_string(line) +
+                                   ")");
+        }
+      }
+      seen.emplace_back(k, line);
+    }
+  }
+
   YAML::Node node_;
   std::string path_;
   const std::string* file_;

@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -162,6 +163,52 @@ TEST(CliBadInput, SimulateStimulationCsvAndOutputDirectory) {
                      dir + "/file/out: cannot create directory: Not a directory");
 }
 
+// Issue 28: a scenario name that would leave --out ('../escaped'), make hidden files ('') or a
+// sub-directory ('a/b') is refused at load, before anything is simulated or written.
+TEST(CliOutputPaths, ScenarioNameCannotLeaveOrHideInTheOutputDirectory) {
+  const std::string dir = Dir("stem");
+  const std::string sub = dir + "/sub";
+  ::mkdir(sub.c_str(), 0755);
+  const std::string err = dir + "/err.txt";
+  for (const std::string name : {"../escaped", "", "a/b", ".hidden"}) {
+    const std::string sc = sub + "/sc.yaml";
+    WriteFileAtomic(sc, "name: \"" + name + "\"\n" +
+                            "stimulation: {duration_s: 0.3, type: constant, values_us: {}}\n");
+    ExpectOneLineError(RunFesim({"simulate", sc, "--out", sub + "/out"}, err),
+                       sc + ": name: '" + name + "' cannot name output files");
+    EXPECT_EQ(List(sub), std::vector<std::string>{"sc.yaml"}) << name;
+    EXPECT_EQ(List(dir).size(), 2u) << name;  // sub and err.txt: no escaped.csv
+  }
+}
+
+// Issue 28: `--out ""` is refused by every command that writes (it used to write /default.csv,
+// /manifest.json, /model.yaml ...), before reading the inputs.
+TEST(CliOutputPaths, EmptyOutIsRefusedByEveryWritingCommand) {
+  const std::string dir = Dir("empty_out");
+  const std::string err = dir + "/err.txt";
+  const std::string sc = WriteScenario(dir, "tiny", "0.3");
+  WriteFileAtomic(dir + "/t.csv", "time,u.bic,q.elbow_flexion\n0,0,0\n0.01,0,0\n");
+  const std::string study =
+      std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/bench_hand_array_quick.yaml";
+  const std::string bench = std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/default_study.yaml";
+  const std::vector<std::vector<std::string>> commands = {
+      {"simulate", sc, "--out", ""},
+      {"simulate", study, "--out="},
+      {"identify", "--method", "spline-arx", "--train", dir + "/t.csv", "--out", ""},
+      {"diagnose", dir + "/t.csv", "--scenario", sc, "--out", ""},
+      {"benchmark", bench, "--quick", "--out", ""},
+      {"render", dir + "/t.csv", "--scenario", sc, "--out", ""},
+  };
+  for (const auto& c : commands) {
+    ExpectOneLineError(RunFesim(c, err), "option --out: empty path");
+  }
+  ExpectOneLineError(RunFesim({"render", dir + "/t.csv", "--scenario", sc, "--frames", ""}, err),
+                     "option --frames: empty path");
+  std::vector<std::string> files = List(dir);
+  std::sort(files.begin(), files.end());
+  EXPECT_EQ(files, (std::vector<std::string>{"err.txt", "t.csv", "tiny.yaml"}));
+}
+
 // An integrator that cannot advance (stiff blow-up: 10 kN muscles, stiff joint limits, Simbody's
 // explicit integrator at a loose tolerance) stops with one line naming the time, and writes
 // nothing. Simbody's own message spans several lines; main() joins them.
@@ -243,13 +290,13 @@ TEST(CliInterrupt, InterruptedStudyResumesWithTheSameBytes) {
       << ReadFile(err);
   const std::string out = dir + "/out";
   const pid_t pid = Spawn({"simulate", study, "--threads", "1", "--out", out}, err);
-  // Stopped once the first trial is on disk (its measured CSV is written last).
+  // Stopped once the first trial is finished: its files are on disk and, written last, its
+  // record of their sizes and hashes in out/cache.
   bool some = false;
   for (int waited_ms = 0; waited_ms < 300000 && !some; waited_ms += 10) {
-    if (Exists(out + "/p1")) {
-      for (const auto& f : List(out + "/p1")) {
-        some =
-            some || (f.find("_truth") == std::string::npos && f.find(".tmp.") == std::string::npos);
+    if (Exists(out + "/cache")) {
+      for (const auto& f : List(out + "/cache")) {
+        some = some || f.find(".tmp.") == std::string::npos;
       }
     }
     if (!some) std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -274,6 +321,123 @@ TEST(CliInterrupt, InterruptedStudyResumesWithTheSameBytes) {
     }
   }
   EXPECT_EQ(ReadFile(out + "/manifest.json"), ReadFile(dir + "/ref/manifest.json"));
+}
+
+// Issue 28: a finished study whose measured CSV was truncated since (still a valid CSV when cut
+// at a row boundary) or edited is not counted as finished on a rerun: the damaged file is named
+// and its trial simulated again, giving the original bytes.
+TEST(CliInterrupt, ResumedStudyRedoesAndNamesDamagedFiles) {
+  const std::string dir = Dir("study_damaged");
+  WriteScenario(dir, "rig", "0.4");
+  WriteFileAtomic(dir + "/st.yaml", R"(study: st
+scenario: rig.yaml
+cohort: {size: 2, seed: 3}
+protocols:
+  - {name: hold, stimulation: {duration_s: 0.4, type: constant, values_us: {bic: 150}}}
+)");
+  const std::string out = dir + "/out";
+  const std::string err = dir + "/err.txt";
+  const std::vector<std::string> run = {"simulate", dir + "/st.yaml", "--threads",
+                                        "2",        "--out",          out};
+  ASSERT_EQ(RunFesim(run, err).exit_code, 0) << ReadFile(err);
+  const std::string measured = ReadFile(out + "/p1/hold_r1.csv");
+  const std::string truth = ReadFile(out + "/p2/hold_r1_truth.csv");
+  const std::string manifest = ReadFile(out + "/manifest.json");
+  // An untouched study resumes entirely from the earlier run.
+  Result r = RunFesim(run, err);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("(0 simulated, 2 from an earlier run)"), std::string::npos) << r.err;
+  // Damage: cut the measured CSV after its last complete row but one; change one digit of a
+  // truth file (same size); delete the manifest.
+  const std::size_t cut = measured.rfind('\n', measured.size() - 2) + 1;
+  ASSERT_EQ(::truncate((out + "/p1/hold_r1.csv").c_str(), static_cast<off_t>(cut)), 0);
+  std::string edited = truth;
+  const std::size_t digit = edited.find_last_of("0123456789");
+  edited[digit] = edited[digit] == '1' ? '2' : '1';
+  WriteFileAtomic(out + "/p2/hold_r1_truth.csv", edited);
+  std::remove((out + "/manifest.json").c_str());
+  r = RunFesim(run, err);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find(out + "/p1/hold_r1.csv: " + std::to_string(cut) + " bytes, " +
+                       std::to_string(measured.size()) + " were written"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find(out + "/p2/hold_r1_truth.csv: contents differ from what was written"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("(2 simulated, 0 from an earlier run)"), std::string::npos) << r.err;
+  EXPECT_EQ(ReadFile(out + "/p1/hold_r1.csv"), measured);
+  EXPECT_EQ(ReadFile(out + "/p2/hold_r1_truth.csv"), truth);
+  EXPECT_EQ(ReadFile(out + "/manifest.json"), manifest);
+}
+
+// Issue 28: the README's simulate -> identify workflow on a shipped rig whose measured trials
+// interleave 60 Hz angle rows with 100 Hz torque rows: identify takes the angle sensor's rows
+// (it used to fail with "column time is not uniformly sampled (near t = 0.01 s)").
+TEST(CliSampling, IdentifyReadsTheHandRigsMixedRateTrials) {
+  const std::string dir = Dir("mixed_rates");
+  const std::string err = dir + "/err.txt";
+  const std::string study =
+      std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/bench_hand_array_quick.yaml";
+  ASSERT_EQ(RunFesim({"simulate", study, "--threads", "2", "--out", dir + "/t"}, err).exit_code, 0)
+      << ReadFile(err);
+  const Trial raw = ReadTrialCsv(dir + "/t/p1/step_grid_r1.csv");
+  ASSERT_TRUE(raw.Has("tau.elbow_flexion"));  // the torque rows are there
+  // The quick study stimulates two of six channels: two muscle units are what its steady states
+  // identify (the default, one per channel, needs more than it has).
+  for (const char* r : {"1", "2"}) {
+    WriteFileAtomic(dir + "/r" + r + ".csv",
+                    "# hammerstein.muscles_l: 2\n" +
+                        ReadFile(dir + "/t/p1/step_grid_r" + std::string(r) + ".csv"));
+  }
+  const Result r = RunFesim({"identify", "--method", "hammerstein-mimo", "--train", dir + "/r1.csv",
+                             "--test", dir + "/r2.csv", "--out", dir + "/x"},
+                            err);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const Trial pred = ReadTrialCsv(dir + "/x/prediction_0.csv");
+  ASSERT_GT(pred.size(), 100u);
+  for (std::size_t i = 0; i < 100; ++i) EXPECT_NEAR(pred.time[i], i / 60.0, 1e-9) << i;
+  EXPECT_LT(pred.size(), raw.size());
+}
+
+// Issue 28: a trial whose time column is in ms (a 100 Hz record read as 0.1 Hz) is refused with
+// the reason, naming the file and column; it used to run 42 s and exit 0 without a word.
+TEST(CliSampling, ImplausibleSampleRateIsRefusedNamingFileAndColumn) {
+  const std::string dir = Dir("time_ms");
+  std::string csv = "time,u.fcr,u.ecr,q.wrist_flexion\n";
+  for (int k = 0; k < 2000; ++k) {
+    csv += std::to_string(10 * k) + "," + std::to_string(30 + k % 100) + ",45," +
+           std::to_string(0.001 * (k % 37)) + "\n";
+  }
+  WriteFileAtomic(dir + "/ms.csv", csv);
+  ExpectOneLineError(RunFesim({"identify", "--method", "tremor-arx", "--train", dir + "/ms.csv",
+                               "--out", dir + "/x"},
+                              dir + "/err.txt"),
+                     "train trial 0 (" + dir +
+                         "/ms.csv): column time: sample period 10 s (0.1 Hz) is implausible for "
+                         "a measured trial (allowed: 1e-05 to 1 s; time in ms?)");
+  EXPECT_FALSE(Exists(dir + "/x"));
+}
+
+// Issue 28: one --threads rule, [1, 256], for every command that takes it (simulate accepted
+// 100000, benchmark capped at 256 and accepted 0).
+TEST(CliOptions, OneThreadsRuleForEveryCommand) {
+  const std::string dir = Dir("threads");
+  const std::string err = dir + "/err.txt";
+  const std::string sc = WriteScenario(dir, "tiny", "0.3");
+  WriteFileAtomic(dir + "/t.csv", "time,u.bic,q.elbow_flexion\n0,0,0\n0.01,0,0\n");
+  const std::string bench = std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/default_study.yaml";
+  for (const std::string n : {"100000", "0", "-3", "257"}) {
+    ExpectOneLineError(RunFesim({"simulate", sc, "--threads", n, "--out", dir + "/o"}, err),
+                       "option --threads: " + n + " is outside [1, 256]");
+    ExpectOneLineError(RunFesim({"benchmark", bench, "--threads", n, "--out", dir + "/o"}, err),
+                       "option --threads: " + n + " is outside [1, 256]");
+    ExpectOneLineError(RunFesim({"diagnose", dir + "/t.csv", "--scenario", sc, "--threads", n,
+                                 "--out", dir + "/o"},
+                                err),
+                       "option --threads: " + n + " is outside [1, 256]");
+  }
+  EXPECT_FALSE(Exists(dir + "/o"));
 }
 
 }  // namespace

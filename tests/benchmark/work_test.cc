@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <filesystem>
 #include <string>
 
 #include "scenarios/trial.h"
@@ -185,8 +186,22 @@ TEST(GenerateStudy, SimulatesOnceThenReadsTheSameTrialsBack) {
   }
   // The two repetitions differ only by noise (different noise seeds).
   EXPECT_NE(TrialHash(first.measured[0]), TrialHash(first.measured[1]));
+  std::string measured_path;  // seed 3's, the only entry so far
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(cache)) {
+    const std::string p = entry.path().string();
+    if (p.size() > 11 && p.compare(p.size() - 11, 11, "ramp_r1.csv") == 0) measured_path = p;
+  }
+  ASSERT_FALSE(measured_path.empty());
   // Another seed is another cache entry.
   EXPECT_EQ(GenerateStudy(study, 4, cache, 2, nullptr).simulated, 2);
+  // Issue 28: a cached trial truncated at a row boundary (still a valid CSV) or edited is not
+  // taken: its trial is simulated again and comes back whole.
+  const std::string whole = ReadFile(measured_path);
+  WriteFileAtomic(measured_path, whole.substr(0, whole.rfind('\n', whole.size() - 2) + 1));
+  const StudyTrials third = GenerateStudy(study, 3, cache, 2, nullptr);
+  EXPECT_EQ(third.simulated, 1);
+  EXPECT_EQ(ReadFile(measured_path), whole);
+  EXPECT_EQ(FormatTrialCsv(third.measured[0]), FormatTrialCsv(first.measured[0]));
 }
 
 }  // namespace

@@ -227,5 +227,61 @@ TEST(TremorArx, MethodEntryMapsCoactivationAndFitsTwoTrials) {
   EXPECT_THROW(TremorArxMethod().run({one_input}, {}, nullptr), std::runtime_error);
 }
 
+// Issue 28: tracker dropouts (NaN bursts, 5 % of the output samples, one in the first samples)
+// are accepted: the ARX rows touching them are dropped, the metrics count them, and the fit is
+// as good as on the complete record.
+TEST(TremorArx, MissingOutputSamplesAreLeftOutOfTheFit) {
+  const TremorModel truth = Planted();
+  const TremorData d = Data(truth, 1, kNoiseStd_rad, kSeed + 7);
+  const Coactivation c{30.0, 45.0};
+  Trial full;
+  std::vector<double> fcr, ecr;
+  for (Eigen::Index k = 0; k < d.u_us[0].size(); ++k) {
+    full.time.push_back(kSamplePeriod * k);
+    const Eigen::Vector2d s = CoactivationSplit(c, d.u_us[0](k));
+    fcr.push_back(s(0));
+    ecr.push_back(s(1));
+  }
+  full.AddColumn("u.fcr", fcr);
+  full.AddColumn("u.ecr", ecr);
+  full.AddColumn("q.wrist", std::vector<double>(d.y[0].data(), d.y[0].data() + d.y[0].size()));
+  full.metadata["tremor.poles_l"] = "2";
+  full.metadata["tremor.zeros_n"] = "1";
+  full.metadata["tremor.delay_m"] = "1";
+  Trial gaps = full;
+  std::vector<double>& y = gaps.MutableColumn("q.wrist");
+  std::size_t missing = 1;
+  y[0] = NAN;  // an initial sample of the simulation
+  std::mt19937 rng(kSeed + 8);
+  std::uniform_int_distribution<int> start(10, 2980);
+  while (missing < 150) {  // bursts of 6 samples
+    const int k0 = start(rng);
+    for (int k = k0; k < k0 + 6; ++k) {
+      if (!std::isnan(y[k])) ++missing;
+      y[k] = NAN;
+    }
+  }
+  const MethodResult with_gaps = TremorArxMethod().run({gaps}, {}, nullptr);
+  const MethodResult complete = TremorArxMethod().run({full}, {}, nullptr);
+  const std::string metrics = with_gaps.metrics.Dump(0);
+  EXPECT_NE(metrics.find("\"missing_samples\":" + std::to_string(missing)), std::string::npos)
+      << metrics;
+  EXPECT_NE(metrics.find("\"train_missing_samples\":" + std::to_string(missing)),
+            std::string::npos);
+  const auto& predicted = with_gaps.predictions[0].Column("q.wrist");
+  ASSERT_EQ(predicted.size(), full.size());
+  const double gaps_fit = BestFitPercent(full.Column("q.wrist"), predicted);
+  const double complete_fit =
+      BestFitPercent(full.Column("q.wrist"), complete.predictions[0].Column("q.wrist"));
+  EXPECT_GT(gaps_fit, complete_fit - 1.0);
+  EXPECT_GT(gaps_fit, 90.0);
+  // The tremor frequency is found as on the complete record.
+  const auto hz = [](const std::string& yaml) {
+    const std::size_t at = yaml.find("tremor_frequency: {value: ");
+    return std::stod(yaml.substr(at + 26));
+  };
+  EXPECT_NEAR(hz(with_gaps.model_yaml), hz(complete.model_yaml), 1e-3);
+}
+
 }  // namespace
 }  // namespace fesim::identification

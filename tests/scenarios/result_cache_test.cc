@@ -143,5 +143,34 @@ TEST(ResultCache, ExactNumberTextRoundTrips) {
   EXPECT_EQ(ExactNumberText(0.5), "0.5");
 }
 
+// Issue 28: a resumed run counts a file as written only when it still has the recorded size and
+// hash; every kind of damage is named with the file.
+TEST(WrittenFile, RecordDetectsTruncationEditsAndLoss) {
+  const std::string dir = ::testing::TempDir() + "written_file";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir + "/p1");
+  const std::string text = "time,q.x\n0,1\n0.01,2\n0.02,3\n";
+  WriteFileAtomic(dir + "/p1/a.csv", text);
+  const Json record = WrittenFileRecord("p1/a.csv", text);
+  EXPECT_EQ(record.Find("bytes")->AsNumber(), static_cast<double>(text.size()));
+  EXPECT_EQ(record.Find("fnv1a64")->AsString(), Fnv1a64Hex(text));
+  EXPECT_EQ(CheckWrittenFile(dir, record), "");
+  // Truncated at a row boundary: still a valid CSV, but not what was written.
+  WriteFileAtomic(dir + "/p1/a.csv", text.substr(0, text.size() - 8));
+  EXPECT_EQ(CheckWrittenFile(dir, record), dir + "/p1/a.csv: " + std::to_string(text.size() - 8) +
+                                               " bytes, " + std::to_string(text.size()) +
+                                               " were written");
+  std::string edited = text;
+  edited[edited.size() - 2] = '4';
+  WriteFileAtomic(dir + "/p1/a.csv", edited);
+  EXPECT_EQ(CheckWrittenFile(dir, record),
+            dir + "/p1/a.csv: contents differ from what was written (same size, other hash)");
+  std::filesystem::remove(dir + "/p1/a.csv");
+  EXPECT_EQ(CheckWrittenFile(dir, record), dir + "/p1/a.csv: missing");
+  std::filesystem::create_directories(dir + "/p1/a.csv");
+  EXPECT_EQ(CheckWrittenFile(dir, record), dir + "/p1/a.csv: missing");
+  EXPECT_THROW(CheckWrittenFile(dir, Json::Object()), std::runtime_error);
+}
+
 }  // namespace
 }  // namespace fesim

@@ -117,5 +117,34 @@ TEST(StudyBadInput, MappingAsKeyNamesTheFile) {
   }
 }
 
+// Issue 28: the study name (default DIR out/<study>, benchmark cache directories) and the
+// protocol names (DIR/p<k>/<protocol>_r<r>.csv) are file stems, checked at load.
+TEST(StudyBadInput, StudyAndProtocolNamesMustBeFileStems) {
+  const std::string dir = ::testing::TempDir();
+  WriteFileAtomic(dir + "stem_rig.yaml",
+                  "name: rig\nstimulation: {duration_s: 1, type: constant, values_us: {}}\n");
+  const auto error_of = [&](const std::string& study, const std::string& protocol) {
+    const std::string path = dir + "stem_study.yaml";
+    WriteFileAtomic(path, "study: \"" + study + "\"\nscenario: stem_rig.yaml\nprotocols:\n" +
+                              "  - {name: \"" + protocol +
+                              "\", stimulation: {duration_s: 1, type: constant, values_us: {}}}\n");
+    try {
+      LoadStudy(path, 1);
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  const std::string allowed =
+      "' cannot name output files (allowed: 1-200 of A-Z a-z 0-9 . _ -, not starting with '.')";
+  const std::string path = dir + "stem_study.yaml";
+  EXPECT_EQ(error_of("../up", "hold"), path + ": study: '../up" + allowed);
+  EXPECT_EQ(error_of("", "hold"), path + ": study: '" + allowed);
+  EXPECT_EQ(error_of("ok", "../../x"), path + ": protocols[0].name: '../../x" + allowed);
+  EXPECT_EQ(error_of("ok", "a/b"), path + ": protocols[0].name: 'a/b" + allowed);
+  EXPECT_EQ(error_of("ok", ".h"), path + ": protocols[0].name: '.h" + allowed);
+  EXPECT_EQ(error_of("ok", "hold"), "(no error)");
+}
+
 }  // namespace
 }  // namespace fesim

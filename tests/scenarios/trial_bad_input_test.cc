@@ -140,6 +140,28 @@ TEST(TrialBadInput, FuzzFinding2DegreeSuffixTwice) {
             "x.csv:1: column q.a_deg_deg: suffix _deg given twice");
 }
 
+// Issue 28: a UTF-8 byte order mark (some spreadsheet exports write one) is skipped; it used to
+// give "header must start with column 'time', found 'time'" (the mark is invisible).
+TEST(TrialBadInput, ByteOrderMarkIsSkipped) {
+  const Trial t = ParseTrialCsv("\xEF\xBB\xBFtime,q.x\n0,1\n0.1,2\n", "x.csv");
+  ASSERT_EQ(t.size(), 2u);
+  EXPECT_EQ(t.names, std::vector<std::string>{"q.x"});
+}
+
+// Issue 28: binary garbage is escaped byte by byte; valid UTF-8 (µ, é) is shown as it is.
+TEST(TrialBadInput, NonPrintableAndInvalidUtf8BytesAreEscaped) {
+  EXPECT_EQ(ErrorOf("\x89PNG\r\n\x1a\n\x00\x00"),
+            "x.csv:1: header must start with column 'time', found '\\x89PNG'");
+  EXPECT_EQ(ErrorOf("time,q.x\n0,\xff\xfe\x01\n"),
+            "x.csv:2: column q.x: '\\xff\\xfe\\x01' is not a number");
+  EXPECT_EQ(ErrorOf("time,q.x\n0,5\xc2\xb5s\n"),
+            "x.csv:2: column q.x: '5\xc2\xb5s' is not a number");
+  // A sequence cut short or an overlong lead byte is escaped, not passed on.
+  EXPECT_EQ(ShownInMessage("a\xc3"), "a\\xc3");
+  EXPECT_EQ(ShownInMessage("\xc0\xaf"), "\\xc0\\xaf");
+  EXPECT_EQ(ShownInMessage(std::string(50, 'a')), std::string(40, 'a') + "...");
+}
+
 TEST(TrialBadInput, ReadTrialCsvNamesUnreadablePaths) {
   const std::string dir = ::testing::TempDir() + "trial_bad_input_dir";
   ::mkdir(dir.c_str(), 0755);
