@@ -59,6 +59,82 @@ Json StatsJson(const sim::TrialResult& r) {
 }
 
 /// `fesim simulate STUDY.yaml`: every participant × protocol × repetition, in parallel.
+/// Whether study item `stem` finished in an earlier run: its record in `records` (key `key`)
+/// exists and every file it lists under `out` still has the size and hash written
+/// (CheckWrittenFile); then `integration` is its stored integration statistics. A damaged file
+/// or record is named on stderr and the item counts as not finished (simulated again).
+bool FinishedStudyItem(ResultCache& records, const std::vector<std::string>& key,
+                       const std::string& out, const std::string& stem, std::string* integration) {
+  try {
+    Json record;
+    if (!records.Load(key, &record)) return false;
+    const Json* files = record.Find("files");
+    const Json* stats = record.Find("integration");
+    if (files == nullptr || !files->IsArray() || stats == nullptr || !stats->IsString()) {
+      throw std::runtime_error(records.Path(key) + ".json: expected {files, integration}");
+    }
+    std::string damage;
+    for (const Json& f : files->Items()) {
+      const std::string why = CheckWrittenFile(out, f);
+      if (!why.empty() && damage.empty()) damage = why;
+    }
+    if (damage.empty()) {
+      *integration = stats->AsString();
+      return true;
+    }
+    std::fprintf(stderr, "fesim simulate: %s; study item %s is simulated again\n", damage.c_str(),
+                 stem.c_str());
+  } catch (const std::exception& e) {
+    // A damaged record (e.g. a file system that lost its end): the item is simulated again.
+    std::fprintf(stderr, "fesim simulate: %s; study item %s is simulated again\n", e.what(),
+                 stem.c_str());
+  }
+  return false;
+}
+
+/// manifest.json of a study run: version, study and its hash, seed, the participants and every
+/// trial with its files and integration statistics (`stats`, one JSON line per item).
+Json StudyManifest(const Study& st, const std::string& hash, long seed,
+                   const std::vector<std::string>& stats) {
+  Json manifest = Json::Object();
+  manifest.Set("fesim_version", FESIM_VERSION)
+      .Set("study", st.name)
+      .Set("study_file", st.path)
+      .Set("study_hash_fnv1a64", hash)
+      .Set("seed", static_cast<double>(seed));
+  Json people = Json::Array();
+  for (const Participant& p : st.participants) {
+    Json j = Json::Object();
+    j.Set("id", "p" + std::to_string(p.index + 1))
+        .Set("height_m", p.height_m)
+        .Set("mass_kg", p.mass_kg)
+        .Set("strength_scale", p.strength_scale)
+        .Set("recruitment_threshold_scale", p.recruitment_threshold_scale)
+        .Set("omega_scale", p.omega_scale)
+        .Set("stiffness_scale", p.stiffness_scale)
+        .Set("electrode_offset_along_m", p.electrode_offset_along_m)
+        .Set("electrode_offset_around_m", p.electrode_offset_around_m);
+    people.Push(j);
+  }
+  manifest.Set("participants", people);
+  Json items = Json::Array();
+  for (std::size_t i = 0; i < st.items.size(); ++i) {
+    const StudyItem& item = st.items[i];
+    Json j = Json::Object();
+    j.Set("participant", "p" + std::to_string(item.participant + 1))
+        .Set("protocol", item.protocol)
+        .Set("repetition", item.repetition + 1)
+        .Set("noise_seed", std::to_string(item.noise_seed))
+        .Set("measured", item.file_stem + ".csv")
+        .Set("truth", item.file_stem + "_truth.csv")
+        .Set("duration_s", item.scenario.trial.duration_s)
+        .Set("integration", Json::Parse(stats[i], item.file_stem + "_truth.csv: integration"));
+    items.Push(j);
+  }
+  manifest.Set("trials", items);
+  return manifest;
+}
+
 int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster::Cluster& job) {
   const Study st = LoadStudy(path, static_cast<std::uint64_t>(seed));
   const std::string out = cli::OutPath(args, "out", "out/" + st.name);
@@ -119,35 +195,8 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
   std::string pending_text;
   if (job.is_root()) {
     for (std::size_t i = 0; i < st.items.size(); ++i) {
-      bool finished = false;
-      try {
-        Json record;
-        if (records.Load(record_key(i), &record)) {
-          const Json* files = record.Find("files");
-          const Json* integration = record.Find("integration");
-          if (files == nullptr || !files->IsArray() || integration == nullptr ||
-              !integration->IsString()) {
-            throw std::runtime_error(records.Path(record_key(i)) +
-                                     ".json: expected {files, integration}");
-          }
-          std::string damage;
-          for (const Json& f : files->Items()) {
-            const std::string why = CheckWrittenFile(out, f);
-            if (!why.empty() && damage.empty()) damage = why;
-          }
-          finished = damage.empty();
-          if (finished) {
-            stats[i] = integration->AsString();
-          } else {
-            std::fprintf(stderr, "fesim simulate: %s; study item %s is simulated again\n",
-                         damage.c_str(), st.items[i].file_stem.c_str());
-          }
-        }
-      } catch (const std::exception& e) {
-        // A damaged record (e.g. a file system that lost its end): the item is simulated again.
-        std::fprintf(stderr, "fesim simulate: %s; study item %s is simulated again\n", e.what(),
-                     st.items[i].file_stem.c_str());
-      }
+      const bool finished =
+          FinishedStudyItem(records, record_key(i), out, st.items[i].file_stem, &stats[i]);
       if (!finished) pending_text += std::to_string(i) + " ";
     }
   }
@@ -207,43 +256,7 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
   }
   if (!job.is_root()) return 0;
 
-  Json manifest = Json::Object();
-  manifest.Set("fesim_version", FESIM_VERSION)
-      .Set("study", st.name)
-      .Set("study_file", st.path)
-      .Set("study_hash_fnv1a64", hash)
-      .Set("seed", static_cast<double>(seed));
-  Json people = Json::Array();
-  for (const Participant& p : st.participants) {
-    Json j = Json::Object();
-    j.Set("id", "p" + std::to_string(p.index + 1))
-        .Set("height_m", p.height_m)
-        .Set("mass_kg", p.mass_kg)
-        .Set("strength_scale", p.strength_scale)
-        .Set("recruitment_threshold_scale", p.recruitment_threshold_scale)
-        .Set("omega_scale", p.omega_scale)
-        .Set("stiffness_scale", p.stiffness_scale)
-        .Set("electrode_offset_along_m", p.electrode_offset_along_m)
-        .Set("electrode_offset_around_m", p.electrode_offset_around_m);
-    people.Push(j);
-  }
-  manifest.Set("participants", people);
-  Json items = Json::Array();
-  for (std::size_t i = 0; i < st.items.size(); ++i) {
-    const StudyItem& item = st.items[i];
-    Json j = Json::Object();
-    j.Set("participant", "p" + std::to_string(item.participant + 1))
-        .Set("protocol", item.protocol)
-        .Set("repetition", item.repetition + 1)
-        .Set("noise_seed", std::to_string(item.noise_seed))
-        .Set("measured", item.file_stem + ".csv")
-        .Set("truth", item.file_stem + "_truth.csv")
-        .Set("duration_s", item.scenario.trial.duration_s)
-        .Set("integration", Json::Parse(stats[i], truth_path(i) + ": integration"));
-    items.Push(j);
-  }
-  manifest.Set("trials", items);
-  WriteFileAtomic(out + "/manifest.json", manifest.Dump());
+  WriteFileAtomic(out + "/manifest.json", StudyManifest(st, hash, seed, stats).Dump());
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const std::string where = job.size() > 1 ? std::to_string(job.size()) + " MPI ranks"
                                            : std::to_string(threads) + " threads";

@@ -551,6 +551,98 @@ TremorColumns PickTremorColumns(const Trial& t, const std::string& label) {
   return {us[0], us[1], qs[0]};
 }
 
+/// The training or test trials (`what`) as TremorData: the combined input u of eq. (5) from the
+/// co-activation levels `c`, the output with its missing samples (tracker dropouts, NaN; inputs
+/// must be complete) counted per trial into `missing`.
+TremorData TremorDataOf(const std::vector<Trial>& trials, const TremorColumns& cols,
+                        const Coactivation& c, const std::string& what,
+                        std::vector<std::size_t>* missing) {
+  TremorData d;
+  for (std::size_t t = 0; t < trials.size(); ++t) {
+    const std::string label = what + " trial " + std::to_string(t);
+    const double T = UniformSamplePeriod(trials[t], label);
+    if (t == 0) d.sample_period_s = T;
+    if (std::abs(T - d.sample_period_s) > 1e-3 * T) {
+      throw std::runtime_error(label + ": sample period differs from trial 0");
+    }
+    const Eigen::MatrixXd x = RequireColumns(trials[t], {cols.agonist, cols.antagonist}, label);
+    std::size_t n_missing = 0;
+    Eigen::VectorXd y = OutputColumn(trials[t], cols.output, label, &n_missing);
+    if (n_missing == static_cast<std::size_t>(y.size())) {
+      throw std::runtime_error(label + ": column " + cols.output + " has no measured sample");
+    }
+    missing->push_back(n_missing);
+    Eigen::VectorXd u(x.rows());
+    for (Eigen::Index k = 0; k < x.rows(); ++k) u(k) = CoactivationCombine(c, x(k, 0), x(k, 1));
+    d.u_us.push_back(u);
+    d.y.push_back(std::move(y));
+  }
+  return d;
+}
+
+/// The order sweep of paper 001 (Figs 7–8) as metrics; `opt->orders` set to the entry of best
+/// cross-validation Best Fit.
+Json SweepOrders(const TremorData& tr, double u_scale, const ProgressFn& progress,
+                 TremorOptions* opt) {
+  const auto entries =
+      SweepTremorOrders(tr, *opt, {2, 4, 8, 12}, {1, 3, 7}, {1}, u_scale, progress);
+  Json js = Json::Array();
+  double best = -INFINITY;
+  for (const auto& e : entries) {
+    Json j = Json::Object();
+    j.Set("poles_l", e.orders.poles_l);
+    j.Set("zeros_n", e.orders.zeros_n);
+    j.Set("delay_m", e.orders.delay_m);
+    j.Set("validation_best_fit_percent", e.validation_best_fit);
+    j.Set("cross_validation_best_fit_percent", e.cross_validation_best_fit);
+    js.Push(j);
+    if (e.cross_validation_best_fit > best) {
+      best = e.cross_validation_best_fit;
+      opt->orders = e.orders;
+    }
+  }
+  return js;
+}
+
+/// model.yaml of a tremor-arx fit: orders, co-activation levels, h(u), the ARX polynomials and
+/// the tremor amplitudes with their 95 % half-widths, and how Algorithm 1 stopped.
+std::string TremorModelYaml(const TremorColumns& cols, const Coactivation& c,
+                            const TremorFit& fit) {
+  const TremorModel& m = fit.model;
+  std::string y = "# fesim identify: tremor-arx (paper 001_50576a960b4d02ae eq. 5-21; P(1) = 1)\n";
+  y += "method: tremor-arx\ninputs: {agonist: " + cols.agonist +
+       ", antagonist: " + cols.antagonist + "}\noutput: " + cols.output + "\n";
+  y += "orders: {poles_l: " + std::to_string(m.orders.poles_l) +
+       ", zeros_n: " + std::to_string(m.orders.zeros_n) +
+       ", delay_m: " + std::to_string(m.orders.delay_m) +
+       ", poly_degree: " + std::to_string(m.orders.poly_degree) + "}\n";
+  y += YamlParam("c_agonist", c.c_agonist_us, "us", NAN, 0);
+  y += YamlParam("c_antagonist", c.c_antagonist_us, "us", NAN, 0);
+  y += YamlParam("u_scale", m.u_scale_us, "us", NAN, 0);
+  y += YamlParam("tremor_frequency", m.tremor_hz, "Hz", NAN, 0);
+  y += "# h(u) = sum_k beta_k (u/u_scale)^k; ci95 conditional on the other block\nbeta:\n";
+  for (Eigen::Index k = 0; k < m.beta.size(); ++k) {
+    y += YamlParam("beta" + std::to_string(k), m.beta(k), "rad", fit.beta_ci95(k), 2);
+  }
+  y += "a:\n";
+  for (Eigen::Index i = 0; i < m.a.size(); ++i) {
+    y += YamlParam("a" + std::to_string(i + 1), m.a(i), "1", fit.theta_l_ci95(i), 2);
+  }
+  y += "b:\n";
+  for (Eigen::Index j = 0; j < m.b.size(); ++j) {
+    y += YamlParam("b" + std::to_string(j), m.b(j), "1", fit.theta_l_ci95(m.a.size() + j), 2);
+  }
+  const Eigen::Index li = m.a.size() + m.b.size();
+  y += "# tremor amplitudes of training trial 0 (phase from its first sample)\n";
+  y += YamlParam("lambda1", m.lambda1, "rad", fit.theta_l_ci95(li), 0);
+  y += YamlParam("lambda2", m.lambda2, "rad", fit.theta_l_ci95(li + 1), 0);
+  y += "# how the iterative algorithm stopped\nconvergence: {converged: " +
+       std::string(fit.convergence.converged ? "true" : "false") +
+       ", stop_reason: " + fit.convergence.stop_reason +
+       ", iterations: " + std::to_string(fit.convergence.iterations) + "}\n";
+  return y;
+}
+
 MethodResult RunTremor(const std::vector<Trial>& train_rows, const std::vector<Trial>& test_rows,
                        const ProgressFn& progress) {
   if (train_rows.empty()) throw std::runtime_error("--train: no trials");
@@ -584,33 +676,8 @@ MethodResult RunTremor(const std::vector<Trial>& train_rows, const std::vector<T
   c.c_agonist_us = md.Real("c_agonist_us", c.c_agonist_us, 0.0, 300.0);
   c.c_antagonist_us = md.Real("c_antagonist_us", c.c_antagonist_us, 0.0, 300.0);
   md.RejectUnknown();
-  // Output samples may be missing (tracker dropouts, NaN); inputs must be complete.
-  const auto to_data = [&](const std::vector<Trial>& trials, const std::string& what,
-                           std::vector<std::size_t>* missing) {
-    TremorData d;
-    for (std::size_t t = 0; t < trials.size(); ++t) {
-      const std::string label = what + " trial " + std::to_string(t);
-      const double T = UniformSamplePeriod(trials[t], label);
-      if (t == 0) d.sample_period_s = T;
-      if (std::abs(T - d.sample_period_s) > 1e-3 * T) {
-        throw std::runtime_error(label + ": sample period differs from trial 0");
-      }
-      const Eigen::MatrixXd x = RequireColumns(trials[t], {cols.agonist, cols.antagonist}, label);
-      std::size_t n_missing = 0;
-      Eigen::VectorXd y = OutputColumn(trials[t], cols.output, label, &n_missing);
-      if (n_missing == static_cast<std::size_t>(y.size())) {
-        throw std::runtime_error(label + ": column " + cols.output + " has no measured sample");
-      }
-      missing->push_back(n_missing);
-      Eigen::VectorXd u(x.rows());
-      for (Eigen::Index k = 0; k < x.rows(); ++k) u(k) = CoactivationCombine(c, x(k, 0), x(k, 1));
-      d.u_us.push_back(u);
-      d.y.push_back(std::move(y));
-    }
-    return d;
-  };
   std::vector<std::size_t> train_missing, test_missing;
-  const TremorData tr = to_data(train, "train", &train_missing);
+  const TremorData tr = TremorDataOf(train, cols, c, "train", &train_missing);
   double u_scale = 0.0;
   for (const auto& u : tr.u_us) u_scale = std::max(u_scale, u.cwiseAbs().maxCoeff());
   if (!(u_scale > 0.0)) throw std::runtime_error("train: combined input u is identically zero");
@@ -625,61 +692,13 @@ MethodResult RunTremor(const std::vector<Trial>& train_rows, const std::vector<T
     const ProgressFn sweep_progress = [&progress](double f, const std::string& stage) {
       if (progress) progress(0.2 + 0.6 * f, stage);
     };
-    const auto entries =
-        SweepTremorOrders(tr, opt, {2, 4, 8, 12}, {1, 3, 7}, {1}, u_scale, sweep_progress);
-    Json js = Json::Array();
-    double best = -INFINITY;
-    for (const auto& e : entries) {
-      Json j = Json::Object();
-      j.Set("poles_l", e.orders.poles_l);
-      j.Set("zeros_n", e.orders.zeros_n);
-      j.Set("delay_m", e.orders.delay_m);
-      j.Set("validation_best_fit_percent", e.validation_best_fit);
-      j.Set("cross_validation_best_fit_percent", e.cross_validation_best_fit);
-      js.Push(j);
-      if (e.cross_validation_best_fit > best) {
-        best = e.cross_validation_best_fit;
-        opt.orders = e.orders;
-      }
-    }
-    metrics.Set("order_sweep", js);
+    metrics.Set("order_sweep", SweepOrders(tr, u_scale, sweep_progress, &opt));
   }
   if (progress) progress(0.8, "final fit");
   const TremorFit fit = FitTremorArx(tr, opt, u_scale);
   const TremorModel& m = fit.model;
-  std::string y = "# fesim identify: tremor-arx (paper 001_50576a960b4d02ae eq. 5-21; P(1) = 1)\n";
-  y += "method: tremor-arx\ninputs: {agonist: " + cols.agonist +
-       ", antagonist: " + cols.antagonist + "}\noutput: " + cols.output + "\n";
-  y += "orders: {poles_l: " + std::to_string(m.orders.poles_l) +
-       ", zeros_n: " + std::to_string(m.orders.zeros_n) +
-       ", delay_m: " + std::to_string(m.orders.delay_m) +
-       ", poly_degree: " + std::to_string(m.orders.poly_degree) + "}\n";
-  y += YamlParam("c_agonist", c.c_agonist_us, "us", NAN, 0);
-  y += YamlParam("c_antagonist", c.c_antagonist_us, "us", NAN, 0);
-  y += YamlParam("u_scale", m.u_scale_us, "us", NAN, 0);
-  y += YamlParam("tremor_frequency", m.tremor_hz, "Hz", NAN, 0);
-  y += "# h(u) = sum_k beta_k (u/u_scale)^k; ci95 conditional on the other block\nbeta:\n";
-  for (Eigen::Index k = 0; k < m.beta.size(); ++k) {
-    y += YamlParam("beta" + std::to_string(k), m.beta(k), "rad", fit.beta_ci95(k), 2);
-  }
-  y += "a:\n";
-  for (Eigen::Index i = 0; i < m.a.size(); ++i) {
-    y += YamlParam("a" + std::to_string(i + 1), m.a(i), "1", fit.theta_l_ci95(i), 2);
-  }
-  y += "b:\n";
-  for (Eigen::Index j = 0; j < m.b.size(); ++j) {
-    y += YamlParam("b" + std::to_string(j), m.b(j), "1", fit.theta_l_ci95(m.a.size() + j), 2);
-  }
-  const Eigen::Index li = m.a.size() + m.b.size();
-  y += "# tremor amplitudes of training trial 0 (phase from its first sample)\n";
-  y += YamlParam("lambda1", m.lambda1, "rad", fit.theta_l_ci95(li), 0);
-  y += YamlParam("lambda2", m.lambda2, "rad", fit.theta_l_ci95(li + 1), 0);
   MethodResult result;
-  y += "# how the iterative algorithm stopped\nconvergence: {converged: " +
-       std::string(fit.convergence.converged ? "true" : "false") +
-       ", stop_reason: " + fit.convergence.stop_reason +
-       ", iterations: " + std::to_string(fit.convergence.iterations) + "}\n";
-  result.model_yaml = y;
+  result.model_yaml = TremorModelYaml(cols, c, fit);
   if (!fit.convergence.converged) {
     result.warnings.push_back("tremor-arx iterative algorithm: did not converge (" +
                               fit.convergence.stop_reason + " after " +
@@ -687,7 +706,7 @@ MethodResult RunTremor(const std::vector<Trial>& train_rows, const std::vector<T
   }
   const bool has_test = !test.empty();
   if (has_test) PickTremorColumns(test[0], "test trial 0");
-  const TremorData ev = has_test ? to_data(test, "test", &test_missing) : tr;
+  const TremorData ev = has_test ? TremorDataOf(test, cols, c, "test", &test_missing) : tr;
   const std::vector<std::size_t>& ev_missing = has_test ? test_missing : train_missing;
   const std::vector<Trial>& eval = has_test ? test : train;
   Json fits = Json::Array();
