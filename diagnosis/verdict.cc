@@ -31,15 +31,13 @@ std::string GapText(const std::vector<int>& gaps, const std::vector<double>& nrm
 void NoneBeyondControls(const std::vector<Candidate>& library, const ExtensionOutcome& extension,
                         const std::vector<int>& gaps_after, Diagnosis* d) {
   std::string controls;
-  double gain = 0.0;
   for (int c : extension.accepted) {
     controls += (controls.empty() ? "" : ", ") + library[c].label;
-    gain = std::max(gain, d->candidates[c].heldout_gain);
   }
   d->cause = "none";
   d->confidence = gaps_after.empty() ? 0.75 : 0.5;
   d->reason = "a normal variation of the person that the calibration does not parameterise (" +
-              controls + Fmt(", held-out gain %.1f %%)", 100.0 * gain) +
+              controls + Fmt(", held-out gain of the extended model %.1f %%)", 100.0 * d->gain) +
               " explains what the calibrated model misses, and no candidate mechanism passes on "
               "top of it";
   if (!gaps_after.empty()) {

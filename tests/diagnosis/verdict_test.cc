@@ -76,8 +76,10 @@ TEST(Verdict, AMisfitOnlyAControlExplainsIsNoneWithTheControlNamedInTheReason) {
   s.Fitted("passive_asymmetry@wrist_flexion", 0.12, true);
   s.Fitted("spasticity@wrist_flexion", 0.05, false);
   const ExtensionOutcome e = s.Outcome({"passive_asymmetry@wrist_flexion"}, -1);
+  s.d.gain = 0.25;
   MakeVerdict(s.library, e, 0, s.settings, &s.d);
   EXPECT_EQ(s.d.cause, "none");
+  EXPECT_NE(s.d.reason.find("25.0 %"), std::string::npos) << s.d.reason;
   EXPECT_NE(s.d.reason.find("passive_asymmetry@wrist_flexion"), std::string::npos) << s.d.reason;
   EXPECT_TRUE(s.d.mechanisms.empty());
   ASSERT_EQ(s.d.extension_parameters.size(), 1u);
