@@ -134,6 +134,20 @@ std::vector<double> HeldoutStructure(const DataView& held, const std::vector<Tri
   return out;
 }
 
+/// The values and intervals of the fitted person parameters `person` from `fit` (its x in their
+/// order) into `table`.
+void UpdatePersonTable(const std::vector<ModelParameter>& person, const FitResult& fit,
+                       std::vector<PersonValue>* table) {
+  for (std::size_t k = 0; k < person.size(); ++k) {
+    const auto i = static_cast<Eigen::Index>(k);
+    if (i >= fit.x.size()) break;
+    for (PersonValue& v : *table) {
+      if (v.name == person[k].name)
+        SetFittedValue(person[k], fit.x(i), i < fit.ci95.size() ? fit.ci95(i) : NAN, &v);
+    }
+  }
+}
+
 }  // namespace
 
 std::string DiagnoseSettings::KeyText() const {
@@ -226,11 +240,8 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   const ExtensionOutcome extension = Extend(ctx, library, calibration, person, screen,
                                             std::move(directions), reference_gap, &d.candidates);
   if (extension.baseline_refit) {
-    d.notes.push_back(
-        "the person calibration stopped at its LM iteration limit; the person "
-        "refitted " +
-        std::to_string(settings.screen_iterations) +
-        " more steps is the calibrated model the candidates are judged against");
+    d.notes.push_back(extension.baseline_note);
+    UpdatePersonTable(person, extension.baseline_fit, &d.person);
     d.heldout_baseline = extension.baseline_heldout_predictions;
     d.baseline_heldout_nrmse_per_output = ViewNrmsePerOutput(data.heldout, d.heldout_baseline);
     d.baseline_heldout_nrmse = ViewNrmse(data.heldout, d.heldout_baseline);

@@ -135,6 +135,9 @@ class Extender {
   /// `limit` of them.
   std::vector<int> StrongestPerId(std::vector<int> cands, const ScreenStage& tests,
                                   int limit) const;
+  /// Makes `control` (the person alone refitted from candidate c's profile-start fit) the
+  /// control when it beats it on training Σr² (extension.h, Control).
+  void AdoptBetterControl(const Fitted& control, int c);
   void ScreenRound(const ScreenStage& screen);
   bool OnTopRound();
   void BackwardStep();
@@ -153,6 +156,7 @@ class Extender {
   std::vector<int> accepted_;
   std::set<std::string> dropped_;
   std::map<int, double> accept_p_, accept_gain_;
+  std::string baseline_note_;  ///< ExtensionOutcome::baseline_note.
   std::vector<double> on_top_reference_;
   // End points of fits run here (residual, Jacobian when all free): a fit from there starts
   // without simulating them again (FitStart).
@@ -567,6 +571,22 @@ std::vector<int> Extender::StrongestPerId(std::vector<int> cands, const ScreenSt
   return out;
 }
 
+void Extender::AdoptBetterControl(const Fitted& control, int c) {
+  if (!control.stage.heldout_ok ||
+      !(control.stage.train_residual.squaredNorm() < base_.stage.train_residual.squaredNorm())) {
+    return;
+  }
+  baseline_note_ =
+      Fmt("the person calibration stopped in a poorer minimum (held-out NRMSE %.3f) than the "
+          "person refitted alone from where ",
+          base_.heldout_nrmse) +
+      lib_[c].label +
+      Fmt("'s profile-start fit ended (%.3f); that person is the calibrated model the candidates "
+          "are judged against",
+          control.heldout_nrmse);
+  base_ = control;
+}
+
 void Extender::ScreenRound(const ScreenStage& screen) {
   const double alpha = ctx_.settings.alpha;
   std::vector<int> order;
@@ -594,14 +614,23 @@ void Extender::ScreenRound(const ScreenStage& screen) {
     const Eigen::VectorXd x0 =
         Concat(base_.stage.fit.x, lib_[c].start_from_step(screen.tests[c].theta));
     FitStage s = FitStageOf({c}, x0, ctx_.settings.screen_iterations, 0.0, true);
+    Json control;  // null: judged against the calibrated person
     if (!lib_[c].profile_starts.empty()) {
       const Eigen::VectorXd x = LowestProfileStart(c);
       if (x.size()) {
         FitStage alt = FitStageOf({c}, x, ctx_.settings.screen_iterations, 0.0);
-        if (alt.fit.cost < s.fit.cost) s = std::move(alt);
+        if (alt.fit.cost < s.fit.cost) {
+          // A profile start may lead the person to a better minimum than the calibration's: the
+          // person alone refitted from where the candidate's fit ended (extension.h, Control).
+          control =
+              ToJson(FitStageOf({}, alt.fit.x.head(ns_), ctx_.settings.screen_iterations, 0.0));
+          s = std::move(alt);
+        }
       }
     }
-    return ToJson(s).Dump(0);
+    Json r = Json::Object();
+    r.Set("fit", ToJson(s)).Set("control", control);
+    return r.Dump(0);
   };
   for (std::size_t first = 0; first < order.size() && best < 0; first += batch.size()) {
     batch.assign(order.begin() + static_cast<std::ptrdiff_t>(first),
@@ -617,12 +646,22 @@ void Extender::ScreenRound(const ScreenStage& screen) {
       EnsureDirections(need);
     }
     const std::vector<std::string> texts = ctx_.Map(batch.size(), item);
+    std::vector<Fitted> fits(batch.size());
+    for (std::size_t k = 0; k < batch.size(); ++k) {
+      const Json item_json = Json::Parse(texts[k], "screening fit");
+      fits[k].cands = {batch[k]};
+      FromJson(Member(item_json, "fit"), &fits[k].stage);
+      Complete(&fits[k]);
+      if (!Member(item_json, "control").IsNull()) {
+        Fitted control;
+        FromJson(Member(item_json, "control"), &control.stage);
+        Complete(&control);
+        AdoptBetterControl(control, batch[k]);
+      }
+    }
     for (std::size_t k = 0; k < batch.size(); ++k) {
       const int c = batch[k];
-      Fitted f;
-      f.cands = {c};
-      FromJson(Json::Parse(texts[k], "screening fit"), &f.stage);
-      Complete(&f);
+      Fitted& f = fits[k];
       const Judgement j = JudgeLast(f, base_, c);
       Record(c, f, j);
       round1_.push_back(std::move(f));
@@ -892,9 +931,19 @@ ExtensionOutcome Extender::Run(const ScreenStage& screen,
     base_ = FitExtension({}, cal_.fit.x, ctx_.settings.screen_iterations);
     out.baseline_refit = true;
   }
+  ScreenRound(screen);
+  if (!baseline_note_.empty()) {
+    out.baseline_refit = true;
+    out.baseline_note = baseline_note_;
+  } else if (out.baseline_refit) {
+    out.baseline_note =
+        "the person calibration stopped at its LM iteration limit; the person "
+        "refitted " +
+        std::to_string(ctx_.settings.screen_iterations) +
+        " more steps is the calibrated model the candidates are judged against";
+  }
   out.baseline_fit = base_.stage.fit;
   out.baseline_heldout_predictions = base_.stage.heldout_predictions;
-  ScreenRound(screen);
   out.on_top_reference = on_top_reference_;
   if (accepted_.empty()) return out;
   // Up to max_accepted mechanisms; the controls (Candidate::control) taken on the way do not

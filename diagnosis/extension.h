@@ -4,6 +4,12 @@
 // Control. When the calibration stopped at its iteration limit, the person alone is refitted as
 // many LM steps as a candidate's fit gets; that refit, not the calibration, is what the candidates
 // are judged against (otherwise any candidate is credited with the calibration's own progress).
+// A candidate fitted from a profile start (below) may lead the person to a better minimum than
+// the calibration's (a foreign wander's calibration stopped at held-out NRMSE 0.63, the person
+// fitted with crosstalk held at 0.15 and then released reached 0.17 with crosstalk ≈ 0): the
+// person alone is refitted from where that fit ended, and when it beats the control on training
+// Σr² it becomes the control every candidate of that batch and after is judged against
+// (baseline_note says so).
 //
 // Screening. The candidates whose robust score test passes (p_adj < alpha), the best-scoring
 // joint per id, up to max_screened, are fitted in batches of max_fitted while none passes: their
@@ -62,6 +68,8 @@ struct ExtensionOutcome {
   /// The model the candidates were judged against: the calibration, or — when its LM stopped at
   /// the iteration limit — the person refitted screen_iterations more steps (baseline_refit).
   bool baseline_refit = false;
+  /// Why the control is not the calibration ("": it is), for the report's notes.
+  std::string baseline_note;
   FitResult baseline_fit;
   std::vector<Trial> baseline_heldout_predictions;
   std::vector<int> accepted;           ///< library indices, in acceptance order.

@@ -286,6 +286,18 @@ std::vector<int> Identifiable(const Eigen::MatrixXd& jacobian,
 
 }  // namespace
 
+void SetFittedValue(const ModelParameter& p, double value, double ci95, PersonValue* v) {
+  v->fitted = true;
+  v->value = value;
+  v->ci95 = ci95;
+  const double range = p.upper - p.lower;
+  v->at_bound = value - p.lower <= 1e-3 * range || p.upper - value <= 1e-3 * range;
+  // The prior's half-width in the parameter's unit at its value (log-normal: × the value).
+  const double prior_half = 1.96 * v->prior_width * (p.log_prior ? value : 1.0);
+  v->prior_dominated =
+      std::isfinite(v->prior_width) && std::isfinite(ci95) && ci95 >= kPriorDominated * prior_half;
+}
+
 std::vector<ModelParameter> PersonParameters(const sim::ModelParams& rig,
                                              const LibraryContext& ctx) {
   std::vector<ModelParameter> out;
@@ -378,15 +390,7 @@ PersonCalibration CalibratePerson(const sim::ModelParams& rig, const LibraryCont
     const auto it = std::find(kept.begin(), kept.end(), static_cast<int>(k));
     if (it != kept.end()) {
       const auto i = static_cast<Eigen::Index>(it - kept.begin());
-      v.fitted = true;
-      v.value = out.fit.x(i);
-      v.ci95 = out.fit.ci95(i);
-      const double range = all[k].upper - all[k].lower;
-      v.at_bound = v.value - all[k].lower <= 1e-3 * range || all[k].upper - v.value <= 1e-3 * range;
-      // The prior's half-width in the parameter's unit at its value (log-normal: × the value).
-      const double prior_half = 1.96 * v.prior_width * (all[k].log_prior ? v.value : 1.0);
-      v.prior_dominated = std::isfinite(v.prior_width) && std::isfinite(v.ci95) &&
-                          v.ci95 >= kPriorDominated * prior_half;
+      SetFittedValue(all[k], out.fit.x(i), out.fit.ci95(i), &v);
     }
     out.table.push_back(v);
   }

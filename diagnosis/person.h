@@ -88,6 +88,10 @@ struct PersonValue {
   double information = 0.0;      ///< step 2's R diagonal (0 for the reduced model's scales).
 };
 
+/// `v` as calibrated: `value` and its 95 % half-width `ci95` of parameter `p`, with its bound
+/// and prior-dominance flags.
+void SetFittedValue(const ModelParameter& p, double value, double ci95, PersonValue* v);
+
 struct PersonCalibration {
   std::vector<ModelParameter> fitted;  ///< the calibrated parameters (the rest stay nominal).
   FitResult fit;                       ///< over `fitted` (cost, intervals, Jacobian, predictions).

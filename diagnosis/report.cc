@@ -147,12 +147,15 @@ Json DiagnosisJson(const Diagnosis& d) {
     noise.Set(d.heldout.outputs[o], d.noise_rad[o]);
   j.Set("noise_rad", noise);
   j.Set("model", d.model);
+  Json notes = Json::Array();
+  for (const auto& line : d.notes) notes.Push(line);
+  j.Set("notes", notes);
   return j;
 }
 
 std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs) {
   std::string notes;
-  for (const auto& line : d.notes) notes += "Input: " + line + ".\n\n";
+  for (const auto& line : d.notes) notes += "Note: " + line + ".\n\n";
   const std::string model =
       d.model == "full"
           ? std::string("the full model (12) of the rig, the person calibrated")

@@ -18,6 +18,7 @@ Diagnosis Example() {
   d.baseline_heldout_nrmse = 0.2;
   d.extended_heldout_nrmse = 0.1;
   d.gain = 0.5;
+  d.notes = {"the person calibration stopped in a poorer minimum"};
   d.mechanisms = {"tremor@wrist_flexion"};
   d.mechanism_ids = {"tremor"};
   d.extension_parameters = {{"tremor@wrist_flexion:tremor.amplitude_nm", "N*m", 0.08, 0.002}};
@@ -120,6 +121,10 @@ TEST(Report, JsonHasTheProductKeysPerCandidateTestsAndTheCalibratedPerson) {
   EXPECT_EQ(k.Find("status")->AsString(), "calibrated");
   EXPECT_EQ(j.Find("person")->Find("mass.hand")->Find("status")->AsString(),
             "held at nominal: not identifiable from these data");
+  // The notes on the input and on the control, as sentences.
+  ASSERT_EQ(j.Find("notes")->Items().size(), 1u);
+  EXPECT_EQ(j.Find("notes")->Items()[0].AsString(),
+            "the person calibration stopped in a poorer minimum");
 }
 
 TEST(Report, WritesMarkdownJsonAndPlots) {
