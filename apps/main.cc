@@ -16,13 +16,11 @@
 
 namespace {
 
-/// SIGINT/SIGTERM: remove the temporary file of an atomic write in progress (if any) and the
-/// registered ones (the movie being encoded), then die of
-/// the signal as before. Outputs are renamed into place only when complete, so an interrupted run
-/// leaves complete files or none, and no *.tmp.* files (docs/reliability.md).
+/// SIGINT/SIGTERM: remove the registered temporary files (atomic writes in progress, the movie
+/// being encoded), then die of the signal as before. Outputs are renamed into place only when
+/// complete, so an interrupted run leaves complete files or none, and no *.tmp.* files
+/// (docs/reliability.md).
 void OnTerminate(int sig) {
-  const char* tmp = fesim::PendingAtomicWriteTempFile();
-  if (tmp[0] != '\0') ::unlink(tmp);
   for (int k = 0; k < fesim::kMaxRegisteredTempFiles; ++k) {
     const char* registered = fesim::RegisteredTempFile(k);
     if (registered[0] != '\0') ::unlink(registered);

@@ -269,24 +269,6 @@ std::string FormatTrialSto(const Trial& trial, const std::string& name) {
 }
 
 namespace {
-// The temporary file being written, for signal handlers (see PendingAtomicWriteTempFile).
-char g_pending_tmp[4096] = "";
-
-/// Publishes `tmp` as pending (empty clears it). Writes the terminating NUL first and the first
-/// byte last, so a handler interrupting the update sees either "" or a complete name.
-void SetPendingTemp(const std::string& tmp) {
-  g_pending_tmp[0] = '\0';
-  std::atomic_signal_fence(std::memory_order_seq_cst);
-  if (tmp.empty() || tmp.size() >= sizeof g_pending_tmp) return;
-  std::memcpy(g_pending_tmp + 1, tmp.c_str() + 1, tmp.size());
-  std::atomic_signal_fence(std::memory_order_seq_cst);
-  g_pending_tmp[0] = tmp[0];
-}
-}  // namespace
-
-const char* PendingAtomicWriteTempFile() { return g_pending_tmp; }
-
-namespace {
 // Registered temporary files (see RegisterTempFile); a slot is free when its first byte is 0.
 // The mutex orders registrations between threads; handlers only read.
 char g_registered_tmp[kMaxRegisteredTempFiles][4096] = {};
@@ -299,7 +281,8 @@ int RegisterTempFile(const std::string& path) {
   for (int k = 0; k < kMaxRegisteredTempFiles; ++k) {
     char* slot = g_registered_tmp[k];
     if (slot[0] != '\0') continue;
-    // Same publication order as SetPendingTemp: the first byte last.
+    // The terminating NUL first, the first byte last: a signal handler interrupting the update
+    // sees either "" or a complete name.
     std::memcpy(slot + 1, path.c_str() + 1, path.size());
     std::atomic_signal_fence(std::memory_order_seq_cst);
     slot[0] = path[0];
@@ -333,11 +316,14 @@ std::string TempSuffixHost() {
 
 void WriteFileAtomic(const std::string& path, const std::string& contents) {
   const std::string tmp = path + ".tmp." + std::to_string(::getpid()) + "." + TempSuffixHost();
-  SetPendingTemp(tmp);
+  // Registered for the SIGINT/SIGTERM handler while it exists (several threads may write).
+  struct Registration {
+    int slot;
+    ~Registration() { UnregisterTempFile(slot); }
+  } registration{RegisterTempFile(tmp)};
   std::FILE* f = std::fopen(tmp.c_str(), "wb");
   if (f == nullptr) {
     const int err = errno;
-    SetPendingTemp("");
     throw std::runtime_error(path + ": cannot open for writing: " + std::strerror(err));
   }
   const bool ok = std::fwrite(contents.data(), 1, contents.size(), f) == contents.size() &&
@@ -347,17 +333,14 @@ void WriteFileAtomic(const std::string& path, const std::string& contents) {
   if (!ok || !closed) {
     const int err = ok ? errno : write_err;
     std::remove(tmp.c_str());
-    SetPendingTemp("");
     throw std::runtime_error(path + ": write failed: " + std::strerror(err));
   }
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
     const int err = errno;
     std::remove(tmp.c_str());
-    SetPendingTemp("");
     throw std::runtime_error(path +
                              ": cannot rename temporary file into place: " + std::strerror(err));
   }
-  SetPendingTemp("");
 }
 
 std::string ReadFile(const std::string& path) {

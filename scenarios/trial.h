@@ -66,16 +66,13 @@ std::string FormatTrialSto(const Trial& trial, const std::string& name);
 /// partial file at `path`.
 void WriteFileAtomic(const std::string& path, const std::string& contents);
 
-/// The temporary file a WriteFileAtomic call is writing right now, or "" when none.
-/// Async-signal-safe: a SIGINT/SIGTERM handler may unlink() it before the process dies, so an
-/// interrupted run leaves no temporary file behind (apps/main.cc does).
-const char* PendingAtomicWriteTempFile();
-
-/// Temporary files written outside WriteFileAtomic (e.g. the movie ffmpeg is encoding) that a
-/// SIGINT/SIGTERM handler must remove: at most kMaxRegisteredTempFiles at once, paths shorter
-/// than 4096 bytes. RegisterTempFile returns a slot (−1 when full: the file is then not cleaned
-/// up on a signal, which is the only consequence); UnregisterTempFile(slot) frees it.
-inline constexpr int kMaxRegisteredTempFiles = 8;
+/// Temporary files that a SIGINT/SIGTERM handler must remove so that an interrupted run leaves
+/// none behind (apps/main.cc): every WriteFileAtomic's while it is written (one per writing
+/// thread) and those written elsewhere (the movie ffmpeg is encoding). At most
+/// kMaxRegisteredTempFiles at once, paths shorter than 4096 bytes. RegisterTempFile returns a
+/// slot (−1 when full: the file is then not cleaned up on a signal, which is the only
+/// consequence); UnregisterTempFile(slot) frees it.
+inline constexpr int kMaxRegisteredTempFiles = 64;
 int RegisterTempFile(const std::string& path);
 void UnregisterTempFile(int slot);
 /// For signal handlers (async-signal-safe): the path in `slot`, or "".

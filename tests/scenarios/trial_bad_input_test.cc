@@ -1,19 +1,28 @@
 // Issue 10: every class of bad trial CSV input fails with a one-line message naming the file, the
 // line and the column; fuzzer findings (fuzz/fuzz_trial_csv.cc) are kept here as regressions.
 #include <dirent.h>
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "scenarios/trial.h"
 
 namespace fesim {
 namespace {
+
+/// No WriteFileAtomic left its temporary file registered for the signal handler.
+void ExpectNoRegisteredTempFile() {
+  for (int k = 0; k < kMaxRegisteredTempFiles; ++k) EXPECT_STREQ(RegisteredTempFile(k), "") << k;
+}
 
 std::string ErrorOf(const std::string& text) {
   try {
@@ -188,7 +197,7 @@ TEST(AtomicWriteFaults, FailureLeavesNoFileAndNoTemporary) {
   // A directory sits where the file should go: the rename fails, the temporary is removed.
   ::mkdir((dir + "/out.csv").c_str(), 0755);
   EXPECT_THROW(WriteFileAtomic(dir + "/out.csv", "data"), std::runtime_error);
-  EXPECT_STREQ(PendingAtomicWriteTempFile(), "");
+  ExpectNoRegisteredTempFile();
   DIR* d = ::opendir(dir.c_str());
   ASSERT_NE(d, nullptr);
   int entries = 0;
@@ -201,11 +210,57 @@ TEST(AtomicWriteFaults, FailureLeavesNoFileAndNoTemporary) {
   ::closedir(d);
   EXPECT_EQ(entries, 1);
   ::rmdir((dir + "/out.csv").c_str());
-  // Success clears the pending name too.
+  // Success unregisters it too.
   WriteFileAtomic(dir + "/ok.csv", "data");
-  EXPECT_STREQ(PendingAtomicWriteTempFile(), "");
+  ExpectNoRegisteredTempFile();
   EXPECT_EQ(ReadFile(dir + "/ok.csv"), "data");
 }
 
 }  // namespace
+TEST(WriteFileAtomic, WritesOfTwoThreadsAreBothRegisteredForTheSignalHandler) {
+  // FIFOs at both temporary paths hold each writer in open() until a reader comes, so both
+  // writes are in progress at once without depending on timing.
+  const std::string dir = ::testing::TempDir() + "atomic_two_threads";
+  ::mkdir(dir.c_str(), 0755);
+  std::vector<std::string> tmps;
+  for (const char* name : {"a.csv", "b.csv"}) {
+    std::remove((dir + "/" + name).c_str());
+    tmps.push_back(dir + "/" + name + ".tmp." + std::to_string(::getpid()) + "." +
+                   TempSuffixHost());
+    std::remove(tmps.back().c_str());
+    ASSERT_EQ(::mkfifo(tmps.back().c_str(), 0600), 0);
+  }
+  // fsync() of a FIFO fails, so each write then throws and removes its temporary: the point
+  // here is only that both were registered while in progress.
+  const auto write = [&](const std::string& name) {
+    try {
+      WriteFileAtomic(dir + "/" + name, "x");
+    } catch (const std::runtime_error&) {
+    }
+  };
+  std::thread a(write, "a.csv");
+  std::thread b(write, "b.csv");
+  const auto registered = [](const std::string& path) {
+    for (int k = 0; k < kMaxRegisteredTempFiles; ++k) {
+      if (path == RegisteredTempFile(k)) return true;
+    }
+    return false;
+  };
+  for (int wait = 0; wait < 1000 && !(registered(tmps[0]) && registered(tmps[1])); ++wait) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_TRUE(registered(tmps[0]));
+  EXPECT_TRUE(registered(tmps[1]));
+  for (const auto& t : tmps) {  // release the writers: read what they write
+    const int fd = ::open(t.c_str(), O_RDONLY);
+    ASSERT_GE(fd, 0);
+    char c = 0;
+    EXPECT_EQ(::read(fd, &c, 1), 1);
+    ::close(fd);
+  }
+  a.join();
+  b.join();
+  ExpectNoRegisteredTempFile();
+}
+
 }  // namespace fesim
