@@ -7,6 +7,7 @@
 #include <complex>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -723,9 +724,13 @@ MethodResult RunTremor(const std::vector<Trial>& train_rows, const std::vector<T
   if (!(u_scale > 0.0)) throw std::runtime_error("train: combined input u is identically zero");
   Json metrics = Json::Object();
   metrics.Set("method", "tremor-arx");
+  // The frequency search ends with the fit at the frequency it found: that is the final fit
+  // unless an order sweep follows.
+  std::optional<TremorFit> searched;
   if (opt.tremor_hz <= 0.0) {
     if (progress) progress(0.05, "tremor frequency");
-    opt.tremor_hz = FitTremorArx(tr, opt, u_scale).model.tremor_hz;
+    searched = FitTremorArx(tr, opt, u_scale);
+    opt.tremor_hz = searched->model.tremor_hz;
   }
   if (sweep && tr.y.size() >= 2) {
     if (progress) progress(0.2, "order sweep");
@@ -733,9 +738,10 @@ MethodResult RunTremor(const std::vector<Trial>& train_rows, const std::vector<T
       if (progress) progress(0.2 + 0.6 * f, stage);
     };
     metrics.Set("order_sweep", SweepOrders(tr, u_scale, sweep_progress, &opt));
+    searched.reset();
   }
   if (progress) progress(0.8, "final fit");
-  const TremorFit fit = FitTremorArx(tr, opt, u_scale);
+  const TremorFit fit = searched ? *std::move(searched) : FitTremorArx(tr, opt, u_scale);
   const TremorModel& m = fit.model;
   MethodResult result;
   result.model_yaml = TremorModelYaml(cols, c, fit);
