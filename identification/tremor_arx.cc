@@ -76,9 +76,8 @@ int FirstRow(const TremorOrders& o) { return std::max(o.poles_l, o.delay_m + o.z
 ///   θ_z  = [1, a_1 … a_{l_P}, −β_0 Σ_j b_j, −b_j β_p, −λ_1, −λ_2],
 /// the tremor pair once per trial (zero outside its rows). Only the last pair depends on ω.
 struct LiftedLayout {
-  int l, n, d, m;
-  explicit LiftedLayout(const TremorOrders& o)
-      : l(o.poles_l), n(o.zeros_n), d(o.delay_m), m(o.poly_degree) {}
+  int l, n, m;
+  explicit LiftedLayout(const TremorOrders& o) : l(o.poles_l), n(o.zeros_n), m(o.poly_degree) {}
   int Fixed() const { return 2 + l + (n + 1) * m; }  ///< columns independent of ω
   int One() const { return l + 1; }
   int S(int j, int p) const { return l + 2 + j * m + (p - 1); }  ///< p ≥ 1
@@ -93,6 +92,7 @@ struct FixedRegression {
   Eigen::VectorXd k;       ///< sample index of each row within its trial
 };
 
+/// FixedRegression of `data` at orders `o`; `s` = u/u_scale per trial.
 std::shared_ptr<const FixedRegression> BuildFixedRegression(const TremorData& data,
                                                             const TremorOrders& o,
                                                             const std::vector<Eigen::VectorXd>& s) {
