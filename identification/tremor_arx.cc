@@ -6,9 +6,12 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
+#include "identification/levenberg_marquardt.h"
 #include "identification/method_support.h"
 #include "identification/metrics.h"
 #include "identification/nnls.h"
@@ -23,13 +26,6 @@ constexpr double kSlopeTol = 1e-10;  // relative violation of h' ≥ 0 accepted 
 
 double Seconds(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
-Eigen::RowVectorXd PolyRow(int m, double s) {
-  Eigen::RowVectorXd r(m + 1);
-  double p = 1.0;
-  for (int k = 0; k <= m; ++k, p *= s) r(k) = p;
-  return r;
 }
 
 Eigen::RowVectorXd SlopeRow(int m, double s) {
@@ -75,88 +71,162 @@ std::pair<double, double> SlopeMinimum(const Eigen::VectorXd& beta, double lo, d
 
 int FirstRow(const TremorOrders& o) { return std::max(o.poles_l, o.delay_m + o.zeros_n); }
 
-/// Leaves out the rows of a regression that touch a missing output sample (a NaN in Y or in Φ:
-/// the sample itself or one of its lags). Complete data are left as they are.
-void DropRowsWithMissingSamples(Eigen::MatrixXd* Phi, Eigen::VectorXd* Y) {
-  if (Y->allFinite() && Phi->allFinite()) return;
-  Eigen::Index n = 0;
-  for (Eigen::Index i = 0; i < Y->size(); ++i) {
-    if (!std::isfinite((*Y)(i)) || !Phi->row(i).allFinite()) continue;
-    Phi->row(n) = Phi->row(i);
-    (*Y)(n) = (*Y)(i);
-    ++n;
+/// Columns of the lifted regressor z(k) of eq. (12): e(k) = z(k)ᵀ θ_z with
+///   z(k) = [y(k), y(k−1) … y(k−l_P), 1, s(k−m_P−j)^p (j = 0…n_P, p = 1…m), cos ω k, sin ω k],
+///   θ_z  = [1, a_1 … a_{l_P}, −β_0 Σ_j b_j, −b_j β_p, −λ_1, −λ_2],
+/// the tremor pair once per trial (zero outside its rows). Only the last pair depends on ω.
+struct LiftedLayout {
+  int l, n, m;
+  explicit LiftedLayout(const TremorOrders& o) : l(o.poles_l), n(o.zeros_n), m(o.poly_degree) {}
+  int Fixed() const { return 2 + l + (n + 1) * m; }  ///< columns independent of ω
+  int One() const { return l + 1; }
+  int S(int j, int p) const { return l + 2 + j * m + (p - 1); }  ///< p ≥ 1
+};
+
+/// The ω-independent columns of z(k) over the complete rows (k ≥ max(l_P, m_P + n_P) and
+/// y(k) … y(k − l_P) measured; a row touching a missing sample is left out) of all trials,
+/// factorised once as Z = Q R (Householder; Q kept as its reflectors).
+struct FixedRegression {
+  Eigen::HouseholderQR<Eigen::MatrixXd> qr;
+  std::vector<int> trial;  ///< trial of each row
+  Eigen::VectorXd k;       ///< sample index of each row within its trial
+};
+
+/// FixedRegression of `data` at orders `o`; `s` = u/u_scale per trial.
+std::shared_ptr<const FixedRegression> BuildFixedRegression(const TremorData& data,
+                                                            const TremorOrders& o,
+                                                            const std::vector<Eigen::VectorXd>& s) {
+  const LiftedLayout L(o);
+  const int k0 = FirstRow(o);
+  Eigen::Index total = 0;
+  for (const auto& y : data.y) total += std::max<Eigen::Index>(0, y.size() - k0);
+  Eigen::MatrixXd Z(total, L.Fixed());
+  auto fixed = std::make_shared<FixedRegression>();
+  fixed->trial.resize(static_cast<std::size_t>(total));
+  fixed->k.resize(total);
+  Eigen::Index r = 0;
+  for (std::size_t t = 0; t < data.y.size(); ++t) {
+    const Eigen::VectorXd& y = data.y[t];
+    const Eigen::Index rows = std::max<Eigen::Index>(0, y.size() - k0);
+    if (rows == 0) continue;
+    for (int i = 0; i <= o.poles_l; ++i) Z.col(i).segment(r, rows) = y.segment(k0 - i, rows);
+    Z.col(L.One()).segment(r, rows).setOnes();
+    for (int j = 0; j <= o.zeros_n; ++j) {
+      const auto base = s[t].segment(k0 - o.delay_m - j, rows).array();
+      Eigen::ArrayXd power = base;
+      for (int p = 1; p <= o.poly_degree; ++p, power *= base) {
+        Z.col(L.S(j, p)).segment(r, rows) = power.matrix();
+      }
+    }
+    fixed->k.segment(r, rows) = Eigen::VectorXd::LinSpaced(rows, k0, k0 + rows - 1);
+    std::fill_n(fixed->trial.begin() + r, rows, static_cast<int>(t));
+    r += rows;
   }
-  Phi->conservativeResize(n, Eigen::NoChange);
-  Y->conservativeResize(n);
+  if (!Z.allFinite()) {
+    Eigen::Index kept = 0;
+    for (Eigen::Index i = 0; i < total; ++i) {
+      if (!Z.row(i).allFinite()) continue;
+      Z.row(kept) = Z.row(i);
+      fixed->k(kept) = fixed->k(i);
+      fixed->trial[static_cast<std::size_t>(kept)] = fixed->trial[static_cast<std::size_t>(i)];
+      ++kept;
+    }
+    Z.conservativeResize(kept, Eigen::NoChange);
+    fixed->k.conservativeResize(kept);
+    fixed->trial.resize(static_cast<std::size_t>(kept));
+  }
+  fixed->qr.compute(Z);
+  return fixed;
 }
 
 struct Problem {
   const TremorData* data;
   TremorOrders o;
   double u_scale;
-  double omega;  // rad/sample; < 0 means no tremor regressors
+  double omega = -1.0;  // rad/sample; < 0 means no tremor regressors
   double s_min, s_max;
   int constraint_points;
-  std::vector<Eigen::VectorXd> s;      // normalised inputs
-  std::vector<Eigen::MatrixXd> s_pow;  // s^0 … s^m per sample (rows of PolyRow), per trial
-  std::vector<Eigen::VectorXd> cos_wk, sin_wk;  // cos(ω k), sin(ω k) per trial when ω ≥ 0
+  std::vector<Eigen::VectorXd> s;  // normalised inputs
+  std::shared_ptr<const FixedRegression> fixed;
+  /// R of the lifted regression [Z, C(ω)] = Q̃ R: ‖z θ_z‖ over the rows = ‖R θ_z‖, so every least
+  /// squares of Algorithm 1 and V_N (eq. 14) are solved on R (≤ p_z rows) instead of N rows.
+  Eigen::MatrixXd r;
 
-  /// Sets ω (rad/sample; < 0: no tremor regressors) and tabulates cos(ω k), sin(ω k), which
-  /// every iteration of Algorithm 1 needs.
+  /// Sets ω (rad/sample; < 0: no tremor regressors) and R: the fixed R_Z, Q_Zᵀ C for the
+  /// cos/sin columns C (Householder reflectors of Z applied to C) and the R of the part of C
+  /// orthogonal to Z.
   void SetOmega(double w) {
     omega = w;
-    cos_wk.clear();
-    sin_wk.clear();
-    if (w < 0.0) return;
-    for (const auto& y : data->y) {
-      Eigen::VectorXd c(y.size()), sn(y.size());
-      for (Eigen::Index k = 0; k < y.size(); ++k) {
-        c(k) = std::cos(w * k);
-        sn(k) = std::sin(w * k);
-      }
-      cos_wk.push_back(std::move(c));
-      sin_wk.push_back(std::move(sn));
+    const FixedRegression& F = *fixed;
+    const Eigen::Index rows = F.qr.rows(), pf = F.qr.cols(), tc = TremorCols();
+    const Eigen::Index top = std::min(rows, pf), tail = std::min(rows - top, tc);
+    r = Eigen::MatrixXd::Zero(top + tail, pf + tc);
+    r.topLeftCorner(top, pf) = F.qr.matrixQR().topRows(top).triangularView<Eigen::Upper>();
+    if (tc == 0) return;
+    Eigen::MatrixXd C = Eigen::MatrixXd::Zero(rows, tc);
+    for (Eigen::Index i = 0; i < rows; ++i) {
+      const Eigen::Index c = 2 * F.trial[static_cast<std::size_t>(i)];
+      C(i, c) = std::cos(w * F.k(i));
+      C(i, c + 1) = std::sin(w * F.k(i));
     }
+    C.applyOnTheLeft(F.qr.householderQ().adjoint());
+    r.topRightCorner(top, tc) = C.topRows(top);
+    if (tail == 0) return;
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qc(C.bottomRows(rows - top));
+    r.bottomRightCorner(tail, tc) = qc.matrixQR().topRows(tail).triangularView<Eigen::Upper>();
   }
   bool HasTremor() const { return omega >= 0.0; }
   int TremorCols() const { return HasTremor() ? 2 * static_cast<int>(data->y.size()) : 0; }
-  Eigen::Index Rows() const {
-    Eigen::Index r = 0;
-    for (const auto& y : data->y) r += std::max<Eigen::Index>(0, y.size() - FirstRow(o));
-    return r;
-  }
-  double Tremor(const Eigen::VectorXd& lam, std::size_t t, Eigen::Index k) const {
-    if (!HasTremor()) return 0.0;
-    return lam(2 * t) * cos_wk[t](k) + lam(2 * t + 1) * sin_wk[t](k);
-  }
+  /// Complete rows of the regression (N of the confidence intervals).
+  Eigen::Index Rows() const { return fixed->qr.rows(); }
 };
 
+/// θ_z of LiftedLayout for (β, a, b, λ).
+Eigen::VectorXd LiftedTheta(const Problem& P, const Eigen::VectorXd& beta, const Eigen::VectorXd& a,
+                            const Eigen::VectorXd& b, const Eigen::VectorXd& lam) {
+  const LiftedLayout L(P.o);
+  Eigen::VectorXd th(P.r.cols());
+  th(0) = 1.0;
+  th.segment(1, L.l) = a;
+  th(L.One()) = -beta(0) * b.sum();
+  for (int j = 0; j <= L.n; ++j) {
+    for (int p = 1; p <= L.m; ++p) th(L.S(j, p)) = -b(j) * beta(p);
+  }
+  th.tail(P.TremorCols()) = -lam;
+  return th;
+}
+
+/// min ‖Φ θ − Y‖ of a lifted least squares (Φ = R Φ_z, Y = R y_z); the cost and the 95 %
+/// half-widths (N = P.Rows()) only `with_ci`, as SolveLinearLs on the full rows.
+LinearLsResult LiftedLs(const Problem& P, const Eigen::MatrixXd& Phi, const Eigen::VectorXd& Y,
+                        bool with_ci) {
+  LinearLsResult res;
+  res.theta = Phi.colPivHouseholderQr().solve(Y);
+  if (!with_ci) return res;
+  res.cost = (Phi * res.theta - Y).squaredNorm();
+  res.ci95_half_width =
+      ConfidenceHalfWidths95(Phi.transpose() * Phi, res.cost, static_cast<long>(P.Rows()));
+  return res;
+}
+
 /// θ_n of eq. (17) subject to h' ≥ 0 on [s_min, s_max] (grid + exact cutting planes); the 95 %
-/// half-widths only `with_ci` (the iterations need θ_n alone).
+/// half-widths only `with_ci` (the iterations need θ_n alone). Regressor Φ_n(k) = Σ_j b_j
+/// [1, s(k−m_P−j), …]; target y(k) + Σ a_i y(k−i) − d(k) (eq. 16), both on the lifted R.
 LinearLsResult NonlinearStep(const Problem& P, const Eigen::VectorXd& a, const Eigen::VectorXd& b,
                              const Eigen::VectorXd& lam, bool with_ci) {
-  const TremorOrders& o = P.o;
-  const int k0 = FirstRow(o);
-  const int m = o.poly_degree;
-  Eigen::MatrixXd Phi(P.Rows(), m + 1);
-  Eigen::VectorXd Y(P.Rows());
-  Eigen::Index r = 0;
-  for (std::size_t t = 0; t < P.data->y.size(); ++t) {
-    const Eigen::VectorXd& y = P.data->y[t];
-    for (Eigen::Index k = k0; k < y.size(); ++k, ++r) {
-      double yn = y(k);
-      for (int i = 1; i <= o.poles_l; ++i) yn += a(i - 1) * y(k - i);
-      Y(r) = yn - P.Tremor(lam, t, k);
-    }
-    // Row k: Σ_j b_j PolyRow(s(k − m_P − j)), the same sums in the same order, per block.
-    const Eigen::Index rows = std::max<Eigen::Index>(0, y.size() - k0);
-    auto block = Phi.middleRows(r - rows, rows);
-    block.setZero();
-    for (int j = 0; j <= o.zeros_n; ++j) {
-      block += b(j) * P.s_pow[t].middleRows(k0 - o.delay_m - j, rows);
-    }
+  const LiftedLayout L(P.o);
+  const int m = P.o.poly_degree;
+  Eigen::MatrixXd Mz = Eigen::MatrixXd::Zero(P.r.cols(), m + 1);  // Φ_n = Z Mz
+  Mz(L.One(), 0) = b.sum();
+  for (int j = 0; j <= L.n; ++j) {
+    for (int p = 1; p <= m; ++p) Mz(L.S(j, p), p) = b(j);
   }
-  DropRowsWithMissingSamples(&Phi, &Y);
+  Eigen::VectorXd yz = Eigen::VectorXd::Zero(P.r.cols());  // target = Z yz
+  yz(0) = 1.0;
+  yz.segment(1, L.l) = a;
+  yz.tail(P.TremorCols()) = -lam;
+  const Eigen::MatrixXd Phi = P.r * Mz;
+  const Eigen::VectorXd Y = P.r * yz;
   std::vector<double> pts;
   pts.reserve(static_cast<std::size_t>(P.constraint_points));
   for (int g = 0; g < P.constraint_points; ++g) {
@@ -173,57 +243,30 @@ LinearLsResult NonlinearStep(const Problem& P, const Eigen::VectorXd& a, const E
     pts.push_back(at);
   }
   res.cost = (Phi * res.theta - Y).squaredNorm();
-  if (with_ci) res.ci95_half_width = SolveLinearLs(Phi, Y).ci95_half_width;
+  if (with_ci) res.ci95_half_width = LiftedLs(P, Phi, Y, true).ci95_half_width;
   return res;
 }
 
-/// θ_l = [a; b; λ per trial] of eq. (21); the cost and 95 % half-widths only `with_ci`.
+/// θ_l = [a; b; λ per trial] of eq. (21): regressor [−y(k−i), h(k−m_P−j), cos ω k, sin ω k]
+/// (eq. 19–20), target y(k), on the lifted R; the cost and 95 % half-widths only `with_ci`.
 LinearLsResult LinearStep(const Problem& P, const Eigen::VectorXd& beta, bool with_ci) {
-  const TremorOrders& o = P.o;
-  const int k0 = FirstRow(o);
-  const int p = o.poles_l + o.zeros_n + 1 + P.TremorCols();
-  Eigen::MatrixXd Phi = Eigen::MatrixXd::Zero(P.Rows(), p);
-  Eigen::VectorXd Y(P.Rows());
-  Eigen::Index r = 0;
-  for (std::size_t t = 0; t < P.data->y.size(); ++t) {
-    const Eigen::VectorXd& y = P.data->y[t];
-    Eigen::VectorXd h(y.size());
-    for (Eigen::Index k = 0; k < y.size(); ++k) h(k) = PolyValue(beta, P.s[t](k));
-    for (Eigen::Index k = k0; k < y.size(); ++k, ++r) {
-      for (int i = 1; i <= o.poles_l; ++i) Phi(r, i - 1) = -y(k - i);
-      for (int j = 0; j <= o.zeros_n; ++j) Phi(r, o.poles_l + j) = h(k - o.delay_m - j);
-      if (P.HasTremor()) {
-        const int c = o.poles_l + o.zeros_n + 1 + 2 * static_cast<int>(t);
-        Phi(r, c) = P.cos_wk[t](k);
-        Phi(r, c + 1) = P.sin_wk[t](k);
-      }
-      Y(r) = y(k);
-    }
+  const LiftedLayout L(P.o);
+  const int p = L.l + L.n + 1 + P.TremorCols();
+  Eigen::MatrixXd Mz = Eigen::MatrixXd::Zero(P.r.cols(), p);  // Φ_l = Z Mz
+  for (int i = 1; i <= L.l; ++i) Mz(i, i - 1) = -1.0;
+  for (int j = 0; j <= L.n; ++j) {
+    Mz(L.One(), L.l + j) = beta(0);
+    for (int q = 1; q <= L.m; ++q) Mz(L.S(j, q), L.l + j) = beta(q);
   }
-  DropRowsWithMissingSamples(&Phi, &Y);
-  if (with_ci) return SolveLinearLs(Phi, Y);
-  LinearLsResult res;
-  res.theta = Phi.colPivHouseholderQr().solve(Y);  // as SolveLinearLs
-  return res;
+  const Eigen::Index pf = L.Fixed();
+  for (int c = 0; c < P.TremorCols(); ++c) Mz(pf + c, L.l + L.n + 1 + c) = 1.0;
+  return LiftedLs(P, P.r * Mz, P.r.col(0), with_ci);
 }
 
+/// V_N of eq. (14) over the complete rows: ‖R θ_z‖².
 double Cost(const Problem& P, const Eigen::VectorXd& beta, const Eigen::VectorXd& a,
             const Eigen::VectorXd& b, const Eigen::VectorXd& lam) {
-  const TremorOrders& o = P.o;
-  const int k0 = FirstRow(o);
-  double v = 0.0;
-  for (std::size_t t = 0; t < P.data->y.size(); ++t) {
-    const Eigen::VectorXd& y = P.data->y[t];
-    Eigen::VectorXd h(y.size());
-    for (Eigen::Index k = 0; k < y.size(); ++k) h(k) = PolyValue(beta, P.s[t](k));
-    for (Eigen::Index k = k0; k < y.size(); ++k) {
-      double e = y(k) - P.Tremor(lam, t, k);
-      for (int i = 1; i <= o.poles_l; ++i) e += a(i - 1) * y(k - i);
-      for (int j = 0; j <= o.zeros_n; ++j) e -= b(j) * h(k - o.delay_m - j);
-      if (std::isfinite(e)) v += e * e;  // a missing output sample is not in the cost
-    }
-  }
-  return v;
+  return (P.r * LiftedTheta(P, beta, a, b, lam)).squaredNorm();
 }
 
 struct RunResult {
@@ -312,24 +355,22 @@ std::vector<double> PeriodogramPeaks(const Problem& P, const RunResult& rr, doub
   return out;
 }
 
+/// The problem of `opt.orders` on `data` without tremor regressors (ω < 0).
 Problem MakeProblem(const TremorData& data, const TremorOptions& opt, double u_scale) {
   Problem P;
   P.data = &data;
   P.o = opt.orders;
   P.u_scale = u_scale;
-  P.omega = -1.0;
   P.constraint_points = std::max(2, opt.constraint_points);
   P.s_min = INFINITY;
   P.s_max = -INFINITY;
   for (const auto& u : data.u_us) {
     P.s.emplace_back(u / u_scale);
-    Eigen::MatrixXd pw(u.size(), opt.orders.poly_degree + 1);
-    for (Eigen::Index k = 0; k < u.size(); ++k)
-      pw.row(k) = PolyRow(opt.orders.poly_degree, P.s.back()(k));
-    P.s_pow.push_back(std::move(pw));
     P.s_min = std::min(P.s_min, P.s.back().minCoeff());
     P.s_max = std::max(P.s_max, P.s.back().maxCoeff());
   }
+  P.fixed = BuildFixedRegression(data, P.o, P.s);
+  P.SetOmega(-1.0);
   return P;
 }
 
@@ -394,14 +435,14 @@ TremorFit FitTremorArx(const TremorData& data, const TremorOptions& options, dou
   const double T = data.sample_period_s;
   double f_hz = options.tremor_hz;
   if (f_hz <= 0.0) {
-    Problem low = P;  // second order at most, so the AR part cannot absorb the tremor
-    low.o.poles_l = std::min(2, o.poles_l);
-    low.o.zeros_n = std::min(1, o.zeros_n);
+    TremorOptions low_options = options;  // order ≤ 2, so the AR part cannot absorb the tremor
+    low_options.orders.poles_l = std::min(2, o.poles_l);
+    low_options.orders.zeros_n = std::min(1, o.zeros_n);
+    const Problem low = MakeProblem(data, low_options, u_scale_us);
     const RunResult free = Algorithm1(low, options);
     const auto cost_at = [&](double f) {
-      Problem Q = P;
-      Q.SetOmega(2.0 * kPi * f * T);
-      return Algorithm1(Q, options).cost;
+      P.SetOmega(2.0 * kPi * f * T);
+      return Algorithm1(P, options).cost;
     };
     // The 3 largest periodogram peaks compete on V_N of the full fit (input harmonics and noise
     // can out-shine the tremor in the band).
@@ -683,9 +724,13 @@ MethodResult RunTremor(const std::vector<Trial>& train_rows, const std::vector<T
   if (!(u_scale > 0.0)) throw std::runtime_error("train: combined input u is identically zero");
   Json metrics = Json::Object();
   metrics.Set("method", "tremor-arx");
+  // The frequency search ends with the fit at the frequency it found: that is the final fit
+  // unless an order sweep follows.
+  std::optional<TremorFit> searched;
   if (opt.tremor_hz <= 0.0) {
     if (progress) progress(0.05, "tremor frequency");
-    opt.tremor_hz = FitTremorArx(tr, opt, u_scale).model.tremor_hz;
+    searched = FitTremorArx(tr, opt, u_scale);
+    opt.tremor_hz = searched->model.tremor_hz;
   }
   if (sweep && tr.y.size() >= 2) {
     if (progress) progress(0.2, "order sweep");
@@ -693,9 +738,10 @@ MethodResult RunTremor(const std::vector<Trial>& train_rows, const std::vector<T
       if (progress) progress(0.2 + 0.6 * f, stage);
     };
     metrics.Set("order_sweep", SweepOrders(tr, u_scale, sweep_progress, &opt));
+    searched.reset();
   }
   if (progress) progress(0.8, "final fit");
-  const TremorFit fit = FitTremorArx(tr, opt, u_scale);
+  const TremorFit fit = searched ? *std::move(searched) : FitTremorArx(tr, opt, u_scale);
   const TremorModel& m = fit.model;
   MethodResult result;
   result.model_yaml = TremorModelYaml(cols, c, fit);

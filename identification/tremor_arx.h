@@ -38,6 +38,11 @@
 //   winner is refined by golden-section search on V_N.
 // * Simulated output: ŷ = (B_P/A_P) h_IRC(u) + d/A_P from the first l_P measured samples.
 // * ε is relative: stop when |V_N^j − V_N^{j−1}| < ε Σ y².
+// * Computation, not model: eq. (12)'s residual is linear in the lifted regressor z(k) = [y(k),
+//   y lags, 1, s^p lags, cos ω k, sin ω k]; its columns other than cos/sin are factorised once
+//   (Householder QR over the N rows), each tremor frequency adds its two columns, and both steps
+//   of Algorithm 1 and V_N (eq. 14) are solved on the small R factor, so an iteration costs
+//   nothing in N and a frequency O(N).
 #pragma once
 
 #include <Eigen/Dense>

@@ -15,6 +15,7 @@ constexpr double kFrequencyTol = 1e-6;   // relative, estimated tremor frequency
 constexpr double kNoiseStd_rad = 0.002;  // ARX equation noise e(k) (output range ≈ ±0.5 rad)
 constexpr double kNoisyTol = 0.05;       // relative error of h on its range and of a, b
 constexpr double kSlopeRelTol = 1e-9;    // h' ≥ −tol·max|h'| on the whole range (rounding)
+constexpr double kNormalEqTol = 1e-10;   // |φᵀe|/(‖φ‖‖e‖), φ a column of eq. (21)
 constexpr double kSamplePeriod = 0.01;   // s (100 Hz)
 constexpr double kTwoPi = 6.283185307179586;
 constexpr unsigned kSeed = 99;
@@ -281,6 +282,49 @@ TEST(TremorArx, MissingOutputSamplesAreLeftOutOfTheFit) {
     return std::stod(yaml.substr(at + 26));
   };
   EXPECT_NEAR(hz(with_gaps.model_yaml), hz(complete.model_yaml), 1e-3);
+}
+
+// The least squares of Algorithm 1 are solved on the R factor of the lifted regressor, not on
+// the N rows: the fitted a, b, λ must still satisfy the normal equations of eq. (21) built
+// directly on every complete row (orders with several lags of y and of h, missing samples).
+TEST(TremorArx, LinearStepSatisfiesTheNormalEquationsOnTheFullRows) {
+  TremorModel truth = Planted();
+  const TremorData clean = Data(truth, 1, kNoiseStd_rad, kSeed + 9);
+  TremorData d = clean;
+  for (int k : {0, 500, 501, 1700, 2999}) d.y[0](k) = NAN;
+  TremorOptions opt = Options(truth, truth.tremor_hz);
+  opt.orders = {4, 3, 1, 3};
+  const TremorModel m = FitTremorArx(d, opt, Scale(d)).model;
+  const Eigen::VectorXd& y = d.y[0];
+  const Eigen::VectorXd& u = d.u_us[0];
+  const int l = m.orders.poles_l, n = m.orders.zeros_n, delay = m.orders.delay_m;
+  const double w = kTwoPi * m.tremor_hz * kSamplePeriod;
+  std::vector<Eigen::VectorXd> rows;  // [φ(k); e(k)] of every complete row
+  for (int k = std::max(l, delay + n); k < y.size(); ++k) {
+    Eigen::VectorXd r(l + n + 4);
+    double e = y(k) - m.lambda1 * std::cos(w * k) - m.lambda2 * std::sin(w * k);
+    for (int i = 1; i <= l; ++i) {
+      r(i - 1) = -y(k - i);
+      e += m.a(i - 1) * y(k - i);
+    }
+    for (int j = 0; j <= n; ++j) {
+      r(l + j) = TremorRecruitment(m, u(k - delay - j));
+      e -= m.b(j) * r(l + j);
+    }
+    r(l + n + 1) = std::cos(w * k);
+    r(l + n + 2) = std::sin(w * k);
+    r(l + n + 3) = e;
+    if (r.allFinite()) rows.push_back(r);
+  }
+  // Rows k ≥ 4 without those touching a gap: 4 (y(0)), 500–505, 1700–1704, 2999.
+  ASSERT_EQ(static_cast<Eigen::Index>(rows.size()), y.size() - 4 - 13);
+  Eigen::MatrixXd Phi(static_cast<Eigen::Index>(rows.size()), l + n + 4);
+  for (std::size_t i = 0; i < rows.size(); ++i) Phi.row(static_cast<Eigen::Index>(i)) = rows[i];
+  const Eigen::VectorXd e = Phi.rightCols(1);
+  for (Eigen::Index c = 0; c + 1 < Phi.cols(); ++c) {
+    EXPECT_LT(std::abs(Phi.col(c).dot(e)), kNormalEqTol * Phi.col(c).norm() * e.norm())
+        << "column " << c;
+  }
 }
 
 }  // namespace
