@@ -57,7 +57,7 @@ void LoadCoordinates(const Node& n, sim::ModelParams* m) {
             "stiffness_nm_per_rad", "damping_nms_per_rad", "limit_stiffness_nm_per_rad",
             "limit_sharpness_per_rad", "coulomb_friction_nm", "static_friction_nm",
             "stribeck_velocity_rad_s", "reflex_gain_nms_per_rad", "reflex_threshold_deg_s",
-            "prescription"});
+            "reflex_direction_bias", "prescription"});
     auto& p = m->coordinates[i];
     auto& pj = p.passive;
     c.Number("min_deg", -180, 180, &pj.min_angle_rad, kDeg);
@@ -77,6 +77,7 @@ void LoadCoordinates(const Node& n, sim::ModelParams* m) {
     c.Number("stribeck_velocity_rad_s", 1e-4, 10, &pj.stribeck_velocity_rad_s);
     c.Number("reflex_gain_nms_per_rad", 0, 100, &pj.reflex_gain_nms_per_rad);
     c.Number("reflex_threshold_deg_s", 0, 2000, &pj.reflex_threshold_rad_s, kDeg);
+    c.Number("reflex_direction_bias", -1, 1, &pj.reflex_direction_bias);
     if (c.Has("mode")) {
       const std::string mode = c.Choice("mode", {"free", "locked", "prescribed"});
       p.mode = mode == "free"     ? sim::CoordinateMode::kFree

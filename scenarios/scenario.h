@@ -14,7 +14,7 @@
 //                    rest_deg, min_deg, max_deg, stiffness_nm_per_rad, damping_nms_per_rad,
 //                    limit_stiffness_nm_per_rad, limit_sharpness_per_rad, coulomb_friction_nm,
 //                    static_friction_nm, stribeck_velocity_rad_s (stiction),
-//                    reflex_gain_nms_per_rad, reflex_threshold_deg_s (spasticity),
+//                    reflex_gain_nms_per_rad, reflex_threshold_deg_s, reflex_direction_bias (spasticity),
 //                    prescription: {offset_deg, amplitude_deg, frequency_hz, phase_deg}}
 //   muscles:
 //     <muscle>: {max_isometric_force_n, optimal_fibre_length_m, tendon_slack_length_m,

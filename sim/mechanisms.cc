@@ -23,10 +23,11 @@ double TremorTorque(const TremorParams& p, double t) {
   return p.amplitude_nm * envelope * std::sin(phase + p.phase_rad);
 }
 
-double ReflexTorque(double gain, double threshold, double qdot) {
+double ReflexTorque(double gain, double threshold, double qdot, double direction_bias) {
   const double excess = std::abs(qdot) - threshold;
   if (gain <= 0.0 || excess <= 0.0) return 0.0;
-  return -gain * excess * (qdot > 0.0 ? 1.0 : -1.0);
+  const double g = gain * (qdot > 0.0 ? 1.0 - direction_bias : 1.0 + direction_bias);
+  return -g * excess * (qdot > 0.0 ? 1.0 : -1.0);
 }
 
 }  // namespace fesim::sim

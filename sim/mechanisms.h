@@ -13,7 +13,10 @@
 //                (3–12 Hz; amplitude modulation m, frequency drift ḟ; papers/001_* §2)
 //  crosstalk     extra current spread: a second Gaussian spread (fraction c, spread σ_x) on the
 //                array, and a fraction c to the muscles sharing a joint with a pair electrode's
-//  spasticity    velocity-dependent stretch reflex: τ = −G (|q̇| − v_th) sign(q̇) for |q̇| > v_th
+//  spasticity    velocity-dependent stretch reflex: τ = −G_d (|q̇| − v_th) sign(q̇) for |q̇| > v_th,
+//                G_d = G (1 + β) on extension (q̇ < 0, the flexors stretched), G (1 − β) on
+//                flexion: β = 0 a reflex of both groups, β = 1 of the flexors alone (the
+//                upper-limb pattern after stroke), β = −1 of the extensors alone
 //                (Lance 1980's velocity-dependent resistance)
 //  stiction      Stribeck friction: τ = −(F_c + (F_s − F_c) e^{−(q̇/v_s)²}) tanh(q̇/v_c)
 //                (papers/003_* static friction of the exoskeleton)
@@ -66,7 +69,9 @@ double FitnessDerivative(const FatigueParams& p, double activation, double fitne
 double PotentiationDerivative(const PotentiationParams& p, double activation, double state);
 /// Tremor torque at time t (N·m), 0 when disabled.
 double TremorTorque(const TremorParams& p, double t_s);
-/// Stretch-reflex torque (N·m) for gain G (N·m·s/rad) and threshold v_th (rad/s).
-double ReflexTorque(double gain_nms_per_rad, double threshold_rad_s, double qdot_rad_s);
+/// Stretch-reflex torque (N·m) for gain G (N·m·s/rad, ≥ 0), threshold v_th (rad/s) and direction
+/// bias β ∈ [−1, 1] (header: the gain on extension is G (1 + β), on flexion G (1 − β)).
+double ReflexTorque(double gain_nms_per_rad, double threshold_rad_s, double qdot_rad_s,
+                    double direction_bias = 0.0);
 
 }  // namespace fesim::sim

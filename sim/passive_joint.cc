@@ -27,7 +27,8 @@ double PassiveDissipativeTorque(const PassiveJointParams& p, double qdot) {
     const double level = p.coulomb_friction_nm + (fs - p.coulomb_friction_nm) * std::exp(-vs * vs);
     tau -= level * std::tanh(qdot / p.coulomb_velocity_rad_s);
   }
-  return tau + ReflexTorque(p.reflex_gain_nms_per_rad, p.reflex_threshold_rad_s, qdot);
+  return tau + ReflexTorque(p.reflex_gain_nms_per_rad, p.reflex_threshold_rad_s, qdot,
+                            p.reflex_direction_bias);
 }
 
 double PassiveJointTorque(const PassiveJointParams& p, double q, double qdot) {

@@ -37,6 +37,8 @@ struct PassiveJointParams {
   double stribeck_velocity_rad_s = 0.05;    ///< v_s, rad/s, > 0.
   double reflex_gain_nms_per_rad = 0.0;     ///< G of the stretch reflex, N·m·s/rad, ≥ 0.
   double reflex_threshold_rad_s = 0.5;      ///< v_th, rad/s, ≥ 0.
+  /// β of the stretch reflex, [−1, 1]: its gain is G (1 + β) on extension, G (1 − β) on flexion.
+  double reflex_direction_bias = 0.0;
 };
 
 /// Conservative part: −∂V/∂q (spring + limits), N·m.

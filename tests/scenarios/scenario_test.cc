@@ -127,7 +127,7 @@ TEST(Scenario, MechanismsAndArtefacts) {
   crosstalk: {fraction: 0.1, spread_m: 0.04}
 coordinates:
   elbow_flexion: {static_friction_nm: 0.4, coulomb_friction_nm: 0.2, reflex_gain_nms_per_rad: 1,
-                  reflex_threshold_deg_s: 60}
+                  reflex_threshold_deg_s: 60, reflex_direction_bias: 0.5}
 sensors:
   angles: {offset_drift_deg_per_s: 0.1, dropout_probability: 0.1, outlier_probability: 0.02,
            outlier_std_deg: 10}
@@ -144,6 +144,7 @@ sensors:
   const auto& elbow = s.model.coordinates[sim::kElbowFlexion].passive;
   EXPECT_EQ(elbow.static_friction_nm, 0.4);
   EXPECT_NEAR(elbow.reflex_threshold_rad_s, 60 * kDeg, 1e-12);
+  EXPECT_EQ(elbow.reflex_direction_bias, 0.5);
   EXPECT_NEAR(s.trial.sensors.angles.offset_drift_per_s, 0.1 * kDeg, 1e-15);
   EXPECT_NEAR(s.trial.sensors.angles.outlier_std, 10 * kDeg, 1e-12);
   EXPECT_EQ(ErrorOf(std::string(kMinimal) + "mechanisms: {tremor: {frequency_hz: 20}}\n"),

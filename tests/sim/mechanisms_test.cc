@@ -44,5 +44,21 @@ TEST(Mechanisms, ReflexOnlyAboveThresholdAndOpposesMotion) {
   EXPECT_NEAR(ReflexTorque(2.0, 1.0, -3.0), 4.0, kTol);
 }
 
+TEST(Mechanisms, ReflexDirectionBiasSplitsTheGainBetweenStretchOfFlexorsAndOfExtensors) {
+  // β = 1: the flexors alone resist extension (q̇ < 0) at twice the gain, nothing on flexion.
+  EXPECT_NEAR(ReflexTorque(2.0, 1.0, -3.0, 1.0), 8.0, kTol);
+  EXPECT_EQ(ReflexTorque(2.0, 1.0, 3.0, 1.0), 0.0);
+  // β = −1 the mirror image; β = ½: gains 3 and 1, their mean the symmetric G.
+  EXPECT_NEAR(ReflexTorque(2.0, 1.0, 3.0, -1.0), -8.0, kTol);
+  EXPECT_EQ(ReflexTorque(2.0, 1.0, -3.0, -1.0), 0.0);
+  EXPECT_NEAR(ReflexTorque(2.0, 1.0, -3.0, 0.5), 6.0, kTol);
+  EXPECT_NEAR(ReflexTorque(2.0, 1.0, 3.0, 0.5), -2.0, kTol);
+  // Dissipative for every β in [−1, 1]: τ q̇ ≤ 0.
+  for (const double beta : {-1.0, -0.3, 0.0, 0.7, 1.0}) {
+    for (const double qd : {-4.0, -1.2, 1.2, 4.0})
+      EXPECT_LE(ReflexTorque(2.0, 1.0, qd, beta) * qd, 0.0);
+  }
+}
+
 }  // namespace
 }  // namespace fesim::sim
