@@ -26,9 +26,9 @@
 #include <functional>
 #include <string>
 
+#include "base/json.h"
 #include "cluster/cluster.h"
 #include "scenarios/benchmark_spec.h"
-#include "scenarios/json.h"
 
 namespace fesim::benchmark {
 

@@ -5,9 +5,9 @@
 #include <string>
 #include <vector>
 
+#include "base/json.h"
 #include "benchmark/work.h"
 #include "scenarios/benchmark_spec.h"
-#include "scenarios/json.h"
 
 namespace fesim::benchmark {
 

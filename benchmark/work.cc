@@ -9,10 +9,10 @@
 #include <stdexcept>
 #include <thread>
 
+#include "base/parallel.h"
+#include "base/result_cache.h"
 #include "benchmark/sections.h"
 #include "fesim/version.h"
-#include "scenarios/parallel.h"
-#include "scenarios/result_cache.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
 

@@ -13,12 +13,12 @@
 #include <string>
 #include <vector>
 
+#include "base/json.h"
+#include "base/result_cache.h"
+#include "base/trial.h"
 #include "cluster/cluster.h"
 #include "identification/method.h"
-#include "scenarios/json.h"
-#include "scenarios/result_cache.h"
 #include "scenarios/study.h"
-#include "scenarios/trial.h"
 
 namespace fesim::benchmark {
 

@@ -12,7 +12,7 @@
 #include <mutex>
 #include <thread>
 
-#include "scenarios/parallel.h"
+#include "base/parallel.h"
 
 #if FESIM_WITH_MPI
 #include <mpi.h>

@@ -10,8 +10,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "base/trial.h"
 #include "scenarios/protocols.h"
-#include "scenarios/trial.h"
 #include "scenarios/yaml_node.h"
 #include "sim/default_model.h"
 

@@ -48,8 +48,8 @@
 #include <string>
 #include <vector>
 
+#include "base/trial.h"
 #include "scenarios/protocols.h"
-#include "scenarios/trial.h"
 #include "sim/model_params.h"
 #include "sim/upper_limb_model.h"
 

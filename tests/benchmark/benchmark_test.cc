@@ -12,10 +12,10 @@
 #include <string>
 #include <thread>
 
+#include "base/json.h"
+#include "base/trial.h"
 #include "benchmark/run.h"
 #include "benchmark/sections.h"
-#include "scenarios/json.h"
-#include "scenarios/trial.h"
 
 namespace fesim::benchmark {
 namespace {

@@ -11,8 +11,8 @@
 #include <sstream>
 #include <string>
 
-#include "scenarios/json.h"
-#include "scenarios/trial.h"
+#include "base/json.h"
+#include "base/trial.h"
 
 namespace fesim {
 namespace {

@@ -1,4 +1,4 @@
-#include "scenarios/trial.h"
+#include "base/trial.h"
 
 #include <sys/stat.h>
 #include <unistd.h>

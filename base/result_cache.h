@@ -1,6 +1,6 @@
 // A directory of results keyed by a hash of their inputs, so that a killed `fesim benchmark` or
 // `fesim diagnose` resumes where it stopped (issue 10): every entry is one JSON file written
-// atomically (scenarios/trial.h WriteFileAtomic), so an interrupted run leaves complete entries
+// atomically (base/trial.h WriteFileAtomic), so an interrupted run leaves complete entries
 // or none. The key hashes the fesim version, a layout tag (a build with another layout misses
 // instead of misreading) and the caller's parts (input contents, options).
 #pragma once
@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "scenarios/json.h"
-#include "scenarios/trial.h"
+#include "base/json.h"
+#include "base/trial.h"
 
 namespace fesim {
 

@@ -1,4 +1,4 @@
-#include "scenarios/result_cache.h"
+#include "base/result_cache.h"
 
 #include <sys/stat.h>
 #include <unistd.h>

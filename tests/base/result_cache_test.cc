@@ -1,5 +1,5 @@
-// The resume cache shared by `fesim benchmark` and `fesim diagnose` (scenarios/result_cache.h).
-#include "scenarios/result_cache.h"
+// The resume cache shared by `fesim benchmark` and `fesim diagnose` (base/result_cache.h).
+#include "base/result_cache.h"
 
 #include <gtest/gtest.h>
 #include <sys/resource.h>

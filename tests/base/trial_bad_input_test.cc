@@ -14,7 +14,7 @@
 #include <thread>
 #include <vector>
 
-#include "scenarios/trial.h"
+#include "base/trial.h"
 
 namespace fesim {
 namespace {
