@@ -1,4 +1,4 @@
-// Digital low-pass filters for the protocol generators (scenarios/protocols.h).
+// Digital low-pass filters for the protocol generators (protocols/protocols.h).
 //
 // A Butterworth low-pass of order N is designed from its analogue prototype, whose poles are
 //   p_k = ω_a · exp(jπ(2k + N + 1)/(2N)),  k = 0 … N−1,   ω_a = 2 f_s · tan(π f_c / f_s),

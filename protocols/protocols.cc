@@ -1,4 +1,4 @@
-#include "scenarios/protocols.h"
+#include "protocols/protocols.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include <string>
 #include <utility>
 
-#include "scenarios/filters.h"
+#include "protocols/filters.h"
 
 namespace fesim::protocols {
 namespace {

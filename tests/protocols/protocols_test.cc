@@ -1,7 +1,7 @@
-// Tests of the protocol generators (scenarios/protocols.h, scenarios/filters.h) against the checks
+// Tests of the protocol generators (protocols/protocols.h, protocols/filters.h) against the checks
 // of issue 3: grid coverage of U, staircase width shares, PRMS level uniformity, FRN spectrum,
 // multisine band, reaching boundary conditions, stimulation limits, seed reproducibility.
-#include "scenarios/protocols.h"
+#include "protocols/protocols.h"
 
 #include <gtest/gtest.h>
 
@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "scenarios/filters.h"
+#include "protocols/filters.h"
 
 namespace fesim::protocols {
 namespace {

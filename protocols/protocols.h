@@ -156,7 +156,7 @@ struct StaircaseParams {
 StimulationProgram Staircase(const StaircaseParams& params);
 
 /// 002 §5 "FRN test": Gaussian white noise at the pulse rate through a Butterworth low-pass
-/// (scenarios/filters.h), then an offset and gain so that the active window spans exactly
+/// (protocols/filters.h), then an offset and gain so that the active window spans exactly
 /// [u_min_us, u_max_us] (its minimum maps to u_min, its maximum to u_max). The filter runs
 /// warm_up_s on noise first so the window is stationary (no start-up transient).
 struct FilteredRandomNoiseParams {

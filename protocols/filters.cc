@@ -1,4 +1,4 @@
-#include "scenarios/filters.h"
+#include "protocols/filters.h"
 
 #include <cmath>
 #include <complex>
