@@ -82,8 +82,6 @@ int CountOf(std::size_t bytes) {
 
 }  // namespace
 
-bool BuiltWithMpi() { return FESIM_WITH_MPI != 0; }
-
 bool StartedByMpiLauncher() {
   const std::array<const char*, 3> launcher_variables = {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK",
                                                          "PMI_RANK"};
