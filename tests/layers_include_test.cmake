@@ -2,7 +2,8 @@
 # every C++ source must name its own folder or one of the folders its row USES; every top-level
 # folder that holds C++ sources must have a row. Includes of paths outside the table's folders
 # (generated headers such as fesim/version.h) are not checked.
-#   cmake -DFESIM_SOURCE_DIR=… -DFESIM_LAYERS_TABLE=…/layers_table.cmake -P layers_include_test.cmake
+# Run by ctest (tests/CMakeLists.txt): cmake -DFESIM_SOURCE_DIR=SOURCE_ROOT
+#   -DFESIM_LAYERS_TABLE=BUILD_DIR/layers_table.cmake -P tests/layers_include_test.cmake
 cmake_minimum_required(VERSION 3.20)
 include("${CMAKE_CURRENT_LIST_DIR}/../cmake/layers.cmake")
 include("${FESIM_LAYERS_TABLE}")

@@ -15,8 +15,8 @@ namespace {
 
 TEST(ResultCache, KeyHashesVersionLayoutAndParts) {
   const ResultCache a("/unused", "1.2.3", "fit-cache-2");
-  // The benchmark's fit cache (benchmark/work.cc) keyed "<version>\nfit-cache-2\n<part>…" before
-  // this class existed; the same text keeps old cache directories valid.
+  // The benchmark's fit cache (paper_benchmark/work.cc) keyed "<version>\nfit-cache-2\n<part>…"
+  // before this class existed; the same text keeps old cache directories valid.
   EXPECT_EQ(a.Key({"fit", "spline-arx"}), Fnv1a64Hex("1.2.3\nfit-cache-2\nfit\nspline-arx"));
   EXPECT_NE(a.Key({"fit", "spline-arx"}), a.Key({"fit", "spline-oe"}));
   EXPECT_NE(a.Key({"ab", "c"}), a.Key({"a", "bc"}));  // parts are separated

@@ -1,4 +1,4 @@
-#include "benchmark/work.h"
+#include "paper_benchmark/work.h"
 
 #include <algorithm>
 #include <atomic>
@@ -11,12 +11,12 @@
 
 #include "base/parallel.h"
 #include "base/result_cache.h"
-#include "benchmark/sections.h"
 #include "fesim/version.h"
+#include "paper_benchmark/sections.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
 
-namespace fesim::benchmark {
+namespace fesim::paper_benchmark {
 namespace {
 
 /// The truth record reduced to what the benchmark compares against: inputs, joint angles and
@@ -446,4 +446,4 @@ std::vector<double> Resample(const Trial& source, const std::string& column,
   return out;
 }
 
-}  // namespace fesim::benchmark
+}  // namespace fesim::paper_benchmark

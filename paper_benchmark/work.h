@@ -20,7 +20,7 @@
 #include "identification/method.h"
 #include "scenarios/study.h"
 
-namespace fesim::benchmark {
+namespace fesim::paper_benchmark {
 
 /// One failed work item of a loop.
 struct FailedItem {
@@ -200,4 +200,4 @@ const std::string& TrialHash(const Trial& trial);
 std::vector<double> Resample(const Trial& source, const std::string& column,
                              const std::vector<double>& times);
 
-}  // namespace fesim::benchmark
+}  // namespace fesim::paper_benchmark

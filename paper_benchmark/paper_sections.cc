@@ -10,14 +10,14 @@
 #include <set>
 #include <stdexcept>
 
-#include "benchmark/sections.h"
 #include "identification/fullmodel/full_model_fit.h"
 #include "identification/metrics.h"
+#include "paper_benchmark/sections.h"
 #include "render/plot.h"
 #include "scenarios/scenario.h"
 #include "sim/reaching.h"
 
-namespace fesim::benchmark {
+namespace fesim::paper_benchmark {
 namespace {
 
 /// Best Fit % of prediction column `col` against `reference` resampled at the prediction times.
@@ -781,4 +781,4 @@ SectionResult RunReaching(const BenchmarkSection& section, SectionContext* ctx) 
   return out;
 }
 
-}  // namespace fesim::benchmark
+}  // namespace fesim::paper_benchmark

@@ -1,4 +1,4 @@
-#include "benchmark/work.h"
+#include "paper_benchmark/work.h"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 
 #include "base/trial.h"
 
-namespace fesim::benchmark {
+namespace fesim::paper_benchmark {
 namespace {
 
 TEST(ParallelFor, RunsEveryIndexAndReportsEveryFailure) {
@@ -205,4 +205,4 @@ TEST(GenerateStudy, SimulatesOnceThenReadsTheSameTrialsBack) {
 }
 
 }  // namespace
-}  // namespace fesim::benchmark
+}  // namespace fesim::paper_benchmark

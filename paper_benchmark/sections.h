@@ -1,4 +1,4 @@
-// The sections of `fesim benchmark` (see run.h); internal to benchmark/.
+// The sections of `fesim benchmark` (see run.h); internal to paper_benchmark/.
 #pragma once
 
 #include <functional>
@@ -6,10 +6,10 @@
 #include <vector>
 
 #include "base/json.h"
-#include "benchmark/work.h"
+#include "paper_benchmark/work.h"
 #include "scenarios/benchmark_spec.h"
 
-namespace fesim::benchmark {
+namespace fesim::paper_benchmark {
 
 /// What every section gets: the spec, the caches, the thread count and where plots go.
 struct SectionContext {
@@ -93,4 +93,4 @@ std::vector<double> ModelYamlList(const std::string& model_yaml, const std::stri
 Json Finding(const std::string& claim, bool holds, const std::string& margin);
 std::string FindingLine(const Json& finding);
 
-}  // namespace fesim::benchmark
+}  // namespace fesim::paper_benchmark

@@ -1,4 +1,4 @@
-#include "benchmark/run.h"
+#include "paper_benchmark/run.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -10,13 +10,13 @@
 #include <stdexcept>
 #include <thread>
 
-#include "benchmark/sections.h"
 #include "fesim/version.h"
 #include "identification/fullmodel/full_model_fit.h"
 #include "identification/method.h"
+#include "paper_benchmark/sections.h"
 #include "scenarios/study.h"
 
-namespace fesim::benchmark {
+namespace fesim::paper_benchmark {
 
 double MeanFinite(const std::vector<double>& v) {
   double s = 0.0;
@@ -398,4 +398,4 @@ BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions&
   return out;
 }
 
-}  // namespace fesim::benchmark
+}  // namespace fesim::paper_benchmark

@@ -11,14 +11,14 @@
 #include <set>
 #include <stdexcept>
 
-#include "benchmark/sections.h"
 #include "identification/fullmodel/full_model_fit.h"
 #include "identification/metrics.h"
+#include "paper_benchmark/sections.h"
 #include "render/plot.h"
 #include "scenarios/scenario.h"
 #include "tendons/tendon_network.h"
 
-namespace fesim::benchmark {
+namespace fesim::paper_benchmark {
 namespace {
 
 namespace fm = identification::fullmodel;
@@ -655,4 +655,4 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
   return out;
 }
 
-}  // namespace fesim::benchmark
+}  // namespace fesim::paper_benchmark

@@ -14,10 +14,10 @@
 
 #include "base/json.h"
 #include "base/trial.h"
-#include "benchmark/run.h"
-#include "benchmark/sections.h"
+#include "paper_benchmark/run.h"
+#include "paper_benchmark/sections.h"
 
-namespace fesim::benchmark {
+namespace fesim::paper_benchmark {
 namespace {
 
 namespace fs = std::filesystem;
@@ -198,4 +198,4 @@ TEST(BenchmarkCli, BadInputIsOneLineAndNonZero) {
 }
 
 }  // namespace
-}  // namespace fesim::benchmark
+}  // namespace fesim::paper_benchmark

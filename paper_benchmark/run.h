@@ -30,7 +30,7 @@
 #include "cluster/cluster.h"
 #include "scenarios/benchmark_spec.h"
 
-namespace fesim::benchmark {
+namespace fesim::paper_benchmark {
 
 struct BenchmarkOptions {
   std::string out_dir = "out/benchmark";
@@ -57,4 +57,4 @@ struct BenchmarkOutcome {
 /// WorkItemsFailed (work.h) when work items failed; what finished is cached for a rerun.
 BenchmarkOutcome RunBenchmark(const BenchmarkSpec& spec, const BenchmarkOptions& options);
 
-}  // namespace fesim::benchmark
+}  // namespace fesim::paper_benchmark
