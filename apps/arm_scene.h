@@ -43,8 +43,8 @@
 #include <string>
 #include <vector>
 
+#include "base/trial.h"
 #include "render/scene.h"
-#include "scenarios/trial.h"
 #include "sim/upper_limb_model.h"
 
 namespace fesim {

@@ -6,7 +6,7 @@
 
 #include "apps/cli.h"
 #include "apps/commands.h"
-#include "benchmark/run.h"
+#include "paper_benchmark/run.h"
 #include "scenarios/benchmark_spec.h"
 
 namespace fesim {
@@ -44,7 +44,7 @@ int RunBenchmark(int argc, char** argv, cluster::Cluster& job) {
   }
   const std::string path =
       args.positional.empty() ? std::string("scenarios/default_study.yaml") : args.positional[0];
-  benchmark::BenchmarkOptions o;
+  paper_benchmark::BenchmarkOptions o;
   o.quick = args.Has("quick");
   o.out_dir = cli::OutPath(args, "out", o.quick ? "out/benchmark-quick" : "out/benchmark");
   o.threads = cli::Threads(args, 0);  // 0 (not given): all cores, 1 per rank under mpirun
@@ -62,7 +62,7 @@ int RunBenchmark(int argc, char** argv, cluster::Cluster& job) {
     // Every rank reads the same file and fails alike: one message, not one per rank.
     throw cluster::CollectiveError(e.what());
   }
-  const auto outcome = benchmark::RunBenchmark(spec, o);
+  const auto outcome = paper_benchmark::RunBenchmark(spec, o);
   if (job.is_root()) {
     cli::ShowProgress(1.0, "done");
     std::fprintf(stderr, "fesim benchmark: %s in %.1f s%s -> %s/report.md\n", spec.name.c_str(),

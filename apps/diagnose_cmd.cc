@@ -8,13 +8,13 @@
 
 #include "apps/cli.h"
 #include "apps/commands.h"
+#include "base/result_cache.h"
+#include "base/trial.h"
 #include "diagnosis/diagnose.h"
 #include "diagnosis/reduced_model.h"
 #include "diagnosis/report.h"
 #include "fesim/version.h"
-#include "scenarios/result_cache.h"
 #include "scenarios/scenario.h"
-#include "scenarios/trial.h"
 
 namespace fesim {
 

@@ -5,9 +5,9 @@
 
 #include "apps/cli.h"
 #include "apps/commands.h"
+#include "base/result_cache.h"
+#include "base/trial.h"
 #include "identification/method.h"
-#include "scenarios/result_cache.h"
-#include "scenarios/trial.h"
 
 namespace fesim {
 

@@ -10,9 +10,9 @@
 #include <string>
 
 #include "apps/commands.h"
+#include "base/trial.h"
 #include "cluster/cluster.h"
 #include "fesim/version.h"
-#include "scenarios/trial.h"
 
 namespace {
 

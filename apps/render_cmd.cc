@@ -15,10 +15,10 @@
 #include "apps/arm_scene.h"
 #include "apps/cli.h"
 #include "apps/commands.h"
+#include "base/trial.h"
 #include "render/renderer.h"
 #include "render/video.h"
 #include "scenarios/scenario.h"
-#include "scenarios/trial.h"
 #include "sim/upper_limb_model.h"
 
 namespace fesim {

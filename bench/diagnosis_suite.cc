@@ -29,14 +29,14 @@
 #include <string>
 #include <vector>
 
+#include "base/json.h"
+#include "base/trial.h"
 #include "diagnosis/diagnose.h"
 #include "diagnosis/mechanisms/mechanism.h"
 #include "diagnosis/planted.h"
 #include "diagnosis/report.h"
 #include "foreign/dataset.h"
-#include "scenarios/json.h"
 #include "scenarios/scenario.h"
-#include "scenarios/trial.h"
 
 namespace {
 

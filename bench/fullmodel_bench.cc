@@ -21,7 +21,7 @@
 #include "identification/hammerstein_mimo.h"
 #include "identification/method_support.h"
 #include "identification/metrics.h"
-#include "scenarios/protocols.h"
+#include "protocols/protocols.h"
 #include "sim/integrator.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"

@@ -12,7 +12,7 @@
 #include <mutex>
 #include <thread>
 
-#include "scenarios/parallel.h"
+#include "base/parallel.h"
 
 #if FESIM_WITH_MPI
 #include <mpi.h>
@@ -81,8 +81,6 @@ int CountOf(std::size_t bytes) {
 #endif
 
 }  // namespace
-
-bool BuiltWithMpi() { return FESIM_WITH_MPI != 0; }
 
 bool StartedByMpiLauncher() {
   const std::array<const char*, 3> launcher_variables = {"OMPI_COMM_WORLD_SIZE", "PMIX_RANK",

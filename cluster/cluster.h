@@ -94,9 +94,6 @@ class Cluster {
   std::uint64_t map_epoch_ = 0;  ///< Maps so far (every rank calls Map in the same order).
 };
 
-/// True when this build can run on MPI (FESIM_WITH_MPI).
-bool BuiltWithMpi();
-
 /// True when the process was started by an MPI launcher (see Cluster::Start).
 bool StartedByMpiLauncher();
 

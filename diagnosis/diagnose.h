@@ -25,12 +25,12 @@
 #include <string>
 #include <vector>
 
+#include "base/result_cache.h"
+#include "base/trial.h"
 #include "diagnosis/extended_model.h"
 #include "diagnosis/mechanisms/mechanism.h"
 #include "diagnosis/person.h"
 #include "diagnosis/signatures.h"
-#include "scenarios/result_cache.h"
-#include "scenarios/trial.h"
 #include "sim/model_params.h"
 
 namespace fesim::diagnosis {

@@ -11,10 +11,10 @@
 #include <stdexcept>
 #include <thread>
 
+#include "base/parallel.h"
 #include "identification/fullmodel/full_model_fit.h"
 #include "identification/levenberg_marquardt.h"
 #include "identification/metrics.h"
-#include "scenarios/parallel.h"
 
 namespace fesim::diagnosis {
 

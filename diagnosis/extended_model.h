@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-#include "scenarios/trial.h"
+#include "base/trial.h"
 #include "sim/model_params.h"
 
 namespace fesim::diagnosis {

@@ -5,8 +5,8 @@
 #include <mutex>
 #include <set>
 
+#include "base/parallel.h"
 #include "diagnosis/mechanisms/library.h"
-#include "scenarios/parallel.h"
 
 namespace fesim::diagnosis {
 namespace {

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "base/trial.h"
 #include "diagnosis/extended_model.h"
-#include "scenarios/trial.h"
 #include "sim/model_params.h"
 
 namespace fesim::diagnosis {

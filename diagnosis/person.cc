@@ -5,8 +5,8 @@
 #include <map>
 #include <stdexcept>
 
+#include "base/parallel.h"
 #include "diagnosis/mechanisms/library.h"
-#include "scenarios/parallel.h"
 #include "tendons/tendon_network.h"
 
 namespace fesim::diagnosis {

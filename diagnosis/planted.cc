@@ -6,7 +6,7 @@
 #include <stdexcept>
 
 #include "diagnosis/mechanisms/mechanism.h"
-#include "scenarios/protocols.h"
+#include "protocols/protocols.h"
 #include "scenarios/study.h"
 #include "sim/default_model.h"
 #include "sim/sensors.h"

@@ -28,9 +28,9 @@
 #include <string>
 #include <vector>
 
+#include "base/trial.h"
 #include "diagnosis/extended_model.h"
 #include "identification/method.h"
-#include "scenarios/trial.h"
 #include "sim/model_params.h"
 
 namespace fesim::diagnosis {

@@ -5,8 +5,8 @@
 #include <exception>
 #include <map>
 
+#include "base/parallel.h"
 #include "diagnosis/reduced_model.h"
-#include "scenarios/parallel.h"
 
 namespace fesim::diagnosis {
 

@@ -4,10 +4,10 @@
 #include <cstdio>
 #include <string>
 
+#include "base/trial.h"
 #include "diagnosis/signatures.h"
 #include "render/plot.h"
 #include "render/video.h"
-#include "scenarios/trial.h"
 
 namespace fesim::diagnosis {
 namespace {

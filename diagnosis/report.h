@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "base/json.h"
 #include "diagnosis/diagnose.h"
-#include "scenarios/json.h"
 
 namespace fesim::diagnosis {
 

@@ -1,6 +1,6 @@
 // The resume cache of `fesim diagnose`, typed at the edge: a stage's result is a struct with
 // `Json ToJson(const T&)` and `void FromJson(const Json&, T*)` overloads (declared next to the
-// struct), stored in a ResultCache (scenarios/result_cache.h) under the caller's inputs, the
+// struct), stored in a ResultCache (base/result_cache.h) under the caller's inputs, the
 // settings' key text and the stage's own key parts. A computed result goes through its JSON text
 // as well (FromJson(Parse(Dump(ToJson(x))))), so a fresh and a resumed run continue from the same
 // numbers.
@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
+#include "base/json.h"
+#include "base/result_cache.h"
 #include "diagnosis/extended_model.h"
-#include "scenarios/json.h"
-#include "scenarios/result_cache.h"
 
 namespace fesim::diagnosis {
 

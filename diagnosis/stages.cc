@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "base/parallel.h"
 #include "diagnosis/person.h"
 #include "diagnosis/reference.h"
-#include "scenarios/parallel.h"
 
 namespace fesim::diagnosis {
 

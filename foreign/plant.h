@@ -26,7 +26,7 @@
 #include "foreign/body.h"
 #include "foreign/effects.h"
 #include "foreign/person.h"
-#include "scenarios/protocols.h"
+#include "protocols/protocols.h"
 
 namespace fesim::foreign {
 

@@ -1,7 +1,7 @@
 // fesim's foreign simulator: an independent simulator of the hand under FES that makes test data
 // for fesim's diagnosis ("data fesim did not make"). It shares no physics code with fesim (sim/,
 // muscles/, tendons/, identification/, diagnosis/ are never included); it uses only Eigen and
-// fesim's plain records (scenarios/trial.h, scenarios/protocols.h).
+// fesim's plain records (base/trial.h, protocols/protocols.h).
 //
 // Model (each form in its header, with sources) and how it differs from fesim's:
 //   body.h     planar 3-DOF chain wrist/MCP/PIP, DIP = 2/3·PIP coupled, closed-form Lagrange
@@ -28,12 +28,12 @@
 #include <string>
 #include <vector>
 
+#include "base/trial.h"
 #include "foreign/effects.h"
 #include "foreign/person.h"
 #include "foreign/plant.h"
 #include "foreign/sensor.h"
-#include "scenarios/protocols.h"
-#include "scenarios/trial.h"
+#include "protocols/protocols.h"
 
 namespace fesim::foreign {
 

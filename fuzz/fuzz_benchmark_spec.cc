@@ -13,8 +13,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "base/trial.h"
 #include "scenarios/benchmark_spec.h"
-#include "scenarios/trial.h"
 
 namespace {
 

@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "base/trial.h"
 #include "diagnosis/measured.h"
-#include "scenarios/trial.h"
 #include "sim/default_model.h"
 
 namespace {

@@ -10,8 +10,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "base/trial.h"
 #include "identification/method_support.h"
-#include "scenarios/trial.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

@@ -1,5 +1,5 @@
-// libFuzzer target: the JSON reader (scenarios/json.h Json::Parse) and the reader of cached
-// predictions built on it (scenarios/result_cache.h TrialsFromJson), which `fesim benchmark`
+// libFuzzer target: the JSON reader (base/json.h Json::Parse) and the reader of cached
+// predictions built on it (base/result_cache.h TrialsFromJson), which `fesim benchmark`
 // and `fesim diagnose` use to resume from DIR/cache. Any input must either parse or throw
 // std::runtime_error; a parsed value must print back to the same text (json.h: Dump(Parse(
 // Dump(x))) == Dump(x)); TrialsFromJson either throws std::runtime_error or returns trials whose
@@ -10,8 +10,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "scenarios/json.h"
-#include "scenarios/result_cache.h"
+#include "base/json.h"
+#include "base/result_cache.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

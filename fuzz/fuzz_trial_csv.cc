@@ -1,4 +1,4 @@
-// libFuzzer target: the trial CSV reader (scenarios/trial.h ParseTrialCsv).
+// libFuzzer target: the trial CSV reader (base/trial.h ParseTrialCsv).
 // Any input must either parse or throw std::runtime_error; anything else (crash, sanitizer
 // report, other exception, hang) is a finding. A parsed trial must satisfy the documented
 // invariants and survive a format/parse round trip.
@@ -9,7 +9,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "scenarios/trial.h"
+#include "base/trial.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

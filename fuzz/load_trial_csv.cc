@@ -1,12 +1,12 @@
 // Measures the trial CSV reader on one file (docs/reliability.md, "huge files"):
-//   c++ -std=c++17 -O2 -I. fuzz/load_trial_csv.cc scenarios/trial.cc -o /tmp/load_trial_csv
+//   c++ -std=c++17 -O2 -I. fuzz/load_trial_csv.cc base/trial.cc -o /tmp/load_trial_csv
 //   /usr/bin/time -v /tmp/load_trial_csv big.csv
 // Prints rows and columns, or the reader's one-line error; exit code 0 or 1.
 #include <chrono>
 #include <cstdio>
 #include <exception>
 
-#include "scenarios/trial.h"
+#include "base/trial.h"
 
 int main(int argc, char** argv) {
   if (argc != 2) {

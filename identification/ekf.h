@@ -123,11 +123,6 @@ class ShoulderEkf {
   const ShoulderEkfVector& state() const { return x_; }
   const ShoulderEkfMatrix& covariance() const { return P_; }
   ShoulderEkfParams params() const;
-  /// Overrides state and covariance (used by tests, e.g. frozen parameters).
-  void Reset(const ShoulderEkfVector& x, const ShoulderEkfMatrix& P) {
-    x_ = x;
-    P_ = P;
-  }
 
  private:
   ShoulderEkfConfig config_;

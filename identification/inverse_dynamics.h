@@ -32,10 +32,10 @@
 #include <string>
 #include <vector>
 
+#include "base/trial.h"
 #include "identification/gaussian_process.h"
 #include "identification/method.h"
 #include "identification/method_support.h"
-#include "scenarios/trial.h"
 
 namespace fesim::identification {
 

@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "scenarios/json.h"
-#include "scenarios/trial.h"
+#include "base/json.h"
+#include "base/trial.h"
 
 namespace fesim::identification {
 

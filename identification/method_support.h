@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "scenarios/json.h"
-#include "scenarios/trial.h"
+#include "base/json.h"
+#include "base/trial.h"
 
 namespace fesim::identification {
 

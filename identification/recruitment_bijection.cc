@@ -79,13 +79,6 @@ SigmoidParams SigmoidFromCutoffs(const CutoffParams& psi) {
   return phi;
 }
 
-std::vector<CutoffParams> CutoffsFromSigmoids(const std::vector<SigmoidParams>& Phi) {
-  std::vector<CutoffParams> out;
-  out.reserve(Phi.size());
-  for (const auto& p : Phi) out.push_back(CutoffsFromSigmoid(p));
-  return out;
-}
-
 std::vector<SigmoidParams> SigmoidsFromCutoffs(const std::vector<CutoffParams>& Psi) {
   std::vector<SigmoidParams> out;
   out.reserve(Psi.size());

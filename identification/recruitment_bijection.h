@@ -59,8 +59,7 @@ SigmoidParams SigmoidFromCutoffs(const CutoffParams& psi);
 /// True when ψ_j ∈ P (eq. 40, with the strict upper bound noted above).
 bool InRecruitmentSet(const CutoffParams& psi);
 
-/// M and M⁻¹ on all l units (eq. 38).
-std::vector<CutoffParams> CutoffsFromSigmoids(const std::vector<SigmoidParams>& Phi);
+/// M⁻¹ on all l units (eq. 38).
 std::vector<SigmoidParams> SigmoidsFromCutoffs(const std::vector<CutoffParams>& Psi);
 
 }  // namespace fesim::identification

@@ -39,8 +39,8 @@
 #include <string>
 #include <vector>
 
+#include "base/trial.h"
 #include "identification/method.h"
-#include "scenarios/trial.h"
 
 namespace fesim::identification {
 

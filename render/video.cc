@@ -17,8 +17,8 @@
 #include <stdexcept>
 #include <system_error>
 
+#include "base/trial.h"
 #include "render/renderer.h"
-#include "scenarios/trial.h"
 
 // POSIX: the application declares environ (glibc declares it only under _GNU_SOURCE).
 extern char** environ;  // NOLINT(readability-redundant-declaration): see above

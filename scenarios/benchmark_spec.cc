@@ -5,7 +5,7 @@
 #include <set>
 #include <stdexcept>
 
-#include "scenarios/trial.h"
+#include "base/trial.h"
 #include "scenarios/yaml_node.h"
 
 namespace fesim {

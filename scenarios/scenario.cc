@@ -10,8 +10,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "scenarios/protocols.h"
-#include "scenarios/trial.h"
+#include "base/trial.h"
+#include "protocols/protocols.h"
 #include "scenarios/yaml_node.h"
 #include "sim/default_model.h"
 
@@ -231,7 +231,7 @@ std::string Directory(const std::string& path) {
   return slash == std::string::npos ? "" : path.substr(0, slash + 1);
 }
 
-/// The protocol generators of scenarios/protocols.h, by name, with their parameters.
+/// The protocol generators of protocols/protocols.h, by name, with their parameters.
 protocols::StimulationProgram LoadProtocol(const Node& n, const sim::ModelParams& m) {
   n.Keys({"name",
           "channel",

@@ -41,7 +41,7 @@
 //     steps: [{time_s, values_us: {<channel>: µs}}]   (steps; channels not named are 0)
 //     file: path relative to the scenario, u.<channel> columns held until the next row (csv)
 //     protocol: {name: step_grid|ramp|staircase|filtered_noise|prms|multisine|shoulder_steps,
-//                channel(s), u_min_us, u_max_us, u_sum_max_us, seed, …} (scenarios/protocols.h)
+//                channel(s), u_min_us, u_max_us, u_sum_max_us, seed, …} (protocols/protocols.h)
 //     reaching: {repetitions, reach_duration_s, hold_s, pause_s, transfer_duration_s,
 //                sample_rate_hz, homes_m: [[x, y, z]…], targets_m: [[x, y, z]…]}  (paper 004)
 //   sensors:
@@ -58,7 +58,7 @@
 #include <optional>
 #include <string>
 
-#include "scenarios/protocols.h"
+#include "protocols/protocols.h"
 #include "sim/model_params.h"
 #include "sim/trial_runner.h"
 

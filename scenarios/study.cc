@@ -6,7 +6,7 @@
 #include <random>
 #include <stdexcept>
 
-#include "scenarios/trial.h"
+#include "base/trial.h"
 #include "scenarios/yaml_node.h"
 #include "sim/default_model.h"
 #include "sim/sensors.h"

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "scenarios/trial.h"
+#include "base/trial.h"
 
 namespace fesim::internal {
 

@@ -1,5 +1,5 @@
 // Robot-driven reaching (papers/004_7ee2989736d21d4b.txt §II.A–B), end to end in the simulator:
-// hand path (scenarios/protocols.h ReachingProgram) → inverse kinematics of the four arm joints →
+// hand path (protocols/protocols.h ReachingProgram) → inverse kinematics of the four arm joints →
 // the arm prescribed along those joint trajectories, muscles relaxed → the robot's wrench at the
 // handle → joint torques back from that wrench through the arm Jacobian (004 §II.A, eq. (1)–(2)).
 //
@@ -48,8 +48,8 @@
 #include <string>
 #include <vector>
 
-#include "scenarios/protocols.h"
-#include "scenarios/trial.h"
+#include "base/trial.h"
+#include "protocols/protocols.h"
 #include "sim/model_params.h"
 #include "sim/upper_limb_model.h"
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "scenarios/trial.h"
+#include "base/trial.h"
 #include "sim/integrator.h"
 #include "sim/model_params.h"
 #include "sim/upper_limb_model.h"

@@ -486,9 +486,6 @@ std::vector<double> UpperLimbModel::GetStimulation(const State& state) const {
 double UpperLimbModel::GetQ(const State& state, int coordinate) const {
   return CoordinateBody(coordinate).getOneQ(state, 0);
 }
-double UpperLimbModel::GetU(const State& state, int coordinate) const {
-  return CoordinateBody(coordinate).getOneU(state, 0);
-}
 std::vector<double> UpperLimbModel::GetQs(const State& s) const { return QsOf(*slots_, s); }
 std::vector<double> UpperLimbModel::GetUs(const State& s) const { return UsOf(*slots_, s); }
 

@@ -91,7 +91,6 @@ class UpperLimbModel {
   std::vector<double> GetStimulation(const SimTK::State& state) const;
 
   double GetQ(const SimTK::State& state, int coordinate) const;
-  double GetU(const SimTK::State& state, int coordinate) const;
   std::vector<double> GetQs(const SimTK::State& state) const;
   std::vector<double> GetUs(const SimTK::State& state) const;
 

@@ -16,10 +16,10 @@
 #include <stdexcept>
 #include <thread>
 
+#include "base/parallel.h"
 #include "identification/levenberg_marquardt.h"
 #include "identification/method_support.h"
 #include "identification/metrics.h"
-#include "scenarios/parallel.h"
 #include "scenarios/scenario.h"
 #include "sim/default_model.h"
 #include "sim/integrator.h"

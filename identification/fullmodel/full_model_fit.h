@@ -45,8 +45,8 @@
 #include <string>
 #include <vector>
 
+#include "base/trial.h"
 #include "identification/method.h"
-#include "scenarios/trial.h"
 #include "sim/integrator.h"
 #include "sim/model_params.h"
 

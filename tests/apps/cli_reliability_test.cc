@@ -17,7 +17,7 @@
 #include <thread>
 #include <vector>
 
-#include "scenarios/trial.h"
+#include "base/trial.h"
 
 namespace fesim {
 namespace {

@@ -11,7 +11,7 @@
 #include <filesystem>
 #include <string>
 
-#include "scenarios/trial.h"
+#include "base/trial.h"
 
 namespace fesim {
 namespace {

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "scenarios/trial.h"
+#include "base/trial.h"
 #include "tests/testing/process.h"
 
 namespace fesim {

@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "scenarios/trial.h"
+#include "base/trial.h"
 
 namespace fesim {
 namespace {

@@ -11,8 +11,8 @@
 #include <sstream>
 #include <string>
 
-#include "scenarios/json.h"
-#include "scenarios/trial.h"
+#include "base/json.h"
+#include "base/trial.h"
 
 namespace fesim {
 namespace {
@@ -146,7 +146,7 @@ TEST(MpiBenchmark, QuickStudySameFiguresOnAnyRankCountAndFailedItemRedoneAlone) 
   const std::string err = ReadFile(base + ".e3");
   EXPECT_NE(rc, 0);
   // The item runs on whichever rank is free: "(rank r)" follows its name unless r = 0
-  // (benchmark/work.cc).
+  // (paper_benchmark/work.cc).
   EXPECT_EQ(CountOf(err, "error: hand_array hammerstein fit 1"), 1) << err;
   EXPECT_EQ(CountOf(err, "injected fault"), 1) << err;
   EXPECT_FALSE(fs::exists(three + "/results.json"));

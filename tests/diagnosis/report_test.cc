@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <string>
 
-#include "scenarios/trial.h"
+#include "base/trial.h"
 
 namespace fesim::diagnosis {
 namespace {

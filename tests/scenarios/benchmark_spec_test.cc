@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "scenarios/trial.h"
+#include "base/trial.h"
 
 namespace fesim {
 namespace {

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "scenarios/trial.h"
+#include "base/trial.h"
 #include "sim/default_model.h"
 
 namespace fesim {

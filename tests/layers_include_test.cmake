@@ -1,0 +1,51 @@
+# The include half of the layer table (root CMakeLists.txt): every `#include "folder/…"` of
+# every C++ source must name its own folder or one of the folders its row USES; every top-level
+# folder that holds C++ sources must have a row. Includes of paths outside the table's folders
+# (generated headers such as fesim/version.h) are not checked.
+# Run by ctest (tests/CMakeLists.txt): cmake -DFESIM_SOURCE_DIR=SOURCE_ROOT
+#   -DFESIM_LAYERS_TABLE=BUILD_DIR/layers_table.cmake -P tests/layers_include_test.cmake
+cmake_minimum_required(VERSION 3.20)
+include("${CMAKE_CURRENT_LIST_DIR}/../cmake/layers.cmake")
+include("${FESIM_LAYERS_TABLE}")
+
+set(errors "")
+set(files_checked 0)
+file(GLOB children LIST_DIRECTORIES true "${FESIM_SOURCE_DIR}/*")
+foreach(child IN LISTS children)
+  get_filename_component(name "${child}" NAME)
+  if(NOT IS_DIRECTORY "${child}" OR name MATCHES "^\\." OR EXISTS "${child}/CMakeCache.txt")
+    continue()
+  endif()
+  file(GLOB_RECURSE sources "${child}/*.h" "${child}/*.cc" "${child}/*.h.in")
+  foreach(source IN LISTS sources)
+    file(RELATIVE_PATH rel "${FESIM_SOURCE_DIR}" "${source}")
+    fesim_layer_of("${rel}" row)
+    if(row STREQUAL "")
+      list(APPEND errors "${rel}: its folder has no row in the layer table")
+      continue()
+    endif()
+    get_property(uses GLOBAL PROPERTY FESIM_LAYER_USES_${row})
+    math(EXPR files_checked "${files_checked} + 1")
+    file(STRINGS "${source}" includes REGEX "^[ \t]*#[ \t]*include[ \t]*\"[^\"]+/[^\"]*\"")
+    foreach(line IN LISTS includes)
+      string(REGEX REPLACE "^[ \t]*#[ \t]*include[ \t]*\"([^\"]+)\".*$" "\\1" path "${line}")
+      fesim_layer_of("${path}" used)
+      if(used STREQUAL "" OR used STREQUAL row OR used IN_LIST uses OR "ALL" IN_LIST uses)
+        continue()
+      endif()
+      string(REPLACE ";" " " allowed "${uses}")
+      list(APPEND errors
+        "${rel} includes \"${path}\" (${used}/), outside the row of ${row}/: USES ${allowed}")
+    endforeach()
+  endforeach()
+endforeach()
+
+if(files_checked EQUAL 0)
+  message(FATAL_ERROR "no sources found below ${FESIM_SOURCE_DIR}")
+endif()
+if(errors)
+  list(LENGTH errors n)
+  string(REPLACE ";" "\n  " errors "${errors}")
+  message(FATAL_ERROR "${n} violation(s) of the layer table (CMakeLists.txt):\n  ${errors}")
+endif()
+message(STATUS "layers: the includes of ${files_checked} sources stay inside their rows")

@@ -1,0 +1,201 @@
+// `fesim benchmark --quick` end to end: every section's table in results.json, planted ground
+// truth reported back, the report's figures equal to the JSON's, a killed run resumed from the
+// cache, a rerun that fits nothing, and bad input.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <thread>
+
+#include "base/json.h"
+#include "base/trial.h"
+#include "paper_benchmark/run.h"
+#include "paper_benchmark/sections.h"
+
+namespace fesim::paper_benchmark {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// Tolerances for planted quantities on the quick study (2 participants, short protocols).
+constexpr double kTremorFrequencyTolHz = 0.05;       // planted 6 Hz
+constexpr double kTremorAmplitudeTolPercent = 15.0;  // of the planted tremor's angle amplitude
+constexpr double kOmegaMedianTolPercent = 25.0;      // Hammerstein Ω vs the mean true Ω_i
+
+const std::string kSrc = FESIM_SOURCE_DIR_PATH;
+
+int RunFesim(const std::string& args, const std::string& err_file) {
+  const std::string cmd = std::string(FESIM_BIN_PATH) + " " + args + " 2>" + err_file;
+  const int status = std::system(cmd.c_str());
+  return WEXITSTATUS(status);
+}
+
+Json Results(const std::string& dir) {
+  return Json::Parse(ReadFile(dir + "/results.json"), dir + "/results.json");
+}
+
+const Json& At(const Json& j, const std::string& path) {
+  const Json* cur = &j;
+  std::size_t start = 0;
+  while (start <= path.size()) {
+    const std::size_t dot = path.find('/', start);
+    const std::string key =
+        path.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
+    cur = cur->Find(key);
+    if (cur == nullptr) throw std::runtime_error("results.json: no " + path);
+    if (dot == std::string::npos) break;
+    start = dot + 1;
+  }
+  return *cur;
+}
+
+TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
+  const std::string dir = ::testing::TempDir() + "benchmark_quick";
+  fs::remove_all(dir);
+  const std::string args =
+      "benchmark " + kSrc + "/scenarios/default_study.yaml --quick --out " + dir + " --threads 2";
+  const std::string err = ::testing::TempDir() + "benchmark_quick_stderr.txt";
+
+  // 1. A run killed part-way leaves complete cache files, no temporaries and no report.
+  {
+    const std::string cmd = "exec " + std::string(FESIM_BIN_PATH) + " " + args + " 2>/dev/null";
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      ::execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    // Kill once some trials are cached (polling, at most 120 s).
+    const auto t0 = std::chrono::steady_clock::now();
+    auto csv_count = [&] {
+      int n = 0;
+      if (fs::exists(dir + "/cache/trials")) {
+        for (const auto& e : fs::recursive_directory_iterator(dir + "/cache/trials")) {
+          n += e.path().extension() == ".csv";
+        }
+      }
+      return n;
+    };
+    while (csv_count() < 6 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(120)) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    ::kill(pid, SIGTERM);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    EXPECT_FALSE(fs::exists(dir + "/report.md"));
+    for (const auto& e : fs::recursive_directory_iterator(dir)) {
+      EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+    }
+  }
+
+  // 2. The rerun resumes: cached trials are not simulated again.
+  ASSERT_EQ(RunFesim(args, err), 0) << ReadFile(err);
+  const Json r = Results(dir);
+  const int total_trials = 39;  // 2×(2+2) hand + 2×4×2 elbow + 2×3 tremor + 2×2 shoulder + 5
+  EXPECT_LT(At(r, "trials_simulated").AsNumber(), total_trials);
+  EXPECT_EQ(At(r, "mode").AsString(), "quick");
+
+  // 3. Every section and table is there.
+  for (const char* key :
+       {"hand_array/table", "hand_array/mean/full_model/wrist_flexion",
+        "hand_array/mean/hammerstein/local_step_wall_s",
+        "hand_array/truth/full_model_unseen_normalised_error", "hand_array/truth/assumptions",
+        "elbow_tests/identification_best_fit_percent", "elbow_tests/validation_best_fit_percent",
+        "elbow_tests/cross_validation_best_fit_percent/spline-oe/staircase",
+        "tremor_wrist/order_sweep", "tremor_wrist/tremor", "shoulder/fits", "shoulder/ekf",
+        "reaching/loocv_normalised_rms"}) {
+    EXPECT_NO_THROW(At(At(r, "sections"), key)) << key;
+  }
+  EXPECT_EQ(At(r, "sections/hand_array/table").Items().size(), 2u);  // two participants
+  EXPECT_GE(At(r, "findings").Items().size(), 6u);
+
+  // 4. Planted ground truth reported back.
+  for (const auto& p : At(r, "sections/tremor_wrist/tremor").Items()) {
+    const double f = p.Find("frequency_identified_hz")->AsNumber();
+    const double f0 = p.Find("frequency_planted_hz")->AsNumber();
+    EXPECT_NEAR(f0, 6.0, 1e-12);
+    EXPECT_NEAR(f, f0, kTremorFrequencyTolHz);
+    const double a = p.Find("amplitude_identified_rad")->AsNumber();
+    const double a0 = p.Find("amplitude_planted_rad")->AsNumber();
+    EXPECT_NEAR(a, a0, kTremorAmplitudeTolPercent / 100.0 * a0);
+  }
+  EXPECT_LT(At(r,
+               "sections/hand_array/truth/parameter_errors/"
+               "hammerstein_Omega_median_abs_error_percent")
+                .AsNumber(),
+            kOmegaMedianTolPercent);
+
+  // 5. The report's figures are the JSON's.
+  const std::string report = ReadFile(dir + "/report.md");
+  const Json& mean = At(r, "sections/hand_array/mean");
+  for (const char* model : {"full_model", "hammerstein"}) {
+    for (const char* joint : {"wrist_flexion", "mcp_flexion", "pip_flexion"}) {
+      const std::string cell = "**" + Fixed(mean.Find(model)->Find(joint)->AsNumber(), 3) + "**";
+      EXPECT_NE(report.find(cell), std::string::npos) << model << " " << joint << " " << cell;
+    }
+  }
+  const Json& ident = At(r, "sections/elbow_tests/identification_best_fit_percent/spline-oe");
+  for (std::size_t k = 0; k < ident.Keys().size(); ++k) {
+    const std::string cell = " " + Fixed(ident.Items()[k].AsNumber(), 1) + " [";
+    EXPECT_NE(report.find(cell), std::string::npos) << ident.Keys()[k] << cell;
+  }
+  for (const auto& p : At(r, "sections/tremor_wrist/tremor").Items()) {
+    EXPECT_NE(report.find("| " + Fixed(p.Find("frequency_identified_hz")->AsNumber(), 3) + " |"),
+              std::string::npos);
+  }
+  for (const auto& f : At(r, "findings").Items()) {
+    EXPECT_NE(report.find(f.Find("margin")->AsString()), std::string::npos);
+  }
+  for (const char* png : {"hand_array_error.png", "hand_array_prediction.png", "elbow_best_fit.png",
+                          "shoulder_ekf_parameters.png", "reaching_loocv.png"}) {
+    EXPECT_TRUE(fs::exists(dir + "/plots/" + png)) << png;
+    EXPECT_NE(report.find(std::string("plots/") + png), std::string::npos) << png;
+  }
+
+  // 6. A rerun fits and simulates nothing and reports the same figures.
+  ASSERT_EQ(RunFesim(args, err), 0) << ReadFile(err);
+  const Json again = Results(dir);
+  EXPECT_EQ(At(again, "fits_run").AsNumber(), 0);
+  EXPECT_EQ(At(again, "trials_simulated").AsNumber(), 0);  // the reaches are cached too
+  for (const char* key : {"hand_array/table", "hand_array/truth/parameter_errors",
+                          "elbow_tests/cross_validation_best_fit_percent", "tremor_wrist/tremor",
+                          "shoulder/fits", "reaching/loocv_normalised_rms"}) {
+    EXPECT_EQ(At(At(again, "sections"), key).Dump(), At(At(r, "sections"), key).Dump()) << key;
+  }
+}
+
+TEST(BenchmarkCli, BadInputIsOneLineAndNonZero) {
+  const std::string err = ::testing::TempDir() + "benchmark_bad_stderr.txt";
+  EXPECT_EQ(RunFesim("benchmark /nonexistent/study.yaml --out " + ::testing::TempDir() + "bb", err),
+            1);
+  const std::string e = ReadFile(err);
+  EXPECT_NE(e.find("/nonexistent/study.yaml"), std::string::npos) << e;
+  EXPECT_EQ(RunFesim("benchmark " + kSrc + "/scenarios/default_study.yaml --threads -3", err), 1);
+  EXPECT_NE(ReadFile(err).find("--threads"), std::string::npos);
+  EXPECT_EQ(RunFesim("benchmark " + kSrc + "/scenarios/default_study.yaml --bogus", err), 1);
+  EXPECT_NE(ReadFile(err).find("--bogus"), std::string::npos);
+  EXPECT_EQ(RunFesim("benchmark --help", err), 0);
+
+  // A study whose rig scenario is missing: found while the studies are planned, before any
+  // output directory is made (issue 10; the directories used to be created first).
+  const std::string dir = ::testing::TempDir() + "benchmark_bad_rig";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  WriteFileAtomic(dir + "/study.yaml", "study: s\nscenario: missing_rig.yaml\n");
+  WriteFileAtomic(dir + "/bench.yaml", "benchmark: b\nelbow_tests: {study: study.yaml}\n");
+  EXPECT_EQ(RunFesim("benchmark " + dir + "/bench.yaml --out " + dir + "/out", err), 1);
+  EXPECT_NE(ReadFile(err).find(dir + "/study.yaml: scenario: " + dir +
+                               "/missing_rig.yaml: cannot "
+                               "open for reading: No such file or directory"),
+            std::string::npos)
+      << ReadFile(err);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
+}
+
+}  // namespace
+}  // namespace fesim::paper_benchmark
