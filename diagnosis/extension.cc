@@ -136,7 +136,7 @@ class Extender {
   std::vector<int> StrongestPerId(std::vector<int> cands, const ScreenStage& tests,
                                   int limit) const;
   /// Makes `control` (the person alone refitted from candidate c's profile-start fit) the
-  /// control when it beats it on training Σr² (extension.h, Control).
+  /// control when it beats it on training Σr² and on held-out NRMSE (extension.h, Control).
   void AdoptBetterControl(const Fitted& control, int c);
   void ScreenRound(const ScreenStage& screen);
   bool OnTopRound();
@@ -573,7 +573,8 @@ std::vector<int> Extender::StrongestPerId(std::vector<int> cands, const ScreenSt
 
 void Extender::AdoptBetterControl(const Fitted& control, int c) {
   if (!control.stage.heldout_ok ||
-      !(control.stage.train_residual.squaredNorm() < base_.stage.train_residual.squaredNorm())) {
+      !(control.stage.train_residual.squaredNorm() < base_.stage.train_residual.squaredNorm()) ||
+      !(control.heldout_nrmse < base_.heldout_nrmse)) {
     return;
   }
   baseline_note_ =
@@ -646,23 +647,27 @@ void Extender::ScreenRound(const ScreenStage& screen) {
       EnsureDirections(need);
     }
     const std::vector<std::string> texts = ctx_.Map(batch.size(), item);
-    std::vector<Fitted> fits(batch.size());
+    std::vector<Fitted> fits(batch.size()), controls(batch.size());
     for (std::size_t k = 0; k < batch.size(); ++k) {
       const Json item_json = Json::Parse(texts[k], "screening fit");
       fits[k].cands = {batch[k]};
       FromJson(Member(item_json, "fit"), &fits[k].stage);
       Complete(&fits[k]);
       if (!Member(item_json, "control").IsNull()) {
-        Fitted control;
-        FromJson(Member(item_json, "control"), &control.stage);
-        Complete(&control);
-        AdoptBetterControl(control, batch[k]);
+        FromJson(Member(item_json, "control"), &controls[k].stage);
+        Complete(&controls[k]);
+        AdoptBetterControl(controls[k], batch[k]);
       }
     }
     for (std::size_t k = 0; k < batch.size(); ++k) {
       const int c = batch[k];
       Fitted& f = fits[k];
-      const Judgement j = JudgeLast(f, base_, c);
+      // A profiled fit must beat both the control and its own refitted person (extension.h).
+      Judgement j = JudgeLast(f, base_, c);
+      if (controls[k].stage.train_residual.size()) {
+        const Judgement own = JudgeLast(f, controls[k], c);
+        if (!own.passes || own.gain < j.gain) j = own;
+      }
       Record(c, f, j);
       round1_.push_back(std::move(f));
       if (j.passes && (best < 0 || j.gain > (*results_)[round1_[best].cands[0]].heldout_gain)) {

@@ -7,9 +7,12 @@
 // A candidate fitted from a profile start (below) may lead the person to a better minimum than
 // the calibration's (a foreign wander's calibration stopped at held-out NRMSE 0.63, the person
 // fitted with crosstalk held at 0.15 and then released reached 0.17 with crosstalk ≈ 0): the
-// person alone is refitted from where that fit ended, and when it beats the control on training
-// Σr² it becomes the control every candidate of that batch and after is judged against
-// (baseline_note says so).
+// person alone is refitted from where that fit ended. The candidate must pass against the control
+// and against that person (the weaker judgement counts); when that person beats the control on
+// training Σr² and on held-out NRMSE it becomes the control every candidate of that batch and
+// after is judged against (baseline_note says so). A person refitted to a lower training Σr² but
+// a worse held-out NRMSE (a clean foreign person: 0.142 against the calibration's 0.118) would
+// otherwise credit the candidate with the calibration's better prediction.
 //
 // Screening. The candidates whose robust score test passes (p_adj < alpha), the best-scoring
 // joint per id, up to max_screened, are fitted in batches of max_fitted while none passes: their

@@ -60,6 +60,7 @@ PlantedDataset Family(std::uint64_t seed, const std::string& mechanism = "", dou
 /// The verdict's reason and the fitted candidates' figures, for a failure message.
 std::string Explain(const Diagnosis& d) {
   std::string s = d.reason + "\n";
+  for (const auto& n : d.notes) s += "note: " + n + "\n";
   for (const auto& c : d.candidates) {
     if (!c.fitted) continue;
     s += c.label + ": p_adj " + std::to_string(c.p_adjusted) + ", LR p_adj " +
