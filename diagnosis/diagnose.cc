@@ -180,6 +180,7 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   library_ctx.outputs = data.outputs;
   library_ctx.channels = data.channels;
   library_ctx.training_trials = static_cast<int>(data.train.trials.size());
+  library_ctx.heldout_recordings_apart = measured.size() > 1;  // PrepareMeasured's split
   FitOptions fo = settings.fit;
   fo.threads = execution.threads;
   if (settings.model != "full") {

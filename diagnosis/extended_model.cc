@@ -97,23 +97,25 @@ sim::IntegratorParams Integrator(const FitOptions& options, const Trial& trial, 
 
 /// One trial's prediction for an already-applied model (its initial posture set).
 Trial PredictOne(const sim::ModelParams& model, const std::vector<ModelParameter>& params,
-                 const Eigen::VectorXd& x, const Trial& trial, const FitOptions& options) {
+                 const Eigen::VectorXd& x, const Trial& trial, int trial_index,
+                 const FitOptions& options) {
   const bool scale = AnyInputScale(params);
   const Trial scaled = scale ? ScaledInputs(params, x, trial) : Trial();
   const Trial& input = scale ? scaled : trial;
   Trial out = options.simulator ? options.simulator(model, input, options.tolerance)
                                 : identification::fullmodel::SimulateLike(
                                       model, input, Integrator(options, input, 1.0));
-  AddOutputDrift(params, x, &out);
+  AddOutputDrift(params, x, &out, trial_index);
   return out;
 }
 
 }  // namespace
 
 void AddOutputDrift(const std::vector<ModelParameter>& params, const Eigen::VectorXd& x,
-                    Trial* prediction) {
+                    Trial* prediction, int trial) {
   for (std::size_t k = 0; k < params.size(); ++k) {
     if (params[k].target != ModelParameter::Target::kOutputDrift) continue;
+    if (trial >= 0 && !AppliesToTrial(params[k], trial)) continue;
     if (!prediction->Has(params[k].column)) continue;
     auto& y = prediction->MutableColumn(params[k].column);
     for (std::size_t i = 0; i < y.size(); ++i) {
@@ -134,7 +136,7 @@ std::vector<Trial> Predict(const sim::ModelParams& base, const std::vector<Model
                 const sim::ModelParams model =
                     per_trial ? ApplyModelParameters(base, params, x, t) : shared;
                 out[t] = PredictOne(WithInitialPosture(model, view, static_cast<std::size_t>(t)),
-                                    params, x, view.trials[t], options);
+                                    params, x, view.trials[t], t, options);
               });
   return out;
 }
@@ -293,7 +295,7 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
     try {
       sims[task] = PredictOne(WithInitialPosture(ApplyModelParameters(base, params, xs[c], t), view,
                                                  static_cast<std::size_t>(t)),
-                              params, xs[c], view.trials[t], options);
+                              params, xs[c], view.trials[t], t, options);
     } catch (const std::exception&) {
       ok[task] = 0;
     }
@@ -346,9 +348,10 @@ Eigen::MatrixXd ResidualJacobian(const sim::ModelParams& base,
   for (int c = 0; c < p; ++c) {
     const ModelParameter& param = params[first_free + c];
     if (param.target != ModelParameter::Target::kOutputDrift) continue;
-    // ∂(y − ŷ)/∂drift = −t on the drift's output, 0 elsewhere.
+    // ∂(y − ŷ)/∂drift = −t on the drift's output (and trial), 0 elsewhere.
     ForEachRow(view, [&](Eigen::Index row, std::size_t t, std::size_t o, std::size_t i) {
-      if (view.outputs[o] == param.column) J(row, c) = -view.trials[t].time[i];
+      if (view.outputs[o] == param.column && moves(c, static_cast<int>(t)))
+        J(row, c) = -view.trials[t].time[i];
     });
   }
   for (int c : differenced) {

@@ -121,9 +121,10 @@ std::vector<Trial> Predict(const sim::ModelParams& base, const std::vector<Model
                            const FitOptions& options, int threads = 0);
 
 /// Adds value · t to the simulated q.<joint> column of every kOutputDrift parameter (values x)
-/// of `prediction` (a simulation of the model without the drifts).
+/// of `prediction` (a simulation of the model without the drifts) that applies to trial `trial`
+/// of its view (AppliesToTrial; −1: every drift parameter).
 void AddOutputDrift(const std::vector<ModelParameter>& params, const Eigen::VectorXd& x,
-                    Trial* prediction);
+                    Trial* prediction, int trial = -1);
 
 /// Stacked residuals y − ŷ over the counted samples (trial-major, then output, then time).
 Eigen::VectorXd StackResiduals(const DataView& view, const std::vector<Trial>& predictions);

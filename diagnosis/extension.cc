@@ -127,7 +127,8 @@ class Extender {
   /// (Candidate::free_phase_param) is chosen per held-out trial: with the response linear in
   /// (cos φ, sin φ) of the phase offset, three simulations per trial (offsets 0, π/2, π) give
   /// ŷ(φ) = c + a cos φ + b sin φ, φ* = atan2(⟨r_c, b⟩, ⟨r_c, a⟩) with r_c = y − c, and a fourth
-  /// the prediction at φ*.
+  /// the prediction at φ*. Per-trial drifts (Candidate::drift_per_trial) are those of the
+  /// held-out recording: AddHeldoutDrift.
   std::vector<Trial> HeldoutPrediction(const std::vector<int>& cands,
                                        const std::vector<ModelParameter>& params,
                                        const Eigen::VectorXd& x, const FitOptions& fo, int* sims);
@@ -171,6 +172,40 @@ constexpr int kRelevantPerson = 6;
 /// Halvings of an extension's start towards its "off" values at most (FitStageOf).
 constexpr int kStartHalvings = 3;
 constexpr double kPi = 3.14159265358979323846;
+
+/// Each held-out trial's own drift of every output (Candidate::drift_per_trial): the rate that
+/// fits the residual of `predictions` over the first half of the trial's counted samples (least
+/// squares on t, the drift starting at 0 with the recording), added to the whole trial. A
+/// recording's drift rates can only come from the recording itself; its second half is then a
+/// prediction, so that slow misfit a free trend would absorb over the whole trial does not count
+/// as a held-out gain.
+void AddHeldoutDrift(const DataView& held, std::vector<Trial>* predictions) {
+  for (std::size_t t = 0; t < held.trials.size(); ++t) {
+    const Trial& measured = held.trials[t];
+    Trial& predicted = (*predictions)[t];
+    std::vector<std::size_t> counted;
+    for (std::size_t i = 0; i < measured.time.size(); ++i) {
+      if (held.use[t][i]) counted.push_back(i);
+    }
+    if (counted.size() < 2) continue;
+    const double half_time = measured.time[counted[counted.size() / 2]];
+    for (const auto& name : held.outputs) {
+      const auto& y = measured.Column(name);
+      auto& y_hat = predicted.MutableColumn(name);
+      double num = 0.0, den = 0.0;
+      for (const std::size_t i : counted) {
+        const double ti = measured.time[i];
+        if (ti > half_time) break;
+        if (!std::isfinite(y[i])) continue;
+        num += (y[i] - y_hat[i]) * ti;
+        den += ti * ti;
+      }
+      if (den <= 0.0) continue;
+      const double rate = num / den;
+      for (std::size_t i = 0; i < y_hat.size(); ++i) y_hat[i] += rate * predicted.time[i];
+    }
+  }
+}
 
 std::string PointKey(const std::vector<int>& cands, const Eigen::VectorXd& x) {
   std::string key;
@@ -385,8 +420,13 @@ std::vector<Trial> Extender::HeldoutPrediction(const std::vector<int>& cands,
   std::vector<std::vector<Eigen::Index>> phases;
   Eigen::VectorXd x_held = x;
   Eigen::Index at = ns_;
+  bool drift_per_trial = false;
   for (int c : cands) {
     const Candidate& cand = lib_[c];
+    if (cand.drift_per_trial) {  // the training recordings' rates are not the held-out's
+      drift_per_trial = true;
+      x_held.segment(at, static_cast<Eigen::Index>(cand.params.size())).setZero();
+    }
     if (cand.free_phase_param >= 0) {
       std::vector<Eigen::Index> ks = {at + cand.free_phase_param};
       for (int k : cand.phase_per_trial) {
@@ -426,6 +466,7 @@ std::vector<Trial> Extender::HeldoutPrediction(const std::vector<int>& cands,
       ++*sims;
     }
   }
+  if (drift_per_trial) AddHeldoutDrift(held, &out);
   return out;
 }
 

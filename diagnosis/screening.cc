@@ -23,7 +23,7 @@ bool DriftOnly(const Candidate& c) {
 }
 
 bool PerTrialDirections(const Candidate& c, int trials) {
-  return c.free_phase_param >= 0 && trials > 1;
+  return (c.free_phase_param >= 0 || c.drift_per_trial) && trials > 1;
 }
 
 std::vector<bool> OneSidedColumns(const Candidate& c, Eigen::Index columns) {
@@ -70,7 +70,7 @@ std::map<int, Eigen::MatrixXd> ProbeDirections(
       continue;
     }
     sims[j] = pred[jobs[j].trial];
-    AddOutputDrift(c.params, c.probes[jobs[j].probe], &sims[j]);
+    AddOutputDrift(c.params, c.probes[jobs[j].probe], &sims[j], jobs[j].trial);
   }
   // Each probe's simulation comes back as JSON text ("" = it failed), so that it can run on
   // another MPI rank.

@@ -26,7 +26,7 @@ bool DriftOnly(const Candidate& c);
 /// Whether candidate c's directions are split per training trial: a free phase
 /// (Candidate::free_phase_param, tremor) is the trial's own — a person's tremor starts at a
 /// random phase in every trial, and one phase for all trials let the probes cancel
-/// (docs/diagnosis.md "Robust tests").
+/// (docs/diagnosis.md "Robust tests") — and so are drift rates (Candidate::drift_per_trial).
 bool PerTrialDirections(const Candidate& c, int trials);
 
 /// Candidate c's one_sided flags for `columns` direction columns (repeated per trial block).

@@ -38,6 +38,9 @@ struct LibraryContext {
   std::vector<double> tremor_frequency_hz;
   /// Training trials (Candidate::phase_per_trial), ≥ 1.
   int training_trials = 1;
+  /// The held-out data are recordings of their own, not the tail of a training trial
+  /// (Candidate::drift_per_trial).
+  bool heldout_recordings_apart = false;
   /// The reduced model diagnosed instead of the full model (`--model NAME`, reduced_model.h);
   /// empty: the full model.
   std::string reduced_model;
@@ -83,6 +86,13 @@ struct Candidate {
   /// others appended after the mechanism's own parameters), so that a tremor restarting at its
   /// own phase in each recording is fitted as such. Empty: one phase for every trial.
   std::vector<int> phase_per_trial;
+  /// Output drifts (ModelParameter::kOutputDrift) of one rate per recording
+  /// (ModelParameter::trial with several training trials): a sensor zeroed at the start of each
+  /// recording drifts at that recording's own rate. The score directions are split per training
+  /// trial; the extended model's held-out prediction estimates each held-out recording's rates
+  /// from the first half of it and predicts the whole of it (extension.h). False when the held-out
+  /// data are the tail of the one training recording, whose fitted rate they share.
+  bool drift_per_trial = false;
   /// A control (Mechanism::control): fitted and judged like a mechanism, never a cause.
   bool control = false;
   bool applicable = true;

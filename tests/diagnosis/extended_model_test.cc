@@ -322,6 +322,49 @@ TEST(ExtendedModel, DriftJacobianColumnIsMinusTimeWithoutSimulating) {
   EXPECT_GT(J.col(0).norm(), 0.0);
 }
 
+TEST(ExtendedModel, ADriftOfOneTrialDriftsThatTrialAloneAndItsColumnIsZeroElsewhere) {
+  // Per-trial drift rates (Candidate::drift_per_trial): the rate of trial 0 is added to trial 0
+  // only, trial 1's to trial 1 only; their exact Jacobian columns are −t on their own trial's rows
+  // and 0 on the other's.
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  DataView v = ViewOf(StepTrial(rig));
+  v.trials.push_back(v.trials[0]);
+  v.use.push_back(v.use[0]);
+  std::vector<ModelParameter> params(2);
+  for (int t = 0; t < 2; ++t) {
+    params[t].name = "drift" + std::to_string(t);
+    params[t].target = ModelParameter::Target::kOutputDrift;
+    params[t].column = "q.wrist_flexion";
+    params[t].lower = -1;
+    params[t].upper = 1;
+    params[t].scale = 1e-3;
+    params[t].trial = t;
+  }
+  Eigen::VectorXd x(2);
+  x << 0.01, -0.02;
+  const auto with = Predict(rig, params, x, v, Accurate(), 1);
+  const auto without = Predict(rig, params, Eigen::VectorXd::Zero(2), v, Accurate(), 1);
+  for (int t = 0; t < 2; ++t) {
+    const auto& a = with[t].Column("q.wrist_flexion");
+    const auto& b = without[t].Column("q.wrist_flexion");
+    for (std::size_t i = 0; i < a.size(); i += 25)
+      EXPECT_NEAR(a[i] - b[i], x(t) * v.trials[t].time[i], 1e-12) << "trial " << t;
+  }
+  const Eigen::VectorXd r0 = StackResiduals(v, with);
+  int sims = 0;
+  const Eigen::MatrixXd J = ResidualJacobian(rig, params, x, r0, v, Accurate(), &sims);
+  EXPECT_EQ(sims, 0);
+  const auto n = static_cast<Eigen::Index>(v.trials[0].size());
+  ASSERT_EQ(J.rows(), 2 * n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double ti = v.trials[0].time[static_cast<std::size_t>(i)];
+    EXPECT_DOUBLE_EQ(J(i, 0), -ti);
+    EXPECT_DOUBLE_EQ(J(n + i, 0), 0.0);
+    EXPECT_DOUBLE_EQ(J(i, 1), 0.0);
+    EXPECT_DOUBLE_EQ(J(n + i, 1), -ti);
+  }
+}
+
 TEST(ExtendedModel, AParameterOfOneTrialMovesThatTrialAloneInPredictionsAndJacobian) {
   // Two trials; the stiffness applies to the second alone (ModelParameter::trial = 1): the first
   // is simulated at the rig's value, and the Jacobian column is 0 on its rows and, on the

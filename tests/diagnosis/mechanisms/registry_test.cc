@@ -189,6 +189,7 @@ TEST(Mechanisms, AFreePhaseGetsACopyPerTrainingTrialStartedFromThatTrialsOwnScor
   for (const auto& c : CandidateLibrary(rig, ctx)) {
     if (c.free_phase_param < 0) {
       EXPECT_TRUE(c.phase_per_trial.empty()) << c.label;
+      if (c.drift_per_trial) continue;  // its own test below
       for (const auto& p : c.params) EXPECT_EQ(p.trial, -1) << c.label << " " << p.name;
       continue;
     }
@@ -212,6 +213,58 @@ TEST(Mechanisms, AFreePhaseGetsACopyPerTrainingTrialStartedFromThatTrialsOwnScor
     EXPECT_NEAR(x(c.phase_per_trial[2]), M_PI, 1e-12);
   }
   EXPECT_EQ(found, 3);  // tremor at each output joint
+}
+
+TEST(Mechanisms, ADriftHasARatePerOutputAndTrainingTrialStartedFromThatTrialsOwnScoreStep) {
+  // A sensor zeroed for each recording drifts at that recording's rate (sensor_drift.cc): with
+  // two training trials and three outputs, six rates; probe o drifts output o in both trials
+  // (the screen splits it per trial); a split score step gives each trial its own rates, an
+  // unsplit one both trials the same.
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  LibraryContext ctx = HandContext();
+  ctx.training_trials = 2;
+  const auto no = static_cast<Eigen::Index>(ctx.outputs.size());
+  ASSERT_EQ(no, 3);
+  int found = 0;
+  for (const auto& c : CandidateLibrary(rig, ctx)) {
+    if (c.id != "sensor_drift") {
+      EXPECT_FALSE(c.drift_per_trial) << c.label;
+      continue;
+    }
+    ++found;
+    EXPECT_TRUE(c.drift_per_trial);
+    ASSERT_EQ(c.params.size(), 6u);
+    for (Eigen::Index k = 0; k < 6; ++k) {
+      EXPECT_EQ(c.params[k].trial, k / no) << c.params[k].name;
+      EXPECT_EQ(c.params[k].column, ctx.outputs[k % no]) << c.params[k].name;
+    }
+    EXPECT_EQ(c.params[4].name, "drift.q.mcp_flexion.trial2");
+    ASSERT_EQ(c.probes.size(), 3u);
+    for (Eigen::Index o = 0; o < no; ++o) {
+      for (Eigen::Index k = 0; k < 6; ++k) EXPECT_EQ(c.probes[o](k) != 0.0, k % no == o);
+    }
+    Eigen::VectorXd split(6), shared(3);
+    split << 1, -2, 3, -4, 5, -6;
+    shared << 1, -2, 3;
+    const Eigen::VectorXd xs = c.start_from_step(split), xu = c.start_from_step(shared);
+    for (Eigen::Index k = 0; k < 6; ++k) {
+      EXPECT_NEAR(xs(k), c.probes[k % no](k) * split(k), 1e-15);
+      EXPECT_NEAR(xu(k), c.probes[k % no](k) * shared(k % no), 1e-15);
+    }
+  }
+  EXPECT_EQ(found, 1);
+  // One training recording: one rate per output; its own for a held-out recording apart, the
+  // fitted one for the held-out tail of that recording.
+  ctx.training_trials = 1;
+  for (const bool apart : {true, false}) {
+    ctx.heldout_recordings_apart = apart;
+    for (const auto& c : CandidateLibrary(rig, ctx)) {
+      if (c.id != "sensor_drift") continue;
+      EXPECT_EQ(c.drift_per_trial, apart);
+      ASSERT_EQ(c.params.size(), 3u);
+      for (const auto& p : c.params) EXPECT_EQ(p.trial, -1) << p.name;
+    }
+  }
 }
 
 TEST(Mechanisms, CrosstalkAntagonistFractionReachesTheOtherGroupWithItsOwnWeight) {
