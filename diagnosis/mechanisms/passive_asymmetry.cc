@@ -1,8 +1,10 @@
 // passive_asymmetry (a control, Mechanism::control): a passive joint curve stiffer on one side of
 // the rest angle than on the other — a normal person's, not a mechanism (passive moments measured
 // on healthy wrists and fingers are fitted by double exponentials with unequal flexion and
-// extension sides, Amankwah, Triolo & Kirsch 2004; the foreign persons of foreign/ draw the two
-// sides × [0.5, 2] each). The person calibration (person.h) fits a symmetric curve, k and k₃;
+// extension sides, Amankwah, Triolo & Kirsch 2004; the joints of the independent simulator's
+// persons are symmetric — one factor on both sides, foreign/person.cc DrawPerson — and their
+// passive moment is one-sided through the muscles' passive fibre forces, foreign/muscle.h F_pe
+// for l̃ > 1 only). The person calibration (person.h) fits a symmetric curve, k and k₃;
 // this control adds the second-order term of sim/passive_joint.h at each output joint:
 // passive.asymmetry a, k₂ = a · k_j per rad (k_j the calibrated stiffness), so that at 0.5 rad
 // from rest a = 1 adds ±½ of the linear moment. Range ±1 keeps k − 2k₂(q − q₀) > 0 within
