@@ -221,7 +221,7 @@ InvDynModel FitInvDyn(InvDynKind kind, const std::vector<std::string>& joints,
       if (fixed_hyper != nullptr) {
         hp = (*fixed_hyper)[j];
       } else {
-        fo.fit_length_scales = false;  // chosen a priori (paper 004 §II-B3)
+        fo.fit_length_scales = false;  // chosen a priori ([Schearer 2014] §II-B3)
         fo.min_noise_sd = kMinNoiseFraction * res_sd;
         Convergence c;
         hp = FitHyperParameters(hp, Xs, y, fo, Phi * b, Phi * B * Phi.transpose(), nullptr, &c);

@@ -27,7 +27,7 @@ double FitAgainst(const Trial& prediction, const Trial& reference, const std::st
 }
 
 /// Best Fit % of `prediction` against the noiseless `truth`, after removing the constant offset
-/// between truth and `measured` (rigs that zero a torque sensor on its rest period, paper 002,
+/// between truth and `measured` (rigs that zero a torque sensor on its rest period, [Le 2010],
 /// measure relative to that baseline; the truth record is absolute).
 double FitAgainstTruth(const Trial& prediction, const Trial& truth, const Trial& measured,
                        const std::string& col) {
@@ -74,7 +74,7 @@ std::string Label(const std::string& protocol) {
   return it == ProtocolLabels().end() ? protocol : it->second;
 }
 
-/// Paper 002 Tables 1–3 averages (Best Fit %): identification and validation per test for
+/// [Le 2010] Tables 1–3 averages (Best Fit %): identification and validation per test for
 /// Algorithms 1 and 2 (NaN where the paper gives no average), and cross-validation rows.
 const std::map<std::string, std::pair<double, double>>& PaperElbowIdentification() {
   static const std::map<std::string, std::pair<double, double>> k = {
@@ -93,7 +93,7 @@ const std::map<std::string, std::pair<double, double>>& PaperElbowValidation() {
   return k;
 }
 
-/// The trial with its two u.* columns ordered agonist first, as tremor-arx expects (paper 001
+/// The trial with its two u.* columns ordered agonist first, as tremor-arx expects ([Copur 2016]
 /// eq. 5: the agonist drives the output positive): the channel whose pulse-width difference
 /// correlates positively with the output goes first.
 Trial AgonistFirst(const Trial& t) {

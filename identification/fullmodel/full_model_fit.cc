@@ -43,7 +43,7 @@ double ProcessCpuSeconds() {
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
-/// The forearm muscles whose A entries, β and γ are candidates (paper 000 §5.1).
+/// The forearm muscles whose A entries, β and γ are candidates ([Hand Hammerstein] §5.1).
 const std::vector<std::string>& ForearmMuscles() {
   static const std::vector<std::string> names = {"ECRL", "ECRB", "ECU", "FCR",
                                                  "FCU",  "EDC",  "FDS", "FDP"};

@@ -1,4 +1,4 @@
-// Fit of the full model (12) of papers/000_0a6c0de9fc69df7c.txt to trial records, as in its §5.1:
+// Fit of the full model (12) of [Hand Hammerstein] to trial records, as in its §5.1:
 //   y = H_RB · R · H_hill · H_IRC · A · u                                               eq. (12)
 // (1) sensitivity analysis of the output to every candidate parameter, keep the K most influential
 // (the paper kept 29: the array matrix A, joint stiffness k_i, recruitment β_i, γ_i and two
@@ -92,7 +92,7 @@ sim::ModelParams ApplyParameters(const sim::ModelParams& base,
 
 /// The rig `fesim identify --method full-model` uses without --scenario: DefaultModelParams()
 /// (1.75 m, 75 kg) with shoulder (3 coordinates), elbow and pro/supination locked at their rest
-/// posture — the hand rig of paper 000 §5.1.
+/// posture — the hand rig of [Hand Hammerstein] §5.1.
 sim::ModelParams DefaultHandRig();
 
 /// Jacobian of the simulated outputs with respect to the fitted parameters.
