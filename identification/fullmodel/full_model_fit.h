@@ -133,7 +133,8 @@ struct FullModelFitOptions {
   /// Jacobian for its step direction only. At 100 (the default) the hand-array Jacobian is within
   /// 9 % (relative RMS; worst column 31 %) of the exact one and costs half of one at 10 (0.2 %,
   /// 1.5 %); the 29-parameter local step reaches the same cost in no more iterations (19 at 100;
-  /// 21 at 10 with gain-ratio damping, before the predicted-decrease stop; docs/performance.md).
+  /// 21 at 10 with gain-ratio damping, before the predicted-decrease stop; docs/performance.md
+  /// "Full-model fit local step").
   /// The confidence intervals get one Jacobian at 10 at the minimiser. ≥ 1; the Jacobians'
   /// tolerance is capped at 1e-2 (unless the residuals' is coarser).
   double jacobian_tolerance_factor = 100.0;
