@@ -268,7 +268,7 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
   return 0;
 }
 
-/// Robot-driven reaching (papers/004_*): one trial per reach, written as <name>_<k>.csv.
+/// Robot-driven reaching ([Schearer 2014]): one trial per reach, written as <name>_<k>.csv.
 int RunReaching(const Scenario& sc, const std::string& out, long seed) {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<Trial> trials = sim::SimulateReaching(sc.model, *sc.reaching, {});

@@ -1,7 +1,7 @@
-// Issue 5 benchmarks: shoulder EKF update cost per sample (paper 003 §IV) and GP / semiparametric
-// GP training and leave-one-trajectory-out CV time on a 54-trajectory reaching set shaped like
-// paper 004 §II-A (2 homes × 9 targets × 3 repeats, 4 joints, 5 s per trajectory at 50 Hz).
-// Results and the command are in docs/performance.md.
+// Issue 5 benchmarks: shoulder EKF update cost per sample ([Spagnol 2013] §IV) and GP /
+// semiparametric GP training and leave-one-trajectory-out CV time on a 54-trajectory reaching set
+// shaped like [Schearer 2014] §II-A (2 homes × 9 targets × 3 repeats, 4 joints, 5 s per trajectory
+// at 50 Hz). Results and the command are in docs/performance.md.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -75,7 +75,7 @@ ReachingData ReachingSet54() {
             q[j].push_back(qv(j));
             qd[j].push_back(qdv(j));
             qdd[j].push_back(dir * sdd * (goal(j) - homes[h](j)));
-            // Stiffness/damping (paper 004 eq. 3) plus a coupling the parametric model lacks.
+            // Stiffness/damping ([Schearer 2014] eq. 3) plus a coupling the parametric model lacks.
             tau[j].push_back(1.5 * (qv(j) - 0.5) + 0.3 * qdv(j) +
                              0.3 * std::sin(2.0 * qv((j + 1) % 4)) + e(rng));
           }

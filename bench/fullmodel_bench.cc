@@ -1,5 +1,5 @@
 // Issue 4 benchmark: the full model (12) fit versus the Hammerstein two-step fit on one participant
-// of the hand-array study (paper 000 §5.1, Tables 1–2: 1019 s versus 0.178 s per local
+// of the hand-array study ([Hand Hammerstein] §5.1, Tables 1–2: 1019 s versus 0.178 s per local
 // optimisation step in MATLAB).
 //
 // Participant: the default participant on the hand rig (identification/fullmodel DefaultHandRig:

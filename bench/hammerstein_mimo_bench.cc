@@ -1,6 +1,6 @@
 // Issue 4: wall time per local optimisation step and in total of the two-step Hammerstein fit of
-// paper 000 §4 (Table 2 reports 0.178 s per local step in MATLAB). Data: the step-grid protocol
-// of §5.1 (n = 2 inputs, 50 µs grid over u1 + u2 ≤ 300, 5 s steps, both traversals, 40 Hz,
+// [Hand Hammerstein] §4 (Table 2 reports 0.178 s per local step in MATLAB). Data: the step-grid
+// protocol of §5.1 (n = 2 inputs, 50 µs grid over u1 + u2 ≤ 300, 5 s steps, both traversals, 40 Hz,
 // q = 3 joints, l = 2), generated noise-free by the model itself with 0.3° of angle noise added.
 #include <benchmark/benchmark.h>
 

@@ -65,7 +65,7 @@ struct DiagnoseSettings {
     // "Speed").
     f.tolerance = 1e-4;
     // Speeds held to the angles' absolute tolerance (speed_time_scale_s = 0): stiction's fitted
-    // frictions need accurate speeds (docs/performance.md, diagnosis).
+    // frictions need accurate speeds (docs/performance.md, "`fesim diagnose` wall time").
     f.relative_tolerance = 1e-3;
     return f;
   }

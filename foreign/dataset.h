@@ -6,13 +6,13 @@
 // Protocols (channels ext and flex, u_max 300 µs, Σu ≤ u_max):
 //   steps      pseudo-random levels {0, 1, …, 5} · 50 µs per channel, held U(1, 3) s on the
 //              sample grid, the channels' sum clipped to u_max
-//   grid       paper 000's step grid (50 µs spacing, papers/000_0a6c0de9fc69df7c.txt §5.1) with
+//   grid       [Hand Hammerstein]'s step grid (50 µs spacing, [Hand Hammerstein] §5.1) with
 //              2 s steps, 56 s
-//   multisine  paper 001's co-activation multisine (papers/001_50576a960b4d02ae.txt §4.1):
+//   multisine  [Copur 2016]'s co-activation multisine ([Copur 2016] §4.1):
 //              0.2–4 Hz, ±100 µs around 50 µs on both channels
 // The default data set is steps, grid, steps (two pseudo-random sequences of their own seeds): the
 // last trial is the one the diagnosis holds out (diagnosis/measured.h), and a held-out trial must
-// move the joints well above the noise for its error to judge anything — paper 001's multisine
+// move the joints well above the noise for its error to judge anything — [Copur 2016]'s multisine
 // at its default ±100 µs moved a drawn person's MCP and PIP by about the noise σ (0.01 rad SD),
 // where every model's held-out NRMSE is ≈ 1.
 #pragma once

@@ -96,7 +96,7 @@ std::array<NominalMuscle, kNumMuscles> NominalMuscles() {
 /// passive_stiffness_nonlinear (effects.h), not a property of a clean person. Damping (wrist
 /// 0.04 N·m·s/rad) such that a co-contracted wrist does not ring: with 0.012 a drawn person's
 /// wrist rang at ≈ 2 Hz after every co-contraction step (damping ratio ≈ 0.1), against the smooth
-/// and slow stimulated hand movement of papers/000_0a6c0de9fc69df7c.txt Assumption 1.
+/// and slow stimulated hand movement of [Hand Hammerstein] Assumption 1.
 std::array<JointParams, kNumJoints> NominalJoints() {
   return {{
       {-0.10, 0.5, 1.0, 0.5, 1.0, 0.04},

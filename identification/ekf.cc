@@ -34,7 +34,7 @@ std::vector<double> Series(const ShoulderEkfRun& run, double ShoulderEkfParams::
 ShoulderEkfVector ShoulderEkfTransition(const ShoulderEkfVector& x, double sigma_ant,
                                         double sigma_post, double friction, double dt,
                                         double theta_max_ant, double theta_max_post) {
-  // x = [θ, ω, K_ant, K_post, R_m, K_m]  (paper 003 eq. 4, 9–10).
+  // x = [θ, ω, K_ant, K_post, R_m, K_m]  ([Spagnol 2013] eq. 4, 9–10).
   ShoulderEkfVector next = x;
   next(0) = x(0) + x(1) * dt;
   next(1) =
@@ -47,7 +47,7 @@ ShoulderEkfVector ShoulderEkfTransition(const ShoulderEkfVector& x, double sigma
 ShoulderEkfMatrix ShoulderEkfJacobian(const ShoulderEkfVector& x, double sigma_ant,
                                       double sigma_post, double dt, double theta_max_ant,
                                       double theta_max_post) {
-  // Paper 003 eq. 14–15.
+  // [Spagnol 2013] eq. 14–15.
   ShoulderEkfMatrix F = ShoulderEkfMatrix::Identity();
   F(0, 1) = dt;
   F(1, 0) = -dt * (x(5) + x(2) * sigma_ant + x(3) * sigma_post);
@@ -70,7 +70,7 @@ ShoulderEkf::ShoulderEkf(const ShoulderEkfConfig& config, double theta0, double 
 
 void ShoulderEkf::Update(double theta, double omega) {
   if (std::isnan(theta) || std::isnan(omega)) return;
-  Eigen::Matrix<double, 2, 6> C = Eigen::Matrix<double, 2, 6>::Zero();  // paper 003 eq. 8
+  Eigen::Matrix<double, 2, 6> C = Eigen::Matrix<double, 2, 6>::Zero();  // [Spagnol 2013] eq. 8
   C(0, 0) = 1.0;
   C(1, 1) = 1.0;
   Eigen::Matrix2d R = Eigen::Matrix2d::Zero();
@@ -192,7 +192,7 @@ MethodResult RunShoulderEkfMethod(const std::vector<Trial>& train, const std::ve
   ApplyEkfMetadata(train[0], &config);
   const double known_c = KnownFrictionFromMetadata(train[0]);
 
-  // Offline model-2 fit on the same data: the reference of paper 003 Table IV, and c when the
+  // Offline model-2 fit on the same data: the reference of [Spagnol 2013] Table IV, and c when the
   // friction is not given (the paper takes c from pendulum tests).
   if (progress) progress(0.0, "offline model-2 fit");
   const ShoulderFit offline = FitShoulderModel(ShoulderModel::kModel2, data, config.theta_max_ant,

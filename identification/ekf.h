@@ -1,17 +1,17 @@
 // Extended Kalman filter steps (generic, fixed-size Eigen) and the online identification of the
-// antagonistic shoulder model 2 (paper 003_7182ceb830858ebb.txt §IV, eq. 4–17).
+// antagonistic shoulder model 2 ([Spagnol 2013] §IV, eq. 4–17).
 //
 // Generic filter, for x(k+1) = f(x(k), u(k)) + η_x, y(k) = C x(k) + η_y with Cov η_x = Q,
-// Cov η_y = R and no cross-covariance (paper 003: V12 = 0):
+// Cov η_y = R and no cross-covariance ([Spagnol 2013]: V12 = 0):
 //   measurement update   L = P⁻Cᵀ (C P⁻ Cᵀ + R)⁻¹,  x⁺ = x⁻ + L (y − C x⁻),
 //                        P⁺ = (I − L C) P⁻ (I − L C)ᵀ + L R Lᵀ          (Joseph form)
 //   time update          x⁻(k+1) = f(x⁺(k), u(k)),  P⁻(k+1) = F P⁺ Fᵀ + Q,  F = ∂f/∂x at x⁺(k)
-// Paper 003 eq. 11, 16–17 write the same filter in one-step predictor form (gain applied to the
-// prediction); with V12 = 0 the two give the same predictions. We use the filter form so that the
-// estimate at k already uses y(k), and the Joseph form so that P stays symmetric positive definite
-// in floating point.
+// [Spagnol 2013] eq. 11, 16–17 write the same filter in one-step predictor form (gain applied to
+// the prediction); with V12 = 0 the two give the same predictions. We use the filter form so that
+// the estimate at k already uses y(k), and the Joseph form so that P stays symmetric positive
+// definite in floating point.
 //
-// Shoulder EKF (paper 003 eq. 4–10, 13–15): augmented state
+// Shoulder EKF ([Spagnol 2013] eq. 4–10, 13–15): augmented state
 //   x = [θ (rad), ω (rad/s), K_ant (s⁻²), K_post (s⁻²), R_m (s⁻¹), K_m (s⁻²)],
 //   u = [σ_ant, σ_post, f_s(ω) = c sign(ω_measured) (rad/s²)], y = [θ, ω],
 // forward Euler with the sample interval Δt:
@@ -19,7 +19,7 @@
 //   ω⁺ = ω + Δt (−(K_m + K_ant σ_ant + K_post σ_post) θ − R_m ω + θmax_ant K_ant σ_ant
 //                 + θmax_post K_post σ_post − f_s)
 //   parameters⁺ = parameters (random walk through Q, which lets the filter follow fatigue).
-// Departures: R_ant = R_post = 0 (paper 003 Table II found them zero and §IV drops them); Q is
+// Departures: R_ant = R_post = 0 ([Spagnol 2013] Table II found them zero and §IV drops them); Q is
 // given as rates (variance per second, Q = q Δt) so tuning does not depend on the sample rate;
 // samples with a NaN measurement skip the measurement update.
 //
@@ -68,7 +68,7 @@ void KalmanTimeUpdate(const Eigen::Matrix<double, N, 1>& x_next,
 using ShoulderEkfVector = Eigen::Matrix<double, 6, 1>;
 using ShoulderEkfMatrix = Eigen::Matrix<double, 6, 6>;
 
-/// The four parameters the EKF tracks (paper 003 eq. 4), model-2 units.
+/// The four parameters the EKF tracks ([Spagnol 2013] eq. 4), model-2 units.
 struct ShoulderEkfParams {
   double k_ant = 1.0;   ///< K̃1, s⁻²
   double k_post = 1.0;  ///< K̃2, s⁻²
@@ -100,12 +100,12 @@ struct ShoulderEkfConfig {
   ShoulderEkfTuning tuning;
 };
 
-/// Paper 003 eq. 9–10: f(x, u) with forward Euler, dt in s, friction input f_s in rad/s².
+/// [Spagnol 2013] eq. 9–10: f(x, u) with forward Euler, dt in s, friction input f_s in rad/s².
 ShoulderEkfVector ShoulderEkfTransition(const ShoulderEkfVector& x, double sigma_ant,
                                         double sigma_post, double friction, double dt,
                                         double theta_max_ant, double theta_max_post);
 
-/// Paper 003 eq. 13–15: F = ∂f/∂x.
+/// [Spagnol 2013] eq. 13–15: F = ∂f/∂x.
 ShoulderEkfMatrix ShoulderEkfJacobian(const ShoulderEkfVector& x, double sigma_ant,
                                       double sigma_post, double dt, double theta_max_ant,
                                       double theta_max_post);

@@ -1,9 +1,10 @@
 // Gaussian-process regression with a squared-exponential ARD kernel, marginal-likelihood
 // hyper-parameters, closed-form leave-one-out residuals, and the semiparametric GP with an
-// explicit basis-function prior (paper 004_7ee2989736d21d4b.txt, "Identifying Inverse Human Arm
+// explicit basis-function prior ([Schearer 2014], "Identifying Inverse Human Arm
 // Dynamics Using a Robotic Testbed", eq. 5–8).
 //
-// Kernel (paper 004 eq. 5, with one length scale per input — automatic relevance determination):
+// Kernel ([Schearer 2014] eq. 5, with one length scale per input — automatic relevance
+// determination):
 //   k(x, x') = σ_f² exp(−½ Σ_d (x_d − x'_d)² / ℓ_d²),   K_y = K + σ_n² I.
 // Nonparametric prediction (eq. 6): μ(x*) = k*ᵀ K_y⁻¹ y, v(x*) = k(x*, x*) − k*ᵀ K_y⁻¹ k*.
 // Log marginal likelihood (Rasmussen & Williams eq. 5.8, 5.9):
@@ -78,7 +79,7 @@ struct GpPrediction {
   double variance = 0.0;
 };
 
-/// Zero-mean GP conditioned on (X, y) for fixed hyper-parameters (paper 004 eq. 5–6).
+/// Zero-mean GP conditioned on (X, y) for fixed hyper-parameters ([Schearer 2014] eq. 5–6).
 class GaussianProcess {
  public:
   GaussianProcess(const SeArdHyperParams& hp, const Eigen::MatrixXd& X, const Eigen::VectorXd& y);
@@ -98,7 +99,7 @@ class GaussianProcess {
   Eigen::VectorXd alpha_;  // K_y⁻¹ y
 };
 
-/// Semiparametric GP (paper 004 eq. 7–8).
+/// Semiparametric GP ([Schearer 2014] eq. 7–8).
 class SemiparametricGp {
  public:
   /// Phi is n×k (rows h(x_i)ᵀ); b (k) and B (k×k, SPD) the prior of β.

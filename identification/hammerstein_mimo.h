@@ -1,7 +1,7 @@
 // MIMO Hammerstein model of the hand and wrist under electrode-array FES, and its two-step
 // identification.
 //
-// Paper: /work/shared/papers/000_0a6c0de9fc69df7c.txt, §3–5.
+// Paper: [Hand Hammerstein] (docs/papers.md), §3–5.
 //   Ỹ(s) = H(s, Θ) D(d) L(h(u, Φ)),  ỹ = r − y                                        eq. (16)
 //   H = diag(H̃(s, θ_1) … H̃(s, θ_q)),
 //   H̃(s, θ_i) = 1 / ((μ_i/Ω²) s³ + (2μ_i/Ω + 1/Ω²) s² + (μ_i + 2/Ω) s + 1)

@@ -221,7 +221,7 @@ InvDynModel FitInvDyn(InvDynKind kind, const std::vector<std::string>& joints,
       if (fixed_hyper != nullptr) {
         hp = (*fixed_hyper)[j];
       } else {
-        fo.fit_length_scales = false;  // chosen a priori (paper 004 §II-B3)
+        fo.fit_length_scales = false;  // chosen a priori ([Schearer 2014] §II-B3)
         fo.min_noise_sd = kMinNoiseFraction * res_sd;
         Convergence c;
         hp = FitHyperParameters(hp, Xs, y, fo, Phi * b, Phi * B * Phi.transpose(), nullptr, &c);
@@ -328,95 +328,83 @@ BoxStats BoxPlotStats(std::vector<double> v) {
   return {pct(0.05), pct(0.25), pct(0.5), pct(0.75), pct(0.95)};
 }
 
-MethodResult RunInvDynMethod(InvDynKind kind, const std::vector<Trial>& train,
-                             const std::vector<Trial>& test, const ProgressFn& progress) {
-  const std::string name = KindName(kind);
-  const ReachingData data = ExtractReachingData(train);
-  const std::size_t J = data.joints.size();
-  const InvDynOptions options;
-  if (progress) progress(0.0, "fitting");
-  auto t0 = std::chrono::steady_clock::now();
-  const InvDynModel model = FitInvDyn(kind, data.joints, data.X, data.tau, options);
-  const double fit_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+namespace {
 
-  MethodResult result;
-  result.metrics.Set("method", name);
-  result.metrics.Set("fit_wall_time_s", fit_s);
-  result.metrics.Set("training_samples", static_cast<unsigned long>(data.X.rows()));
-  if (kind != InvDynKind::kParametric) {
-    result.metrics.Set("gp_training_points", static_cast<unsigned long>(model.training_points));
-    // One BFGS hyper-parameter optimisation per joint; each is its own "best run".
-    Json conv = Json::Object();
-    for (std::size_t j = 0; j < model.hyper_convergence.size(); ++j) {
-      const std::vector<Convergence> one = {model.hyper_convergence[j]};
-      conv.Set(data.joints[j], ConvergenceJson(one, 0));
-      const std::string w =
-          NotConvergedWarning(name + " hyper-parameters of " + data.joints[j], one, 0);
-      if (!w.empty()) result.warnings.push_back(w);
-    }
-    result.metrics.Set("hyper_parameter_convergence", std::move(conv));
+/// One BFGS hyper-parameter optimisation per joint, each its own "best run"; a warning per joint
+/// whose optimisation did not converge.
+Json HyperConvergence(const std::string& name, const std::vector<std::string>& joints,
+                      const InvDynModel& model, std::vector<std::string>* warnings) {
+  Json conv = Json::Object();
+  for (std::size_t j = 0; j < model.hyper_convergence.size(); ++j) {
+    const std::vector<Convergence> one = {model.hyper_convergence[j]};
+    conv.Set(joints[j], ConvergenceJson(one, 0));
+    const std::string w = NotConvergedWarning(name + " hyper-parameters of " + joints[j], one, 0);
+    if (!w.empty()) warnings->push_back(w);
   }
-  if (kind == InvDynKind::kGp) {
-    // Closed-form leave-one-sample-out residuals of each joint's GP on its training points
-    // (Rasmussen & Williams eq. 5.12), RMS normalised by the joint's maximum |τ|.
-    Json loo = Json::Object();
-    for (std::size_t j = 0; j < J; ++j) {
-      const double max_tau = data.tau.col(static_cast<Eigen::Index>(j)).cwiseAbs().maxCoeff();
-      const Eigen::VectorXd r = model.gp[j]->LooResiduals();
-      loo.Set(data.joints[j], std::sqrt(r.squaredNorm() / static_cast<double>(r.size())) /
-                                  std::max(max_tau, 1e-12));
-    }
-    result.metrics.Set("loo_sample_nrmse_closed_form", std::move(loo));
-  }
+  return conv;
+}
 
-  if (data.group_names.size() >= 2) {
-    if (progress) progress(0.3, "leave-one-trajectory-out CV");
-    t0 = std::chrono::steady_clock::now();
-    const InvDynCv cv = LeaveOneTrajectoryOut(kind, data, options, model);
-    const double cv_s =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    Json jcv = Json::Object();
-    jcv.Set("wall_time_s", cv_s);
-    jcv.Set("normalisation", "RMS error / max |tau| of the joint over the data set");
-    Json folds = Json::Array();
-    for (const auto& f : cv.folds) folds.Push(f);
-    jcv.Set("folds", std::move(folds));
-    Json per = Json::Object();
-    for (std::size_t j = 0; j < J; ++j) {
-      const auto jj = static_cast<Eigen::Index>(j);
-      std::vector<double> vals(cv.nrmse.rows());
-      for (Eigen::Index g = 0; g < cv.nrmse.rows(); ++g) vals[g] = cv.nrmse(g, jj);
-      const BoxStats b = BoxPlotStats(vals);
-      Json box = Json::Object();
-      box.Set("p05", b.p05);
-      box.Set("p25", b.p25);
-      box.Set("median", b.median);
-      box.Set("p75", b.p75);
-      box.Set("p95", b.p95);
-      Json jj_json = Json::Object();
-      jj_json.Set("max_torque_Nm", cv.max_torque(jj));
-      jj_json.Set("loocv_nrmse", vals);
-      jj_json.Set("box", std::move(box));
-      jj_json.Set("mean_training_nrmse", cv.training_nrmse(jj));
-      per.Set(data.joints[j], std::move(jj_json));
-    }
-    jcv.Set("joints", std::move(per));
-    result.metrics.Set("loocv", std::move(jcv));
+/// Closed-form leave-one-sample-out residuals of each joint's GP on its training points
+/// (Rasmussen & Williams eq. 5.12), RMS normalised by the joint's maximum |τ|.
+Json ClosedFormLoo(const ReachingData& data, const InvDynModel& model) {
+  Json loo = Json::Object();
+  for (std::size_t j = 0; j < data.joints.size(); ++j) {
+    const double max_tau = data.tau.col(static_cast<Eigen::Index>(j)).cwiseAbs().maxCoeff();
+    const Eigen::VectorXd r = model.gp[j]->LooResiduals();
+    loo.Set(data.joints[j],
+            std::sqrt(r.squaredNorm() / static_cast<double>(r.size())) / std::max(max_tau, 1e-12));
   }
+  return loo;
+}
 
-  if (progress) progress(0.9, "predicting");
-  const auto& eval = test.empty() ? train : test;
+/// The leave-one-trajectory-out figures per joint: every fold's normalised RMS error, its box
+/// plot statistics, and the mean training error.
+Json LoocvJson(const InvDynCv& cv, double cv_s, const std::vector<std::string>& joints) {
+  Json jcv = Json::Object();
+  jcv.Set("wall_time_s", cv_s);
+  jcv.Set("normalisation", "RMS error / max |tau| of the joint over the data set");
+  Json folds = Json::Array();
+  for (const auto& f : cv.folds) folds.Push(f);
+  jcv.Set("folds", std::move(folds));
+  Json per = Json::Object();
+  for (std::size_t j = 0; j < joints.size(); ++j) {
+    const auto jj = static_cast<Eigen::Index>(j);
+    std::vector<double> vals(cv.nrmse.rows());
+    for (Eigen::Index g = 0; g < cv.nrmse.rows(); ++g) vals[g] = cv.nrmse(g, jj);
+    const BoxStats b = BoxPlotStats(vals);
+    Json box = Json::Object();
+    box.Set("p05", b.p05);
+    box.Set("p25", b.p25);
+    box.Set("median", b.median);
+    box.Set("p75", b.p75);
+    box.Set("p95", b.p95);
+    Json jj_json = Json::Object();
+    jj_json.Set("max_torque_Nm", cv.max_torque(jj));
+    jj_json.Set("loocv_nrmse", vals);
+    jj_json.Set("box", std::move(box));
+    jj_json.Set("mean_training_nrmse", cv.training_nrmse(jj));
+    per.Set(joints[j], std::move(jj_json));
+  }
+  jcv.Set("joints", std::move(per));
+  return jcv;
+}
+
+/// Predictions of `model` on every trial of `eval` (the torque with its 95 % band per joint,
+/// appended to *predictions) and their errors (results' "trials").
+Json PredictTrials(const std::string& name, const std::vector<std::string>& joints,
+                   const InvDynModel& model, const std::vector<Trial>& eval,
+                   std::vector<Trial>* predictions) {
   Json trials = Json::Array();
   for (const auto& t : eval) {
     const ReachingData d = ExtractReachingData({t});
-    if (d.joints != data.joints) throw std::runtime_error("test trial: tau.<joint> columns differ");
+    if (d.joints != joints) throw std::runtime_error("test trial: tau.<joint> columns differ");
     const auto p = PredictInvDyn(model, d.X);
     const Eigen::VectorXd max_tau = d.tau.cwiseAbs().colwise().maxCoeff().transpose();
     Trial pred;
     pred.metadata["method"] = name;
     pred.time = t.time;
     Json m = Json::Object();
-    for (std::size_t j = 0; j < J; ++j) {
+    for (std::size_t j = 0; j < joints.size(); ++j) {
       const auto jj = static_cast<Eigen::Index>(j);
       std::vector<double> mean(p.mean.rows()), lo(p.mean.rows()), hi(p.mean.rows()),
           y(p.mean.rows());
@@ -427,26 +415,31 @@ MethodResult RunInvDynMethod(InvDynKind kind, const std::vector<Trial>& train,
         hi[i] = mean[i] + half;
         y[i] = d.tau(i, jj);
       }
-      pred.AddColumn("tau." + data.joints[j], mean);
-      pred.AddColumn("tau_lo95." + data.joints[j], lo);
-      pred.AddColumn("tau_hi95." + data.joints[j], hi);
+      pred.AddColumn("tau." + joints[j], mean);
+      pred.AddColumn("tau_lo95." + joints[j], lo);
+      pred.AddColumn("tau_hi95." + joints[j], hi);
       Json jm = Json::Object();
       jm.Set("rms_over_max_torque", Rms(y, mean) / std::max(max_tau(jj), 1e-12));
       jm.Set("best_fit_percent", BestFitPercent(y, mean));
-      m.Set(data.joints[j], std::move(jm));
+      m.Set(joints[j], std::move(jm));
     }
     trials.Push(std::move(m));
-    result.predictions.push_back(std::move(pred));
+    predictions->push_back(std::move(pred));
   }
-  result.metrics.Set("evaluated_on", test.empty() ? "train" : "test");
-  result.metrics.Set("trials", std::move(trials));
+  return trials;
+}
 
+/// The identified model as YAML: per joint the parametric part with 95 % intervals, the GP
+/// kernel and the semiparametric posterior mean where the kind has them, BFGS's stops.
+std::string ModelYaml(InvDynKind kind, const std::string& name,
+                      const std::vector<std::string>& joints, const InvDynModel& model) {
+  const std::size_t J = joints.size();
   std::string yaml = "method: " + name + "\npaper: 004_7ee2989736d21d4b.txt eq. " +
                      (kind == InvDynKind::kParametric
                           ? "3-4"
                           : (kind == InvDynKind::kGp ? "5-6" : "7-8 (prior from eq. 3-4)")) +
                      "\ninput: [q (rad), qd (rad/s), qdd (rad/s^2)] of joints [";
-  for (std::size_t j = 0; j < J; ++j) yaml += (j ? ", " : "") + data.joints[j];
+  for (std::size_t j = 0; j < J; ++j) yaml += (j ? ", " : "") + joints[j];
   yaml += "]\njoints:\n";
   for (std::size_t j = 0; j < J; ++j) {
     const auto& par = model.parametric[j];
@@ -454,7 +447,7 @@ MethodResult RunInvDynMethod(InvDynKind kind, const std::vector<Trial>& train,
     const Eigen::Matrix3d C = par.BetaCovariance();
     // θ0 = −β0/β1: delta-method variance with ∇ = [−1/β1, β0/β1², 0].
     const Eigen::Vector3d grad(-1.0 / par.beta(1), par.beta(0) / (par.beta(1) * par.beta(1)), 0.0);
-    yaml += "  " + data.joints[j] + ":\n    parametric:\n";
+    yaml += "  " + joints[j] + ":\n    parametric:\n";
     yaml += "      theta0: {value: " + Num(p.theta0) +
             ", unit: rad, ci95: " + Num(kZ95 * std::sqrt(grad.dot(C * grad))) + "}\n";
     yaml += "      k_s: {value: " + Num(p.k_s) +
@@ -481,12 +474,53 @@ MethodResult RunInvDynMethod(InvDynKind kind, const std::vector<Trial>& train,
     if (!model.hyper_convergence.empty()) yaml += "# how BFGS stopped per joint\nconvergence:\n";
     for (std::size_t j = 0; j < model.hyper_convergence.size(); ++j) {
       const Convergence& c = model.hyper_convergence[j];
-      yaml += "  " + data.joints[j] + ": {converged: " + (c.converged ? "true" : "false") +
+      yaml += "  " + joints[j] + ": {converged: " + (c.converged ? "true" : "false") +
               ", stop_reason: " + c.stop_reason + ", iterations: " + std::to_string(c.iterations) +
               "}\n";
     }
   }
-  result.model_yaml = yaml;
+  return yaml;
+}
+
+}  // namespace
+
+MethodResult RunInvDynMethod(InvDynKind kind, const std::vector<Trial>& train,
+                             const std::vector<Trial>& test, const ProgressFn& progress) {
+  const std::string name = KindName(kind);
+  const ReachingData data = ExtractReachingData(train);
+  const InvDynOptions options;
+  if (progress) progress(0.0, "fitting");
+  auto t0 = std::chrono::steady_clock::now();
+  const InvDynModel model = FitInvDyn(kind, data.joints, data.X, data.tau, options);
+  const double fit_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  MethodResult result;
+  result.metrics.Set("method", name);
+  result.metrics.Set("fit_wall_time_s", fit_s);
+  result.metrics.Set("training_samples", static_cast<unsigned long>(data.X.rows()));
+  if (kind != InvDynKind::kParametric) {
+    result.metrics.Set("gp_training_points", static_cast<unsigned long>(model.training_points));
+    result.metrics.Set("hyper_parameter_convergence",
+                       HyperConvergence(name, data.joints, model, &result.warnings));
+  }
+  if (kind == InvDynKind::kGp) {
+    result.metrics.Set("loo_sample_nrmse_closed_form", ClosedFormLoo(data, model));
+  }
+  if (data.group_names.size() >= 2) {
+    if (progress) progress(0.3, "leave-one-trajectory-out CV");
+    t0 = std::chrono::steady_clock::now();
+    const InvDynCv cv = LeaveOneTrajectoryOut(kind, data, options, model);
+    const double cv_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    result.metrics.Set("loocv", LoocvJson(cv, cv_s, data.joints));
+  }
+
+  if (progress) progress(0.9, "predicting");
+  const auto& eval = test.empty() ? train : test;
+  Json trials = PredictTrials(name, data.joints, model, eval, &result.predictions);
+  result.metrics.Set("evaluated_on", test.empty() ? "train" : "test");
+  result.metrics.Set("trials", std::move(trials));
+  result.model_yaml = ModelYaml(kind, name, data.joints, model);
   if (progress) progress(1.0, "done");
   return result;
 }

@@ -1,9 +1,9 @@
 // Inverse arm dynamics from reaching data: parametric per-joint stiffness/damping regression,
 // nonparametric GP and semiparametric GP, with leave-one-trajectory-out cross-validation
-// (paper 004_7ee2989736d21d4b.txt, eq. 1–8 and §II-C).
+// ([Schearer 2014], eq. 1–8 and §II-C).
 //
-// Model input x = [q; q̇; q̈] of all joints (paper 004 eq. 2), output the torque of each joint,
-// one independent model per joint.
+// Model input x = [q; q̇; q̈] of all joints ([Schearer 2014] eq. 2), output the torque of each
+// joint, one independent model per joint.
 //  * Parametric (eq. 3–4): τ_j = h(x)ᵀβ = k_s (θ − θ0) + k_d θ̇ with h = [1, θ, θ̇]ᵀ,
 //    β = [−k_s θ0, k_s, k_d]ᵀ, β̂ = (ΦᵀΦ)⁻¹ Φᵀ y, v_p = σ_n² (1 + hᵀ (ΦᵀΦ)⁻¹ h) with
 //    σ_n² = RSS / (n − 3).
@@ -53,17 +53,17 @@ struct ReachingData {
 /// joints differ between trials or when a trial has fewer than `min_samples` samples.
 ReachingData ExtractReachingData(const std::vector<Trial>& trials, std::size_t min_samples = 5);
 
-/// Stiffness/damping parameters of one joint (paper 004 eq. 3, Table I).
+/// Stiffness/damping parameters of one joint ([Schearer 2014] eq. 3, Table I).
 struct JointStiffnessDamping {
   double theta0 = 0.0;  ///< equilibrium angle θ0, rad.
   double k_s = 0.0;     ///< stiffness, N·m/rad.
   double k_d = 0.0;     ///< damping, N·m·s/rad.
 };
 
-/// h(x) = [1, θ, θ̇]ᵀ (paper 004 eq. 3).
+/// h(x) = [1, θ, θ̇]ᵀ ([Schearer 2014] eq. 3).
 Eigen::Vector3d JointBasis(double theta, double theta_dot);
 
-/// Parametric linear regression of one joint (paper 004 eq. 3–4).
+/// Parametric linear regression of one joint ([Schearer 2014] eq. 3–4).
 struct ParametricJointModel {
   Eigen::Vector3d beta = Eigen::Vector3d::Zero();          ///< [−k_s θ0 (N·m), k_s, k_d]
   Eigen::Matrix3d gram_inverse = Eigen::Matrix3d::Zero();  ///< (ΦᵀΦ)⁻¹
@@ -117,7 +117,7 @@ InvDynPrediction PredictInvDyn(const InvDynModel& model, const Eigen::MatrixXd& 
                                bool with_variance = true);
 
 /// Leave-one-trajectory-out CV: RMS error per fold and joint, normalised by the joint's maximum
-/// |τ| over the whole data set (paper 004 §II-C, Fig. 5).
+/// |τ| over the whole data set ([Schearer 2014] §II-C, Fig. 5).
 struct InvDynCv {
   std::vector<std::string> folds;  ///< left-out trajectory ids
   Eigen::MatrixXd nrmse;           ///< folds × J, dimensionless

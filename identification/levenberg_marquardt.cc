@@ -43,6 +43,56 @@ Eigen::MatrixXd Gram(const Eigen::MatrixXd& J) {
   return G;
 }
 
+/// The damped Gauss–Newton step Δx = −(JᵀJ + λ diag(JᵀJ))⁻¹ g (diagonal entries at least
+/// 1e-12). With `hold_active_bounds`, a variable on a bound whose descent direction −g_k points
+/// outwards gets Δx_k = 0 and the others solve the reduced system.
+Eigen::VectorXd DampedStep(const Eigen::MatrixXd& jtj, const Eigen::VectorXd& g, double lambda,
+                           const Eigen::VectorXd& x, const Eigen::VectorXd& lower,
+                           const Eigen::VectorXd& upper, bool hold_active_bounds) {
+  const int p = static_cast<int>(x.size());
+  Eigen::MatrixXd A = jtj;
+  for (int k = 0; k < p; ++k) A(k, k) += lambda * std::max(jtj(k, k), 1e-12);
+  Eigen::VectorXd rhs = -g;
+  if (hold_active_bounds) {
+    for (int k = 0; k < p; ++k) {
+      const bool held = (x(k) <= lower(k) && g(k) > 0.0) ||  // −g_k points below lower
+                        (x(k) >= upper(k) && g(k) < 0.0);    // −g_k points above upper
+      if (!held) continue;
+      A.row(k).setZero();  // decouple k: Δx_k = 0, the others solve the reduced system
+      A.col(k).setZero();
+      A(k, k) = 1.0;
+      rhs(k) = 0.0;
+    }
+  }
+  return A.ldlt().solve(rhs);
+}
+
+/// Keeps a secant J from degenerating (Madsen, Nielsen & Tingleff 2004, Alg. 3.34): when the
+/// step dx hardly moves along coordinate j (the next of a cycle), re-evaluates column j of *J by
+/// a forward difference at x (residual r there). Returns whether it did (one residual
+/// evaluation).
+bool RefreshSecantColumn(const ResidualFn& residual, const Eigen::VectorXd& x,
+                         const Eigen::VectorXd& r, const Eigen::VectorXd& dx,
+                         const Eigen::VectorXd& upper, double fd_relative_step, int j,
+                         Eigen::MatrixXd* J) {
+  if (!(std::abs(dx(j)) < 0.8 * dx.norm())) return false;
+  double h = fd_relative_step * std::max(std::abs(x(j)), 1e-3);
+  if (x(j) + h > upper(j)) h = -h;
+  Eigen::VectorXd xj = x;
+  xj(j) += h;
+  J->col(j) = (residual(xj) - r) / h;
+  return true;
+}
+
+/// λ's factor after an accepted step: Nielsen's max(1/3, 1 − (2ρ − 1)³) with the gain ratio
+/// ρ = decrease / predicted when `gain_ratio_damping` (and the predicted decrease is positive),
+/// else 1/3.
+double AcceptedStepDampingFactor(const LmOptions& options, double decrease, double predicted) {
+  return options.gain_ratio_damping && predicted > 0.0
+             ? std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * decrease / predicted - 1.0, 3))
+             : 1.0 / 3.0;
+}
+
 }  // namespace
 
 const char* LmStopReasonName(LmStopReason reason) {
@@ -119,22 +169,8 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
   res.stop_reason = LmStopReason::kIterationLimit;
   if (res.cost == 0.0) res.stop_reason = LmStopReason::kZeroCost;
   while (res.cost != 0.0 && res.iterations < options.max_iterations) {
-    Eigen::MatrixXd A = jtj;
-    for (int k = 0; k < p; ++k) A(k, k) += lambda * std::max(jtj(k, k), 1e-12);
-    Eigen::VectorXd rhs = -g;
-    if (options.hold_active_bounds) {
-      for (int k = 0; k < p; ++k) {
-        const bool held = (res.x(k) <= lower(k) && g(k) > 0.0) ||  // −g_k points below lower
-                          (res.x(k) >= upper(k) && g(k) < 0.0);    // −g_k points above upper
-        if (!held) continue;
-        A.row(k).setZero();  // decouple k: Δx_k = 0, the others solve the reduced system
-        A.col(k).setZero();
-        A(k, k) = 1.0;
-        rhs(k) = 0.0;
-      }
-    }
-    Eigen::VectorXd step = A.ldlt().solve(rhs);
-    Eigen::VectorXd x_new = res.x + step;
+    Eigen::VectorXd x_new =
+        res.x + DampedStep(jtj, g, lambda, res.x, lower, upper, options.hold_active_bounds);
     Clamp(lower, upper, project, &x_new);
     const Eigen::VectorXd dx = x_new - res.x;
     if (dx.norm() <= options.step_tolerance * (res.x.norm() + options.step_tolerance)) {
@@ -149,17 +185,10 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
       break;
     }
     if (options.broyden) {
-      // Keep the secant J from degenerating (Madsen, Nielsen & Tingleff 2004, Alg. 3.34): when
-      // the step hardly moves along the next coordinate of a cycle, re-evaluate that column by
-      // a forward difference (one residual evaluation).
       const int j = cycle;
       cycle = (cycle + 1) % p;
-      if (std::abs(dx(j)) < 0.8 * dx.norm()) {
-        double h = options.fd_relative_step * std::max(std::abs(res.x(j)), 1e-3);
-        if (res.x(j) + h > upper(j)) h = -h;
-        Eigen::VectorXd xj = res.x;
-        xj(j) += h;
-        J.col(j) = (residual(xj) - res.residual) / h;
+      if (RefreshSecantColumn(residual, res.x, res.residual, dx, upper, options.fd_relative_step, j,
+                              &J)) {
         ++res.evaluations;
         fresh = false;
       }
@@ -183,11 +212,7 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
       res.cost_history.push_back(res.cost);
       res.evaluations_history.push_back(res.evaluations);
       const double predicted = -(2.0 * g.dot(dx) + dx.dot(jtj * dx));
-      const double factor =
-          options.gain_ratio_damping && predicted > 0.0
-              ? std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * decrease / predicted - 1.0, 3))
-              : 1.0 / 3.0;
-      lambda = std::max(lambda * factor, 1e-300);
+      lambda = std::max(lambda * AcceptedStepDampingFactor(options, decrease, predicted), 1e-300);
       nu = 2.0;
       rejected = 0;
       if (options.broyden) {

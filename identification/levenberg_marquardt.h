@@ -1,6 +1,6 @@
 // Bounded Levenberg–Marquardt for small nonlinear least-squares problems on Eigen, used for the
-// local steps of paper 000 §4 (static Ψ and dynamic Θ fits, eq. 42 and 44) and for θ_a in
-// Algorithm 2 of paper 002 (§4.2, OE model). Marquardt (1963) damping on JᵀJ with a
+// local steps of [Hand Hammerstein] §4 (static Ψ and dynamic Θ fits, eq. 42 and 44) and for θ_a in
+// Algorithm 2 of [Le 2010] (§4.2, OE model). Marquardt (1963) damping on JᵀJ with a
 // forward-difference Jacobian; bounds by projection (clamping) of every trial step, and an
 // optional user projection for simple non-box constraints (e.g. u_sat > u_db in eq. 40).
 #pragma once

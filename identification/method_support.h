@@ -1,6 +1,7 @@
-// Helpers shared by the Eigen-only identification methods (papers 000, 001, 002): checked access
-// to trial columns, sampling period, option overrides from trial metadata, YAML parameter lines,
-// and the discrete transfer-function filter B(q)/A(q) of paper 002 eq. (1) / paper 001 eq. (8).
+// Helpers shared by the Eigen-only identification methods of [Hand Hammerstein], [Copur 2016]
+// and [Le 2010]: checked access to trial columns, sampling period, option overrides from trial
+// metadata, YAML parameter lines, and the discrete transfer-function filter B(q)/A(q) of [Le 2010]
+// eq. (1) / [Copur 2016] eq. (8).
 #pragma once
 
 #include <Eigen/Dense>
@@ -117,7 +118,7 @@ std::string NotConvergedWarning(const std::string& what, const std::vector<Conve
 /// Formats a double with 10 significant digits (C locale).
 std::string Num(double v);
 
-/// Discrete filter with zero initial conditions (paper 002 eq. 1):
+/// Discrete filter with zero initial conditions ([Le 2010] eq. 1):
 ///   y(k) = −Σ_{i=1}^{l} a_i y(k−i) + Σ_{j=0}^{n} b_j x(k−d−j),  x(k<0) = y(k<0) = 0,
 /// a = [a_1 … a_l], b = [b_0 … b_n].
 Eigen::VectorXd FilterBA(const Eigen::VectorXd& b, const Eigen::VectorXd& a, int delay,

@@ -6,12 +6,12 @@
 
 namespace fesim::identification {
 
-/// Best Fit % = 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖)   (paper 002 eq. 17, paper 001 eq. 22).
+/// Best Fit % = 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖)   ([Le 2010] eq. 17, [Copur 2016] eq. 22).
 /// NaN samples of y (dropouts) are skipped. Throws std::invalid_argument on size mismatch or
 /// fewer than two valid samples. 100 is perfect, 0 equals predicting the mean, can be negative.
 double BestFitPercent(const std::vector<double>& y, const std::vector<double>& y_hat);
 
-/// Normalised error ‖y − ŷ‖ / ‖y − ȳ‖ = 1 − BestFit/100 (paper 000 Tables 1–2, "normalised
+/// Normalised error ‖y − ŷ‖ / ‖y − ȳ‖ = 1 − BestFit/100 ([Hand Hammerstein] Tables 1–2, "normalised
 /// error"). 0 is perfect.
 double NormalisedError(const std::vector<double>& y, const std::vector<double>& y_hat);
 

@@ -1,5 +1,5 @@
 // Small dense constrained least-squares solvers on Eigen, used by the monotone recruitment fit of
-// paper 001 (eq. 15, 17: least squares subject to A θ_n ≥ 0) and by bounded linear sub-problems.
+// [Copur 2016] (eq. 15, 17: least squares subject to A θ_n ≥ 0) and by bounded linear sub-problems.
 //
 // Algorithms from C. L. Lawson and R. J. Hanson, "Solving Least Squares Problems" (1974):
 // NNLS (ch. 23, active set), LDP (ch. 23.3: least distance programming via NNLS) and LSI

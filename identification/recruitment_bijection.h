@@ -1,7 +1,7 @@
 // Sigmoid recruitment of the MIMO Hammerstein hand model and the bijection M between its raw
 // parameters Φ and the interpretable dead-band / saturation points Ψ.
 //
-// Paper: /work/shared/papers/000_0a6c0de9fc69df7c.txt (Hodgins-style hand model).
+// Paper: [Hand Hammerstein] (docs/papers.md; Hodgins-style hand model).
 //   h̃(u, φ_j) = (e^{Σ_k δ_{j,k} u_k} − 1) / (e^{Σ_k δ_{j,k} u_k} + γ_j)          eq. (22)
 //   φ_j = [δ_{j,1} … δ_{j,n}, γ_j],  Φ = [φ_1 … φ_l]                               eq. (23)–(24)
 //   M̃(φ_j) = [ln((γ_j+20)/19)/δ_{j,1} … ln((γ_j+20)/19)/δ_{j,n}, ln(19γ_j+20)/δ_{j,1}]

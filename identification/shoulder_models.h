@@ -1,29 +1,29 @@
 // Antagonistic shoulder models for horizontal shoulder abduction/adduction under FES, and their
-// offline identification (paper 003_7182ceb830858ebb.txt, Spagnol et al., ECC 2013).
+// offline identification ([Spagnol 2013], docs/papers.md).
 //
-// Both models are normalised so that αJ = 1 (paper 003 §III-B): every coefficient is divided by
-// the rotational inertia and is therefore an acceleration coefficient. Index "ant" is the anterior
-// deltoid (paper index 1, horizontal adduction), "post" the posterior deltoid (paper index 2,
-// horizontal abduction). θ is the horizontal shoulder angle, rad, 0 at rest; ω = dθ/dt, rad/s.
+// Both models are normalised so that αJ = 1 ([Spagnol 2013] §III-B): every coefficient is divided
+// by the rotational inertia and is therefore an acceleration coefficient. Index "ant" is the
+// anterior deltoid (paper index 1, horizontal adduction), "post" the posterior deltoid (paper index
+// 2, horizontal abduction). θ is the horizontal shoulder angle, rad, 0 at rest; ω = dθ/dt, rad/s.
 //
-// Model 1 (paper 003 eq. 2, written "eq. 1" in issue 5):
+// Model 1 ([Spagnol 2013] eq. 2, written "eq. 1" in issue 5):
 //   θ̈ = a_ant σ_ant + a_post σ_post − (K_m + K_ant σ_ant + K_post σ_post) θ
 //        − (R_m + R_ant σ_ant + R_post σ_post) ω − c sign(ω)
-// Model 2 (paper 003 eq. 3, muscle as a variable spring about its maximum angle):
+// Model 2 ([Spagnol 2013] eq. 3, muscle as a variable spring about its maximum angle):
 //   θ̈ = K_ant σ_ant (θmax_ant − θ) + K_post σ_post (θmax_post − θ)
 //        − (R_m + R_ant σ_ant + R_post σ_post) ω − K_m θ − c sign(ω)
 // Both are linear in their identified parameters: θ̈ = φ(σ, θ, ω)ᵀ p (ModelRegressors).
 //
 // Departures from the paper:
-//  * The numeric values of θmax were lost in the text extraction of paper 003 ("6 5π", "3 π");
+//  * The numeric values of θmax were lost in the text extraction of [Spagnol 2013] ("6 5π", "3 π");
 //    we read them as |θmax_ant| = 5π/16 and |θmax_post| = π/3 with signs chosen so that the
-//    anterior deltoid drives θ negative, as ã1 < 0 in paper 003 Table I. They are trial metadata
-//    `theta_max_ant` / `theta_max_post` (rad) when present.
+//    anterior deltoid drives θ negative, as ã1 < 0 in [Spagnol 2013] Table I. They are trial
+//    metadata `theta_max_ant` / `theta_max_post` (rad) when present.
 //  * Simulation is forward Euler at the sample times (as the EKF discretisation, eq. 7–10), with a
 //    Karnopp-style stick rule for the Coulomb friction: the velocity stops at zero instead of
 //    reversing, and stays at zero while |drive| ≤ c. The paper's friction model is sign(ω) only.
 //  * Offline fitting: equation-error linear least squares (θ̈ from differenced velocity) gives the
-//    start, then Levenberg–Marquardt on the simulated angular velocity (paper 003 §III-A) with
+//    start, then Levenberg–Marquardt on the simulated angular velocity ([Spagnol 2013] §III-A) with
 //    finite-difference Jacobian and bounds K, R, c ≥ 0.
 //
 // Trial conventions (fesim::Trial):
@@ -47,7 +47,7 @@ namespace fesim::identification {
 /// Pulse width that maps to full activation when only u.* columns are present, µs.
 constexpr double kShoulderFullActivationPulseWidthUs = 300.0;
 
-/// Paper 003 eq. 2 coefficients, normalised by αJ (αJ = 1).
+/// [Spagnol 2013] eq. 2 coefficients, normalised by αJ (αJ = 1).
 struct ShoulderModel1Params {
   double a_ant = 0.0;   ///< ã1, active torque coefficient of the anterior deltoid, rad/s².
   double a_post = 0.0;  ///< ã2, active torque coefficient of the posterior deltoid, rad/s².
@@ -60,7 +60,7 @@ struct ShoulderModel1Params {
   double c = 0.0;       ///< c̃, Coulomb friction, rad/s², ≥ 0.
 };
 
-/// Paper 003 eq. 3 coefficients, normalised by αJ (αJ = 1).
+/// [Spagnol 2013] eq. 3 coefficients, normalised by αJ (αJ = 1).
 struct ShoulderModel2Params {
   double k_ant = 0.0;   ///< K̃1, stiffness per unit anterior activation, s⁻², ≥ 0.
   double k_post = 0.0;  ///< K̃2, stiffness per unit posterior activation, s⁻², ≥ 0.
@@ -104,7 +104,7 @@ ShoulderModel2Params Model2FromVector(const Eigen::VectorXd& v, const ShoulderMo
 /// Names of the entries of p, in order (for reports).
 std::vector<std::string> ParameterNames(ShoulderModel model);
 
-/// θ̈ without the friction term, rad/s² (paper 003 eq. 2 / eq. 3 solved for θ̈, c = 0).
+/// θ̈ without the friction term, rad/s² ([Spagnol 2013] eq. 2 / eq. 3 solved for θ̈, c = 0).
 double Model1DriveAcceleration(const ShoulderModel1Params& p, double sigma_ant, double sigma_post,
                                double theta, double omega);
 double Model2DriveAcceleration(const ShoulderModel2Params& p, double sigma_ant, double sigma_post,
@@ -125,7 +125,7 @@ ShoulderSimulation SimulateShoulder(ShoulderModel model, const Eigen::VectorXd& 
                                     double theta_max_ant, double theta_max_post,
                                     const ShoulderData& data, bool stick_slip);
 
-/// Paper 003 eq. 1: J_L(y, ŷ) = Σ (y − ŷ)² / Σ (y − ȳ)² (as a fraction; ×100 for %).
+/// [Spagnol 2013] eq. 1: J_L(y, ŷ) = Σ (y − ŷ)² / Σ (y − ȳ)² (as a fraction; ×100 for %).
 double PerformanceIndexJL(const std::vector<double>& y, const std::vector<double>& y_hat);
 
 /// Result of an offline fit.
@@ -145,8 +145,8 @@ struct ShoulderFit {
   std::string stop_reason;
 };
 
-/// Offline nonlinear least squares on angular velocity (paper 003 §III-A). `initial` (optional,
-/// may be empty) replaces the equation-error start. `known_c` < 0 means "fit c".
+/// Offline nonlinear least squares on angular velocity ([Spagnol 2013] §III-A). `initial`
+/// (optional, may be empty) replaces the equation-error start. `known_c` < 0 means "fit c".
 ShoulderFit FitShoulderModel(ShoulderModel model, const std::vector<ShoulderData>& trials,
                              double theta_max_ant, double theta_max_post, double known_c,
                              const Eigen::VectorXd& initial = Eigen::VectorXd());

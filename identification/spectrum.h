@@ -1,5 +1,5 @@
 // Discrete Fourier transforms for the periodograms of the identification methods (the tremor
-// frequency search of paper 001): a radix-2 FFT and a zoomed DFT on a fine frequency grid by
+// frequency search of [Copur 2016]): a radix-2 FFT and a zoomed DFT on a fine frequency grid by
 // Bluestein's chirp-z algorithm, O((N + K) log(N + K)) instead of the direct O(N K) sum.
 // Written here rather than taken from FFTW so that identification/ keeps depending on Eigen only;
 // the transforms are small and tested against the direct sums (tests/identification).

@@ -1,7 +1,7 @@
 // Hammerstein model with cubic-spline recruitment for electrically stimulated muscle, and its
 // two iterative identification algorithms.
 //
-// Paper: /work/shared/papers/002_78a57b74c57ee464.txt, §3–4.
+// Paper: [Le 2010] (docs/papers.md), §3–4.
 //   G(q) = B(q)/A(q) = (b_0 q^{-d} + … + b_n q^{-(n+d)}) / (1 + a_1 q^{-1} + … + a_l q^{-l})  eq.
 //   (1) f(u) = Σ_{i=1}^{m-2} β_i |u − u_{i+1}|³ + β_{m-1} + β_m u + β_{m+1} u² + β_{m+2} u³     eq.
 //   (2) ARX cost ‖A y − B f(u)‖² (eq. 5, 7, 9, 14); OE cost ‖y − (B/A) f(u)‖² (eq. 6, 10–13,
@@ -13,7 +13,7 @@
 // Trial conventions: input = the single u.<channel> column (pulse width, µs); output = the single
 // tau.<joint> column (isometric elbow torque, N·m) when the trial has one, otherwise the single
 // q.<joint> column (rad). Trials must be uniformly sampled. The baseline (mean output over the
-// leading samples with u = 0, paper 002 §6.1) is removed before fitting and added back to the
+// leading samples with u = 0, [Le 2010] §6.1) is removed before fitting and added back to the
 // predictions; all samples, rest included, enter the fit, with zero initial conditions.
 //
 // Departures, stated:

@@ -277,7 +277,7 @@ struct RunResult {
   double cost = 0.0;
 };
 
-/// Algorithm 1 of paper 001 (§3.3.4).
+/// Algorithm 1 of [Copur 2016] (§3.3.4).
 RunResult Algorithm1(const Problem& P, const TremorOptions& opt) {
   const TremorOrders& o = P.o;
   RunResult rr;
@@ -621,7 +621,7 @@ TremorData TremorDataOf(const std::vector<Trial>& trials, const TremorColumns& c
   return d;
 }
 
-/// The order sweep of paper 001 (Figs 7–8) as metrics; `opt->orders` set to the entry of best
+/// The order sweep of [Copur 2016] (Figs 7–8) as metrics; `opt->orders` set to the entry of best
 /// cross-validation Best Fit.
 Json SweepOrders(const TremorData& tr, double u_scale, const ProgressFn& progress,
                  TremorOptions* opt) {

@@ -1,7 +1,7 @@
 // Tremor wrist model: co-activation of two antagonists, monotone polynomial recruitment, ARX plant
 // with a periodic tremor term, its iterative identification and the order sweep.
 //
-// Paper: /work/shared/papers/001_50576a960b4d02ae.txt, §3–4.
+// Paper: [Copur 2016] (docs/papers.md), §3–4.
 //   co-activation: u_fcr = u + c_fcr (u ≥ 0) else c_fcr; u_ecr = c_ecr (u ≥ 0) else c_ecr − u  eq.
 //   (5) P(q) = B_P/A_P = (b_0 q^{-m_P} + … + b_{n_P} q^{-(m_P+n_P)}) / (1 + a_1 q^{-1} + … +
 //   a_{l_P} q^{-l_P})

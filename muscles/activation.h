@@ -1,9 +1,9 @@
-// Linear activation dynamics H_LAD (papers/000_0a6c0de9fc69df7c.txt eq. 5–6): a critically damped
+// Linear activation dynamics H_LAD ([Hand Hammerstein] eq. 5–6): a critically damped
 // second-order system per muscle,
 //
 //   H_LAD,i(s) = Ω_i² / (s² + 2Ω_i s + Ω_i²)   ⇔   ä = Ω²(w − a) − 2Ω ȧ.
 //
-// Each muscle has its own natural frequency Ω_i (paper 000 Assumption 6, equal Ω, is a
+// Each muscle has its own natural frequency Ω_i ([Hand Hammerstein] Assumption 6, equal Ω, is a
 // reduced-model assumption that the ground truth deliberately does not make).
 #pragma once
 

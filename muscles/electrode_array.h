@@ -1,12 +1,12 @@
-// Electrode array A (papers/000_0a6c0de9fc69df7c.txt eq. 1): v = A u maps the n stimulation
+// Electrode array A ([Hand Hammerstein] eq. 1): v = A u maps the n stimulation
 // channels (pulse width, µs) to the effective stimulation v of the l muscles (µs).
 //
 // A is given explicitly or derived from geometry: pads and motor points are located on the
 // unrolled skin surface of the forearm (coordinate s along the forearm from the elbow, m, and c
 // around its circumference, m). A channel drives a set of pads; a pad at distance d from a
 // muscle's motor point reaches it with the weight exp(−d² / (2σ²)) (isotropic Gaussian current
-// spread, σ the spread length). This spread model is fesim's assumption; paper 000 treats A as
-// an identified matrix.
+// spread, σ the spread length). This spread model is fesim's assumption; [Hand Hammerstein] treats
+// A as an identified matrix.
 #pragma once
 
 #include <string>

@@ -1,4 +1,4 @@
-// Hill-type muscle H_hill (papers/000_0a6c0de9fc69df7c.txt eq. 4 and 7) with a rigid tendon.
+// Hill-type muscle H_hill ([Hand Hammerstein] eq. 4 and 7) with a rigid tendon.
 //
 // Tendon force  F = F_max (a · f_L(l̃) · f_V(ṽ) + f_PE(l̃)) cos φ
 //   l̃ = l_f / l_opt (normalised fibre length), ṽ = v_f / (v_max l_opt) (negative = shortening),
@@ -10,8 +10,8 @@
 //   f_V(ṽ) = (f_ecc ṽ + c)/(ṽ + c) for ṽ > 0, f_ecc = 1.8, c = (f_ecc − 1)/(1 + 1/A_f)
 // The eccentric branch departs from Thelen's: c is chosen so f_V is C¹ at ṽ = 0.
 // Rigid tendon and constant-height pennation: l_f cos φ = l_MT − l_ts, l_f sin φ = l_opt sin φ₀,
-// hence the fibre velocity v_f = v_MT cos φ. This is paper 000's "fibre length follows from
-// musculotendon length".
+// hence the fibre velocity v_f = v_MT cos φ. This is [Hand Hammerstein]'s "fibre length follows
+// from musculotendon length".
 #pragma once
 
 namespace fesim::muscles {

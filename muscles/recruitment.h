@@ -1,4 +1,4 @@
-// Isometric recruitment curve H_IRC (papers/000_0a6c0de9fc69df7c.txt eq. 2–3).
+// Isometric recruitment curve H_IRC ([Hand Hammerstein] eq. 2–3).
 //
 //   w = α (e^{βv} − 1) / (e^{βv} + γ)
 //

@@ -1,6 +1,8 @@
 // Papers 002 (elbow tests), 001 (tremor wrist), 003 (shoulder) and 004 (reaching) sections of
 // `fesim benchmark`: the papers' validation schemes and table layouts, plus the same predictions
 // against the noiseless truth.
+#include "paper_benchmark/paper_sections.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -18,17 +20,7 @@
 #include "sim/reaching.h"
 
 namespace fesim::paper_benchmark {
-namespace {
 
-/// Best Fit % of prediction column `col` against `reference` resampled at the prediction times.
-double FitAgainst(const Trial& prediction, const Trial& reference, const std::string& col) {
-  return identification::BestFitPercent(Resample(reference, col, prediction.time),
-                                        prediction.Column(col));
-}
-
-/// Best Fit % of `prediction` against the noiseless `truth`, after removing the constant offset
-/// between truth and `measured` (rigs that zero a torque sensor on its rest period, paper 002,
-/// measure relative to that baseline; the truth record is absolute).
 double FitAgainstTruth(const Trial& prediction, const Trial& truth, const Trial& measured,
                        const std::string& col) {
   std::vector<double> y = Resample(truth, col, prediction.time);
@@ -46,10 +38,8 @@ double FitAgainstTruth(const Trial& prediction, const Trial& truth, const Trial&
   return identification::BestFitPercent(y, prediction.Column(col));
 }
 
-/// Best Fit for a table cell: a diverging prediction (Best Fit below −100 %) shows as "< −100".
 std::string FitCell(double v) { return std::isfinite(v) && v < -100.0 ? "< −100" : Fixed(v, 1); }
 
-/// The one output column a SISO prediction carries (tau.* or q.*).
 std::string OutputColumn(const Trial& prediction) {
   for (const auto& n : prediction.names) {
     if (n.rfind("tau.", 0) == 0) return n;
@@ -60,42 +50,6 @@ std::string OutputColumn(const Trial& prediction) {
   throw std::runtime_error("benchmark: prediction without a tau.* or q.* column");
 }
 
-const std::map<std::string, std::string>& ProtocolLabels() {
-  static const std::map<std::string, std::string> kLabels = {
-      {"ramp", "triangular ramp"},
-      {"filtered_noise", "filtered random noise"},
-      {"staircase", "staircase"},
-      {"prms", "PRMS"}};
-  return kLabels;
-}
-
-std::string Label(const std::string& protocol) {
-  const auto it = ProtocolLabels().find(protocol);
-  return it == ProtocolLabels().end() ? protocol : it->second;
-}
-
-/// Paper 002 Tables 1–3 averages (Best Fit %): identification and validation per test for
-/// Algorithms 1 and 2 (NaN where the paper gives no average), and cross-validation rows.
-const std::map<std::string, std::pair<double, double>>& PaperElbowIdentification() {
-  static const std::map<std::string, std::pair<double, double>> k = {
-      {"ramp", {90.15, 93.33}},
-      {"filtered_noise", {51.8, 68.03}},
-      {"staircase", {88.46, 93.04}},
-      {"prms", {48.0, 68.88}}};
-  return k;
-}
-const std::map<std::string, std::pair<double, double>>& PaperElbowValidation() {
-  static const std::map<std::string, std::pair<double, double>> k = {
-      {"ramp", {81.60, 78.00}},
-      {"filtered_noise", {25.91, 22.78}},
-      {"staircase", {79.87, 81.58}},
-      {"prms", {NAN, 39.49}}};
-  return k;
-}
-
-/// The trial with its two u.* columns ordered agonist first, as tremor-arx expects (paper 001
-/// eq. 5: the agonist drives the output positive): the channel whose pulse-width difference
-/// correlates positively with the output goes first.
 Trial AgonistFirst(const Trial& t) {
   const auto us = t.NamesWithPrefix("u.");
   const auto qs = t.NamesWithPrefix("q.");
@@ -124,184 +78,244 @@ Trial AgonistFirst(const Trial& t) {
   return r;
 }
 
+namespace {
+
+/// Best Fit % of prediction column `col` against `reference` resampled at the prediction times.
+double FitAgainst(const Trial& prediction, const Trial& reference, const std::string& col) {
+  return identification::BestFitPercent(Resample(reference, col, prediction.time),
+                                        prediction.Column(col));
+}
+
+const std::map<std::string, std::string>& ProtocolLabels() {
+  static const std::map<std::string, std::string> kLabels = {
+      {"ramp", "triangular ramp"},
+      {"filtered_noise", "filtered random noise"},
+      {"staircase", "staircase"},
+      {"prms", "PRMS"}};
+  return kLabels;
+}
+
+std::string Label(const std::string& protocol) {
+  const auto it = ProtocolLabels().find(protocol);
+  return it == ProtocolLabels().end() ? protocol : it->second;
+}
+
+/// [Le 2010] Tables 1–3 averages (Best Fit %): identification and validation per test for
+/// Algorithms 1 and 2 (NaN where the paper gives no average), and cross-validation rows.
+const std::map<std::string, std::pair<double, double>>& PaperElbowIdentification() {
+  static const std::map<std::string, std::pair<double, double>> k = {
+      {"ramp", {90.15, 93.33}},
+      {"filtered_noise", {51.8, 68.03}},
+      {"staircase", {88.46, 93.04}},
+      {"prms", {48.0, 68.88}}};
+  return k;
+}
+const std::map<std::string, std::pair<double, double>>& PaperElbowValidation() {
+  static const std::map<std::string, std::pair<double, double>> k = {
+      {"ramp", {81.60, 78.00}},
+      {"filtered_noise", {25.91, 22.78}},
+      {"staircase", {79.87, 81.58}},
+      {"prms", {NAN, 39.49}}};
+  return k;
+}
+
 std::string Dir(const std::string& plots_dir, const std::string& file) {
   return plots_dir + "/" + file;
 }
 
 }  // namespace
 
-SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx) {
-  const StudyTrials data = SectionStudy(section, ctx);
-  const StudyLayout L = LayoutOf(data.study);
-  const int np = L.participants, nr = L.reps, nt = static_cast<int>(L.protocols.size());
-  const std::vector<std::string>& methods = section.methods;
-  const int nm = static_cast<int>(methods.size());
-  // Identification/validation: one fit per trial (evaluated on every trial of its test type);
-  // cross-validation: one fit per test type on all its trials (evaluated on every other type).
-  struct Job {
-    int m, p, a, r;  // r < 0: cross-validation fit on all repetitions of protocol a.
-  };
-  std::vector<Job> jobs;
-  for (int m = 0; m < nm; ++m) {
-    for (int p = 0; p < np; ++p) {
-      for (int a = 0; a < nt; ++a) {
-        for (int r = -1; r < nr; ++r) jobs.push_back({m, p, a, r});
+std::vector<ElbowJob> ElbowJobs(int methods, int participants, int protocols, int reps) {
+  std::vector<ElbowJob> jobs;
+  for (int m = 0; m < methods; ++m) {
+    for (int p = 0; p < participants; ++p) {
+      for (int a = 0; a < protocols; ++a) {
+        for (int r = -1; r < reps; ++r) jobs.push_back({m, p, a, r});
       }
     }
   }
-  // ident[m][a] / valid[m][a]: Best Fit values; cross[m][a][b]: mean Best Fit fit on a, test b.
-  std::vector<std::vector<std::vector<double>>> ident(nm, std::vector<std::vector<double>>(nt)),
-      valid = ident;
-  std::vector<std::vector<std::vector<std::vector<double>>>> cross(
+  return jobs;
+}
+
+ElbowBestFits GatherElbowBestFits(const std::vector<ElbowJob>& jobs,
+                                  const std::vector<ElbowJobFigures>& figures, int methods,
+                                  int protocols) {
+  const int nm = methods, nt = protocols;
+  ElbowBestFits b;
+  b.ident.assign(nm, std::vector<std::vector<double>>(nt));
+  b.valid = b.ident;
+  b.cross.assign(
       nm, std::vector<std::vector<std::vector<double>>>(nt, std::vector<std::vector<double>>(nt)));
-  std::vector<std::vector<std::vector<double>>> cross_truth = ident;  // [m][a]: vs truth, b ≠ a
-  // Each job's Best Fit values (filled by index), added to the tables in job order afterwards so
-  // that the means do not depend on which job finished first.
-  struct JobFigures {
-    std::vector<double> bf, bf_truth;
-    std::vector<int> test_proto, test_rep;
-  };
-  std::vector<JobFigures> figures(jobs.size());
-  ctx->loop->Run("elbow fit", jobs.size(), [&](std::size_t ji) {
-    const Job& j = jobs[ji];
-    std::vector<Trial> train, test;
-    std::vector<const Trial*> test_truth;
-    std::vector<int> test_proto, test_rep;
-    if (j.r >= 0) {
-      train.push_back(data.measured[L.Index(j.p, j.a, j.r)]);
-      for (int r = 0; r < nr; ++r) {
-        test.push_back(data.measured[L.Index(j.p, j.a, r)]);
-        test_proto.push_back(j.a);
-        test_rep.push_back(r);
-      }
-    } else {
-      for (int r = 0; r < nr; ++r) train.push_back(data.measured[L.Index(j.p, j.a, r)]);
-      for (int b = 0; b < nt; ++b) {
-        for (int r = 0; r < nr; ++r) {
-          test.push_back(data.measured[L.Index(j.p, b, r)]);
-          test_proto.push_back(b);
-          test_rep.push_back(r);
-        }
-      }
-    }
-    const FitOutput fit = ctx->fits->Run(methods[j.m], train, test, section.options);
-    const std::string col = OutputColumn(fit.predictions[0]);
-    JobFigures f;
-    f.test_proto = test_proto;
-    f.test_rep = test_rep;
-    for (std::size_t t = 0; t < test.size(); ++t) {
-      f.bf.push_back(FitAgainst(fit.predictions[t], test[t], col));
-      double vs_truth = NAN;
-      if (j.r < 0 && test_proto[t] != j.a) {
-        const Trial& truth = data.truth[L.Index(j.p, test_proto[t], test_rep[t])];
-        vs_truth = FitAgainstTruth(fit.predictions[t], truth, test[t], col);
-      }
-      f.bf_truth.push_back(vs_truth);
-    }
-    figures[ji] = std::move(f);
-    ctx->progress->Done(kSplineFitWeight, "elbow tests: spline Hammerstein fits");
-  });
+  b.cross_truth = b.ident;
   for (std::size_t ji = 0; ji < jobs.size(); ++ji) {
-    const Job& j = jobs[ji];
-    const JobFigures& f = figures[ji];
+    const ElbowJob& j = jobs[ji];
+    const ElbowJobFigures& f = figures[ji];
     for (std::size_t t = 0; t < f.bf.size(); ++t) {
       if (j.r >= 0) {
-        (f.test_rep[t] == j.r ? ident : valid)[j.m][j.a].push_back(f.bf[t]);
+        (f.test_rep[t] == j.r ? b.ident : b.valid)[j.m][j.a].push_back(f.bf[t]);
       } else {
-        cross[j.m][j.a][f.test_proto[t]].push_back(f.bf[t]);
-        if (f.test_proto[t] != j.a) cross_truth[j.m][j.a].push_back(f.bf_truth[t]);
+        b.cross[j.m][j.a][f.test_proto[t]].push_back(f.bf[t]);
+        if (f.test_proto[t] != j.a) b.cross_truth[j.m][j.a].push_back(f.bf_truth[t]);
       }
     }
   }
+  return b;
+}
 
-  SectionResult out;
-  std::string md = "## Elbow isometric tests (paper 002 Tables 1–3)\n\n";
-  md += "Study `" + data.study.name + "`: " + std::to_string(np) + " participant(s) × " +
-        std::to_string(nr) +
-        " trials of each test; isometric elbow torque. Best Fit % = 100 (1 − "
-        "‖y − ŷ‖/‖y − ȳ‖) of the simulated output. Identification: fit on a trial, evaluated on "
-        "it; validation: evaluated on the other trials of the same test; cross-validation: fit "
-        "on all trials of one test, evaluated on all trials of another. Paper values (one "
-        "participant, measured) in brackets.\n\n";
-  const auto name_of = [&](int m) {
-    return methods[m] == "spline-arx" ? std::string("Alg. 1 (ARX)") : std::string("Alg. 2 (OE)");
-  };
-  const auto paper_of = [&](const std::map<std::string, std::pair<double, double>>& t, int m,
-                            const std::string& proto) {
+double TremorAngleAmplitude(const std::vector<double>& arx_a, double lambda1, double lambda2,
+                            double f_hz, double sample_s) {
+  std::complex<double> A(1.0, 0.0);
+  for (std::size_t i = 0; i < arx_a.size(); ++i) {
+    A += arx_a[i] * std::polar(1.0, -2.0 * M_PI * f_hz * sample_s * static_cast<double>(i + 1));
+  }
+  return std::hypot(lambda1, lambda2) / std::abs(A);
+}
+
+namespace {
+
+/// The elbow section's study, its layout and the methods it fits.
+struct ElbowInputs {
+  const BenchmarkSection* section = nullptr;
+  SectionContext* ctx = nullptr;
+  StudyTrials data;
+  StudyLayout L;
+  int np = 0, nr = 0, nt = 0, nm = 0;
+  const std::vector<std::string>& methods() const { return section->methods; }
+  /// Table row label of method m.
+  std::string NameOf(int m) const {
+    return methods()[m] == "spline-arx" ? std::string("Alg. 1 (ARX)") : std::string("Alg. 2 (OE)");
+  }
+  /// " [v]" (the paper's value of method m on `proto` in table t), " [–]" or "".
+  std::string PaperOf(const std::map<std::string, std::pair<double, double>>& t, int m,
+                      const std::string& proto) const {
     const auto it = t.find(proto);
     if (it == t.end()) return std::string();
-    const double v = methods[m] == "spline-arx" ? it->second.first : it->second.second;
+    const double v = methods()[m] == "spline-arx" ? it->second.first : it->second.second;
     return std::isnan(v) ? std::string(" [–]") : " [" + Fixed(v, 1) + "]";
-  };
-  Json jt = Json::Object();
+  }
+};
+
+/// Runs one elbow job: its training and test trials (ElbowJob), the fit, the Best Fit values.
+ElbowJobFigures FitElbowJob(const ElbowInputs& in, const ElbowJob& j) {
+  const StudyLayout& L = in.L;
+  const StudyTrials& data = in.data;
+  std::vector<Trial> train, test;
+  std::vector<int> test_proto, test_rep;
+  if (j.r >= 0) {
+    train.push_back(data.measured[L.Index(j.p, j.a, j.r)]);
+    for (int r = 0; r < in.nr; ++r) {
+      test.push_back(data.measured[L.Index(j.p, j.a, r)]);
+      test_proto.push_back(j.a);
+      test_rep.push_back(r);
+    }
+  } else {
+    for (int r = 0; r < in.nr; ++r) train.push_back(data.measured[L.Index(j.p, j.a, r)]);
+    for (int b = 0; b < in.nt; ++b) {
+      for (int r = 0; r < in.nr; ++r) {
+        test.push_back(data.measured[L.Index(j.p, b, r)]);
+        test_proto.push_back(b);
+        test_rep.push_back(r);
+      }
+    }
+  }
+  const FitOutput fit = in.ctx->fits->Run(in.methods()[j.m], train, test, in.section->options);
+  const std::string col = OutputColumn(fit.predictions[0]);
+  ElbowJobFigures f;
+  f.test_proto = test_proto;
+  f.test_rep = test_rep;
+  for (std::size_t t = 0; t < test.size(); ++t) {
+    f.bf.push_back(FitAgainst(fit.predictions[t], test[t], col));
+    double vs_truth = NAN;
+    if (j.r < 0 && test_proto[t] != j.a) {
+      const Trial& truth = data.truth[L.Index(j.p, test_proto[t], test_rep[t])];
+      vs_truth = FitAgainstTruth(fit.predictions[t], truth, test[t], col);
+    }
+    f.bf_truth.push_back(vs_truth);
+  }
+  return f;
+}
+
+/// Tables 1 (identification) and 2 (validation): Best Fit per method and protocol, the paper's
+/// value in brackets; adds their keys to *jt.
+void ElbowTablesOneTwo(const ElbowInputs& in, const ElbowBestFits& b, Json* jt, std::string* md) {
   for (int table = 0; table < 2; ++table) {
-    md += table == 0 ? "Identification (Table 1):\n\n" : "Validation (Table 2):\n\n";
-    md += "| algorithm |";
+    *md += table == 0 ? "Identification (Table 1):\n\n" : "Validation (Table 2):\n\n";
+    *md += "| algorithm |";
     std::string sep = "|---|";
-    for (const auto& p : L.protocols) {
-      md += " " + Label(p) + " |";
+    for (const auto& p : in.L.protocols) {
+      *md += " " + Label(p) + " |";
       sep += "---|";
     }
-    md += "\n" + sep + "\n";
+    *md += "\n" + sep + "\n";
     Json jtab = Json::Object();
-    for (int m = 0; m < nm; ++m) {
-      md += "| " + name_of(m) + " |";
+    for (int m = 0; m < in.nm; ++m) {
+      *md += "| " + in.NameOf(m) + " |";
       Json row = Json::Object();
-      for (int a = 0; a < nt; ++a) {
-        const double v = MeanFinite((table == 0 ? ident : valid)[m][a]);
-        row.Set(L.protocols[a], v);
-        md += " " + FitCell(v) +
-              paper_of(table == 0 ? PaperElbowIdentification() : PaperElbowValidation(), m,
-                       L.protocols[a]) +
-              " |";
+      for (int a = 0; a < in.nt; ++a) {
+        const double v = MeanFinite((table == 0 ? b.ident : b.valid)[m][a]);
+        row.Set(in.L.protocols[a], v);
+        *md += " " + FitCell(v) +
+               in.PaperOf(table == 0 ? PaperElbowIdentification() : PaperElbowValidation(), m,
+                          in.L.protocols[a]) +
+               " |";
       }
-      jtab.Set(methods[m], row);
-      md += "\n";
+      jtab.Set(in.methods()[m], row);
+      *md += "\n";
     }
-    jt.Set(table == 0 ? "identification_best_fit_percent" : "validation_best_fit_percent", jtab);
-    md += "\n";
+    jt->Set(table == 0 ? "identification_best_fit_percent" : "validation_best_fit_percent", jtab);
+    *md += "\n";
   }
-  md += "Cross-validation (Table 3; rows: fitted on, columns: evaluated on):\n\n";
+}
+
+/// Table 3 (cross-validation), one block per method; returns, per protocol fitted on, the mean
+/// over methods of the mean Best Fit on the other protocols.
+std::vector<double> ElbowTableThree(const ElbowInputs& in, const ElbowBestFits& b, Json* jt,
+                                    std::string* md) {
+  const int nm = in.nm, nt = in.nt;
+  *md += "Cross-validation (Table 3; rows: fitted on, columns: evaluated on):\n\n";
   Json jcross = Json::Object();
   std::vector<double> cross_mean_other(nt, 0.0);
   for (int m = 0; m < nm; ++m) {
-    md += "| " + name_of(m) + " |";
+    *md += "| " + in.NameOf(m) + " |";
     std::string sep = "|---|";
-    for (const auto& p : L.protocols) {
-      md += " " + Label(p) + " |";
+    for (const auto& p : in.L.protocols) {
+      *md += " " + Label(p) + " |";
       sep += "---|";
     }
-    md += " mean of the others |\n" + sep + "---|\n";
+    *md += " mean of the others |\n" + sep + "---|\n";
     Json jm = Json::Object();
     for (int a = 0; a < nt; ++a) {
-      md += "| " + Label(L.protocols[a]) + " |";
+      *md += "| " + Label(in.L.protocols[a]) + " |";
       Json row = Json::Object();
       std::vector<double> others;
-      for (int b = 0; b < nt; ++b) {
-        const double v = MeanFinite(cross[m][a][b]);
-        row.Set(L.protocols[b], v);
-        md += " " + FitCell(v) + " |";
-        if (b != a) others.push_back(v);
+      for (int c = 0; c < nt; ++c) {
+        const double v = MeanFinite(b.cross[m][a][c]);
+        row.Set(in.L.protocols[c], v);
+        *md += " " + FitCell(v) + " |";
+        if (c != a) others.push_back(v);
       }
       const double mo = MeanFinite(others);
       cross_mean_other[a] += mo / nm;
       row.Set("mean_of_others", mo);
-      md += " " + FitCell(mo) + " |\n";
-      jm.Set(L.protocols[a], row);
+      *md += " " + FitCell(mo) + " |\n";
+      jm.Set(in.L.protocols[a], row);
     }
-    jcross.Set(methods[m], jm);
-    md += "\n";
+    jcross.Set(in.methods()[m], jm);
+    *md += "\n";
   }
-  jt.Set("cross_validation_best_fit_percent", jcross);
-  out.json = jt;
-  out.json.Set("study", data.study.name);
-  out.json.Set("participants", np);
-  out.json.Set("trials_per_test", nr);
+  jt->Set("cross_validation_best_fit_percent", jcross);
+  return cross_mean_other;
+}
 
+/// The paper's findings: Algorithm 2 identifies better; the staircase model predicts best.
+Json ElbowFindings(const ElbowInputs& in, const ElbowBestFits& b,
+                   const std::vector<double>& cross_mean_other, std::string* md) {
+  const int nm = in.nm, nt = in.nt;
+  const std::vector<std::string>& protocols = in.L.protocols;
   Json findings = Json::Array();
   const auto find_method = [&](const std::string& n) {
     for (int m = 0; m < nm; ++m) {
-      if (methods[m] == n) return m;
+      if (in.methods()[m] == n) return m;
     }
     return -1;
   };
@@ -309,8 +323,8 @@ SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx
   if (m1 >= 0 && m2 >= 0) {
     std::vector<double> a1, a2;
     for (int a = 0; a < nt; ++a) {
-      a1.push_back(MeanFinite(ident[m1][a]));
-      a2.push_back(MeanFinite(ident[m2][a]));
+      a1.push_back(MeanFinite(b.ident[m1][a]));
+      a2.push_back(MeanFinite(b.ident[m2][a]));
     }
     const double d = MeanFinite(a2) - MeanFinite(a1);
     Json f = Finding("Algorithm 2 identifies better than Algorithm 1 (paper: up to 20 % better)",
@@ -318,11 +332,11 @@ SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx
                      "mean identification Best Fit " + Fixed(MeanFinite(a2), 1) + " vs " +
                          Fixed(MeanFinite(a1), 1) + " % (" + Fixed(d, 1) + " points)");
     findings.Push(f);
-    md += FindingLine(f);
+    *md += FindingLine(f);
   }
-  const auto it_st = std::find(L.protocols.begin(), L.protocols.end(), "staircase");
-  if (it_st != L.protocols.end() && nt > 1) {
-    const int s = static_cast<int>(it_st - L.protocols.begin());
+  const auto it_st = std::find(protocols.begin(), protocols.end(), "staircase");
+  if (it_st != protocols.end() && nt > 1) {
+    const int s = static_cast<int>(it_st - protocols.begin());
     int best = 0;
     for (int a = 1; a < nt; ++a) {
       if (cross_mean_other[a] > cross_mean_other[best]) best = a;
@@ -338,133 +352,118 @@ SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx
         "staircase " + Fixed(cross_mean_other[s], 1) + " % vs best other " + Fixed(second, 1) +
             " % (cross-validation, mean over algorithms)");
     findings.Push(f);
-    md += FindingLine(f);
+    *md += FindingLine(f);
   }
-  out.json.Set("findings", findings);
-  // Against the truth: cross-validation predictions on unseen test types versus noiseless torque.
+  return findings;
+}
+
+/// Against the truth: cross-validation predictions on unseen test types versus noiseless torque.
+Json ElbowAgainstTruth(const ElbowInputs& in, const ElbowBestFits& b, std::string* md) {
   Json truth = Json::Object();
-  md +=
+  *md +=
       "\nAgainst the noiseless truth: Best Fit of the cross-validation predictions (fitted on "
       "one test, evaluated on the other tests' inputs) against the noise-free torque:\n\n"
       "| algorithm |";
-  for (const auto& p : L.protocols) md += " fitted on " + Label(p) + " |";
-  md += "\n|---|";
-  for (int a = 0; a < nt; ++a) md += "---|";
-  md += "\n";
-  for (int m = 0; m < nm; ++m) {
-    md += "| " + name_of(m) + " |";
+  for (const auto& p : in.L.protocols) *md += " fitted on " + Label(p) + " |";
+  *md += "\n|---|";
+  for (int a = 0; a < in.nt; ++a) *md += "---|";
+  *md += "\n";
+  for (int m = 0; m < in.nm; ++m) {
+    *md += "| " + in.NameOf(m) + " |";
     Json row = Json::Object();
-    for (int a = 0; a < nt; ++a) {
-      const double v = MeanFinite(cross_truth[m][a]);
-      row.Set(L.protocols[a], v);
-      md += " " + FitCell(v) + " |";
+    for (int a = 0; a < in.nt; ++a) {
+      const double v = MeanFinite(b.cross_truth[m][a]);
+      row.Set(in.L.protocols[a], v);
+      *md += " " + FitCell(v) + " |";
     }
-    truth.Set(methods[m] + "_unseen_truth_best_fit_percent", row);
-    md += "\n";
+    truth.Set(in.methods()[m] + "_unseen_truth_best_fit_percent", row);
+    *md += "\n";
   }
-  out.json.Set("truth", truth);
-  // Plot: identification and validation Best Fit per test and algorithm.
+  return truth;
+}
+
+/// Plot: identification and validation Best Fit per test and algorithm.
+void ElbowPlot(const ElbowInputs& in, const ElbowBestFits& b, std::string* md) {
   std::vector<render::BarSeries> bars;
-  for (int m = 0; m < nm; ++m) {
+  for (int m = 0; m < in.nm; ++m) {
     for (int table = 0; table < 2; ++table) {
-      render::BarSeries b;
-      b.label = name_of(m) + (table == 0 ? " ident." : " valid.");
-      for (int a = 0; a < nt; ++a)
-        b.values.push_back(MeanFinite((table == 0 ? ident : valid)[m][a]));
-      b.colour = render::PaletteColour(2 * m + table);
-      bars.push_back(b);
+      render::BarSeries s;
+      s.label = in.NameOf(m) + (table == 0 ? " ident." : " valid.");
+      for (int a = 0; a < in.nt; ++a)
+        s.values.push_back(MeanFinite((table == 0 ? b.ident : b.valid)[m][a]));
+      s.colour = render::PaletteColour(2 * m + table);
+      bars.push_back(s);
     }
   }
   std::vector<std::string> cats;
-  for (const auto& p : L.protocols) cats.push_back(Label(p));
+  for (const auto& p : in.L.protocols) cats.push_back(Label(p));
   render::Axes ax;
   ax.title = "Elbow tests: Best Fit by test and algorithm (paper 002 Tables 1-2)";
   ax.y_label = "Best Fit %";
-  if (ctx->write_outputs)
-    render::WriteBarChartPng(Dir(ctx->plots_dir, "elbow_best_fit.png"), ax, cats, bars);
-  md += "\n![elbow Best Fit](plots/elbow_best_fit.png)\n\n";
-  out.markdown = md;
-  return out;
+  if (in.ctx->write_outputs)
+    render::WriteBarChartPng(Dir(in.ctx->plots_dir, "elbow_best_fit.png"), ax, cats, bars);
+  *md += "\n![elbow Best Fit](plots/elbow_best_fit.png)\n\n";
 }
 
-SectionResult RunTremorWrist(const BenchmarkSection& section, SectionContext* ctx) {
-  const std::string& path = ctx->quick ? section.quick_study_path : section.study_path;
-  const StudyTrials data = SectionStudy(section, ctx);
-  const StudyLayout L = LayoutOf(data.study);
-  if (L.reps < 3)
-    throw std::runtime_error(path +
-                             ": repetitions: tremor_wrist needs >= 3 (two "
-                             "for the order sweep, one held out)");
-  const int np = L.participants, nr = L.reps;
-  struct Per {
-    std::map<std::pair<int, int>, std::pair<double, double>> sweep;  // (l, n) → (V, CV)
-    double freq = NAN, freq_true = NAN, amp = NAN, amp_true = NAN, test_bf = NAN, truth_bf = NAN;
-  };
-  std::vector<Per> per(static_cast<std::size_t>(np));
-  ctx->loop->Run("tremor participant", static_cast<std::size_t>(np), [&](std::size_t pi) {
-    const int p = static_cast<int>(pi);
-    std::vector<Trial> train, test = {AgonistFirst(data.measured[L.Index(p, 0, nr - 1)])};
-    for (int r = 0; r + 1 < nr; ++r) train.push_back(AgonistFirst(data.measured[L.Index(p, 0, r)]));
-    const FitOutput fit = ctx->fits->Run("tremor-arx", train, test, section.options);
-    Per& r = per[pi];
-    if (const Json* sw = fit.metrics.Find("order_sweep")) {
-      for (const auto& e : sw->Items()) {
-        r.sweep[{static_cast<int>(e.Find("poles_l")->AsNumber()),
-                 static_cast<int>(e.Find("zeros_n")->AsNumber())}] = {
-            e.Find("validation_best_fit_percent")->AsNumber(),
-            e.Find("cross_validation_best_fit_percent")->AsNumber()};
-      }
+/// One participant's tremor-wrist figures.
+struct TremorParticipant {
+  std::map<std::pair<int, int>, std::pair<double, double>> sweep;  // (l, n) → (V, CV)
+  double freq = NAN, freq_true = NAN, amp = NAN, amp_true = NAN, test_bf = NAN, truth_bf = NAN;
+};
+
+/// Participant p: tremor-arx on the first reps − 1 trials, tested on the last; the identified
+/// tremor beside the planted one.
+TremorParticipant FitTremorParticipant(const BenchmarkSection& section, SectionContext* ctx,
+                                       const StudyTrials& data, const StudyLayout& L, int p) {
+  const int nr = L.reps;
+  std::vector<Trial> train, test = {AgonistFirst(data.measured[L.Index(p, 0, nr - 1)])};
+  for (int r = 0; r + 1 < nr; ++r) train.push_back(AgonistFirst(data.measured[L.Index(p, 0, r)]));
+  const FitOutput fit = ctx->fits->Run("tremor-arx", train, test, section.options);
+  TremorParticipant r;
+  if (const Json* sw = fit.metrics.Find("order_sweep")) {
+    for (const auto& e : sw->Items()) {
+      r.sweep[{static_cast<int>(e.Find("poles_l")->AsNumber()),
+               static_cast<int>(e.Find("zeros_n")->AsNumber())}] = {
+          e.Find("validation_best_fit_percent")->AsNumber(),
+          e.Find("cross_validation_best_fit_percent")->AsNumber()};
     }
-    const std::string col = OutputColumn(fit.predictions[0]);
-    r.test_bf = FitAgainst(fit.predictions[0], test[0], col);
-    r.truth_bf = FitAgainst(fit.predictions[0], data.truth[L.Index(p, 0, nr - 1)], col);
-    r.freq = ModelYamlValue(fit.model_yaml, "tremor_frequency");
-    const double l1 = ModelYamlValue(fit.model_yaml, "lambda1");
-    const double l2 = ModelYamlValue(fit.model_yaml, "lambda2");
-    // The tremor term d enters the output as d / A_P (tremor_arx.h): its angle amplitude
-    // is |λ| / |A_P(e^{jωT})|, ω = 2π f.
-    const std::vector<double> arx_a = ModelYamlList(fit.model_yaml, "a");
-    const double T = test[0].time[1] - test[0].time[0];
-    std::complex<double> A(1.0, 0.0);
-    for (std::size_t i = 0; i < arx_a.size(); ++i) {
-      A += arx_a[i] * std::polar(1.0, -2.0 * M_PI * r.freq * T * static_cast<double>(i + 1));
-    }
-    r.amp = std::hypot(l1, l2) / std::abs(A);
-    // Planted tremor: frequency from the participant's model; its angle amplitude from
-    // the noiseless output with and without the tremor torque (√2 · RMS of the
-    // difference).
-    const sim::ModelParams& m = data.study.items[L.Index(p, 0, 0)].scenario.model;
-    r.freq_true = m.mechanisms.tremor.enabled ? m.mechanisms.tremor.frequency_hz : NAN;
-    const Trial& tr0 = data.measured[L.Index(p, 0, 0)];
-    const Json amp = CachedJson(
-        ctx,
-        {"tremor-amplitude", data.study.source_text, ReadFile(data.study.scenario_path),
-         std::to_string(ctx->seed), std::to_string(p), TrialHash(tr0), col},
-        [&] {
-          sim::ModelParams quiet = m;
-          quiet.mechanisms.tremor.enabled = false;
-          const Trial with = identification::fullmodel::SimulateLike(m, tr0, 1e-6);
-          const Trial without = identification::fullmodel::SimulateLike(quiet, tr0, 1e-6);
-          double ss = 0.0;
-          const auto& a = with.Column(col);
-          const auto& b = without.Column(col);
-          for (std::size_t i = 0; i < a.size(); ++i) ss += (a[i] - b[i]) * (a[i] - b[i]);
-          return Json(std::sqrt(2.0 * ss / std::max<std::size_t>(1, a.size())));
-        });
-    r.amp_true = amp.IsNumber() ? amp.AsNumber() : NAN;
-    ctx->progress->Done(kTremorParticipantWeight, "tremor wrist: ARX order sweeps");
-  });
-  SectionResult out;
-  std::string md = "## Tremor wrist (paper 001 Table 5)\n\n";
-  md += "Study `" + data.study.name + "`: " + std::to_string(np) + " participant(s) × " +
-        std::to_string(nr) +
-        " multisine trials with a planted wrist tremor. Order sweep on the "
-        "first " +
-        std::to_string(nr - 1) +
-        " trials (validation: fit and evaluate on the same trial; cross-validation: fit on one, "
-        "evaluate on the other; mean), m_P = 1. Cells: V / CV Best Fit %, mean over "
-        "participants. Paper 001 Table 5 (4 participants, measured): V 60.0–68.5 %, CV "
-        "57.7–64.0 % over l_P, n_P in 4–12.\n\n";
+  }
+  const std::string col = OutputColumn(fit.predictions[0]);
+  r.test_bf = FitAgainst(fit.predictions[0], test[0], col);
+  r.truth_bf = FitAgainst(fit.predictions[0], data.truth[L.Index(p, 0, nr - 1)], col);
+  r.freq = ModelYamlValue(fit.model_yaml, "tremor_frequency");
+  r.amp = TremorAngleAmplitude(
+      ModelYamlList(fit.model_yaml, "a"), ModelYamlValue(fit.model_yaml, "lambda1"),
+      ModelYamlValue(fit.model_yaml, "lambda2"), r.freq, test[0].time[1] - test[0].time[0]);
+  // Planted tremor: frequency from the participant's model; its angle amplitude from
+  // the noiseless output with and without the tremor torque (√2 · RMS of the
+  // difference).
+  const sim::ModelParams& m = data.study.items[L.Index(p, 0, 0)].scenario.model;
+  r.freq_true = m.mechanisms.tremor.enabled ? m.mechanisms.tremor.frequency_hz : NAN;
+  const Trial& tr0 = data.measured[L.Index(p, 0, 0)];
+  const Json amp =
+      CachedJson(ctx,
+                 {"tremor-amplitude", data.study.source_text, ReadFile(data.study.scenario_path),
+                  std::to_string(ctx->seed), std::to_string(p), TrialHash(tr0), col},
+                 [&] {
+                   sim::ModelParams quiet = m;
+                   quiet.mechanisms.tremor.enabled = false;
+                   const Trial with = identification::fullmodel::SimulateLike(m, tr0, 1e-6);
+                   const Trial without = identification::fullmodel::SimulateLike(quiet, tr0, 1e-6);
+                   double ss = 0.0;
+                   const auto& a = with.Column(col);
+                   const auto& b = without.Column(col);
+                   for (std::size_t i = 0; i < a.size(); ++i) ss += (a[i] - b[i]) * (a[i] - b[i]);
+                   return Json(std::sqrt(2.0 * ss / std::max<std::size_t>(1, a.size())));
+                 });
+  r.amp_true = amp.IsNumber() ? amp.AsNumber() : NAN;
+  return r;
+}
+
+/// The order sweep (Table 5): mean V / CV Best Fit per (l_P, n_P); *min_v gets the lowest mean,
+/// *any false when no participant swept.
+Json OrderSweepTable(const std::vector<TremorParticipant>& per, double* min_v, bool* any,
+                     std::string* md) {
   std::set<int> ls, ns;
   for (const auto& r : per) {
     for (const auto& [k, v] : r.sweep) {
@@ -472,15 +471,15 @@ SectionResult RunTremorWrist(const BenchmarkSection& section, SectionContext* ct
       ns.insert(k.second);
     }
   }
-  md += "| l_P \\ n_P |";
-  for (int n : ns) md += " " + std::to_string(n) + " |";
-  md += "\n|---|";
-  for (std::size_t i = 0; i < ns.size(); ++i) md += "---|";
-  md += "\n";
+  *md += "| l_P \\ n_P |";
+  for (int n : ns) *md += " " + std::to_string(n) + " |";
+  *md += "\n|---|";
+  for (std::size_t i = 0; i < ns.size(); ++i) *md += "---|";
+  *md += "\n";
   Json sweep = Json::Array();
-  double min_v = INFINITY;
+  *min_v = INFINITY;
   for (int l : ls) {
-    md += "| " + std::to_string(l) + " |";
+    *md += "| " + std::to_string(l) + " |";
     for (int n : ns) {
       std::vector<double> v, cv;
       for (const auto& r : per) {
@@ -494,41 +493,126 @@ SectionResult RunTremorWrist(const BenchmarkSection& section, SectionContext* ct
       e.Set("validation_best_fit_percent", MeanFinite(v));
       e.Set("cross_validation_best_fit_percent", MeanFinite(cv));
       sweep.Push(e);
-      min_v = std::min({min_v, MeanFinite(v), MeanFinite(cv)});
-      md += " " + Fixed(MeanFinite(v), 1) + " / " + Fixed(MeanFinite(cv), 1) + " |";
+      *min_v = std::min({*min_v, MeanFinite(v), MeanFinite(cv)});
+      *md += " " + Fixed(MeanFinite(v), 1) + " / " + Fixed(MeanFinite(cv), 1) + " |";
     }
-    md += "\n";
+    *md += "\n";
   }
-  out.json.Set("study", data.study.name);
-  out.json.Set("participants", np);
-  out.json.Set("order_sweep", sweep);
-  Json findings = Json::Array();
-  if (!ls.empty()) {
-    Json f = Finding("every order reaches Best Fit > 50 % (paper: all > 50 %)", min_v > 50.0,
-                     "lowest mean V/CV Best Fit " + Fixed(min_v, 1) + " %");
-    findings.Push(f);
-    md += "\n" + FindingLine(f);
-  }
-  md += "\nIdentified tremor against the planted one (held-out trial " + std::to_string(nr) +
-        "):\n\n| participant | f identified Hz | f planted Hz | amplitude identified deg | "
-        "planted deg | held-out Best Fit % | vs truth % |\n|---|---|---|---|---|---|---|\n";
+  *any = !ls.empty();
+  return sweep;
+}
+
+/// Identified tremor against the planted one, per participant; *ferr / *aerr get the frequency
+/// error (Hz) and the amplitude error (% of the planted amplitude).
+Json TremorAgainstPlanted(const std::vector<TremorParticipant>& per, int nr,
+                          std::vector<double>* ferr, std::vector<double>* aerr, std::string* md) {
+  *md += "\nIdentified tremor against the planted one (held-out trial " + std::to_string(nr) +
+         "):\n\n| participant | f identified Hz | f planted Hz | amplitude identified deg | "
+         "planted deg | held-out Best Fit % | vs truth % |\n|---|---|---|---|---|---|---|\n";
   Json tremor = Json::Array();
-  std::vector<double> ferr, aerr;
-  for (int p = 0; p < np; ++p) {
-    const Per& r = per[p];
+  for (std::size_t p = 0; p < per.size(); ++p) {
+    const TremorParticipant& r = per[p];
     Json j = Json::Object();
     j.Set("participant", "p" + std::to_string(p + 1));
     j.Set("frequency_identified_hz", r.freq).Set("frequency_planted_hz", r.freq_true);
     j.Set("amplitude_identified_rad", r.amp).Set("amplitude_planted_rad", r.amp_true);
     j.Set("heldout_best_fit_percent", r.test_bf).Set("truth_best_fit_percent", r.truth_bf);
     tremor.Push(j);
-    ferr.push_back(std::abs(r.freq - r.freq_true));
-    aerr.push_back(std::abs(100.0 * (r.amp - r.amp_true) / r.amp_true));
-    md += "| p" + std::to_string(p + 1) + " | " + Fixed(r.freq, 3) + " | " + Fixed(r.freq_true, 3) +
-          " | " + Fixed(r.amp * 180.0 / M_PI, 3) + " | " + Fixed(r.amp_true * 180.0 / M_PI, 3) +
-          " | " + Fixed(r.test_bf, 1) + " | " + Fixed(r.truth_bf, 1) + " |\n";
+    ferr->push_back(std::abs(r.freq - r.freq_true));
+    aerr->push_back(std::abs(100.0 * (r.amp - r.amp_true) / r.amp_true));
+    *md += "| p" + std::to_string(p + 1) + " | " + Fixed(r.freq, 3) + " | " +
+           Fixed(r.freq_true, 3) + " | " + Fixed(r.amp * 180.0 / M_PI, 3) + " | " +
+           Fixed(r.amp_true * 180.0 / M_PI, 3) + " | " + Fixed(r.test_bf, 1) + " | " +
+           Fixed(r.truth_bf, 1) + " |\n";
   }
-  out.json.Set("tremor", tremor);
+  return tremor;
+}
+
+}  // namespace
+
+SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx) {
+  ElbowInputs in;
+  in.section = &section;
+  in.ctx = ctx;
+  in.data = SectionStudy(section, ctx);
+  in.L = LayoutOf(in.data.study);
+  in.np = in.L.participants;
+  in.nr = in.L.reps;
+  in.nt = static_cast<int>(in.L.protocols.size());
+  in.nm = static_cast<int>(section.methods.size());
+  // Identification/validation: one fit per trial (evaluated on every trial of its test type);
+  // cross-validation: one fit per test type on all its trials (evaluated on every other type).
+  const std::vector<ElbowJob> jobs = ElbowJobs(in.nm, in.np, in.nt, in.nr);
+  std::vector<ElbowJobFigures> figures(jobs.size());
+  ctx->loop->Run("elbow fit", jobs.size(), [&](std::size_t ji) {
+    figures[ji] = FitElbowJob(in, jobs[ji]);
+    ctx->progress->Done(kSplineFitWeight, "elbow tests: spline Hammerstein fits");
+  });
+  const ElbowBestFits b = GatherElbowBestFits(jobs, figures, in.nm, in.nt);
+
+  SectionResult out;
+  std::string md = "## Elbow isometric tests (paper 002 Tables 1–3)\n\n";
+  md += "Study `" + in.data.study.name + "`: " + std::to_string(in.np) + " participant(s) × " +
+        std::to_string(in.nr) +
+        " trials of each test; isometric elbow torque. Best Fit % = 100 (1 − "
+        "‖y − ŷ‖/‖y − ȳ‖) of the simulated output. Identification: fit on a trial, evaluated on "
+        "it; validation: evaluated on the other trials of the same test; cross-validation: fit "
+        "on all trials of one test, evaluated on all trials of another. Paper values (one "
+        "participant, measured) in brackets.\n\n";
+  Json jt = Json::Object();
+  ElbowTablesOneTwo(in, b, &jt, &md);
+  const std::vector<double> cross_mean_other = ElbowTableThree(in, b, &jt, &md);
+  out.json = jt;
+  out.json.Set("study", in.data.study.name);
+  out.json.Set("participants", in.np);
+  out.json.Set("trials_per_test", in.nr);
+  out.json.Set("findings", ElbowFindings(in, b, cross_mean_other, &md));
+  out.json.Set("truth", ElbowAgainstTruth(in, b, &md));
+  ElbowPlot(in, b, &md);
+  out.markdown = md;
+  return out;
+}
+
+SectionResult RunTremorWrist(const BenchmarkSection& section, SectionContext* ctx) {
+  const std::string& path = ctx->quick ? section.quick_study_path : section.study_path;
+  const StudyTrials data = SectionStudy(section, ctx);
+  const StudyLayout L = LayoutOf(data.study);
+  if (L.reps < 3)
+    throw std::runtime_error(path +
+                             ": repetitions: tremor_wrist needs >= 3 (two "
+                             "for the order sweep, one held out)");
+  const int np = L.participants, nr = L.reps;
+  std::vector<TremorParticipant> per(static_cast<std::size_t>(np));
+  ctx->loop->Run("tremor participant", static_cast<std::size_t>(np), [&](std::size_t pi) {
+    per[pi] = FitTremorParticipant(section, ctx, data, L, static_cast<int>(pi));
+    ctx->progress->Done(kTremorParticipantWeight, "tremor wrist: ARX order sweeps");
+  });
+  SectionResult out;
+  std::string md = "## Tremor wrist (paper 001 Table 5)\n\n";
+  md += "Study `" + data.study.name + "`: " + std::to_string(np) + " participant(s) × " +
+        std::to_string(nr) +
+        " multisine trials with a planted wrist tremor. Order sweep on the "
+        "first " +
+        std::to_string(nr - 1) +
+        " trials (validation: fit and evaluate on the same trial; cross-validation: fit on one, "
+        "evaluate on the other; mean), m_P = 1. Cells: V / CV Best Fit %, mean over "
+        "participants. Paper 001 Table 5 (4 participants, measured): V 60.0–68.5 %, CV "
+        "57.7–64.0 % over l_P, n_P in 4–12.\n\n";
+  double min_v = INFINITY;
+  bool swept = false;
+  const Json sweep = OrderSweepTable(per, &min_v, &swept, &md);
+  out.json.Set("study", data.study.name);
+  out.json.Set("participants", np);
+  out.json.Set("order_sweep", sweep);
+  Json findings = Json::Array();
+  if (swept) {
+    Json f = Finding("every order reaches Best Fit > 50 % (paper: all > 50 %)", min_v > 50.0,
+                     "lowest mean V/CV Best Fit " + Fixed(min_v, 1) + " %");
+    findings.Push(f);
+    md += "\n" + FindingLine(f);
+  }
+  std::vector<double> ferr, aerr;
+  out.json.Set("tremor", TremorAgainstPlanted(per, nr, &ferr, &aerr, &md));
   Json truth = Json::Object();
   truth.Set("frequency_mean_abs_error_hz", MeanFinite(ferr));
   truth.Set("amplitude_mean_abs_error_percent", MeanFinite(aerr));

@@ -1,23 +1,25 @@
-// `fesim benchmark` (issue 6): every identifier of papers 000–004 against the ground truth of a
-// virtual cohort, with the papers' validation schemes and the layout of their tables.
+// `fesim benchmark` (issue 6): every identifier of the papers (docs/papers.md) against the ground
+// truth of a virtual cohort, with the papers' validation schemes and the layout of their tables.
 //
 // Sections (scenarios/benchmark_spec.h says which run and on which studies):
-//  hand_array    paper 000 Tables 1–2: per participant and joint the normalised cross-validation
+//  hand_array    [Hand Hammerstein] Tables 1–2: per participant and joint the normalised
+//  cross-validation
 //                error (fit on three of four step-grid data sets, validate on the fourth, all four
 //                rotations, mean) of the full-model (12) fit and of the MIMO Hammerstein model,
 //                and the time per local optimisation step.
-//  elbow_tests   paper 002 Tables 1–3: identification, validation and cross-validation Best Fit of
+//  elbow_tests   [Le 2010] Tables 1–3: identification, validation and cross-validation Best Fit of
 //                Algorithms 1 and 2 for triangular ramp, filtered random noise, staircase, PRMS.
-//  tremor_wrist  paper 001 Table 5: the order sweep's validation / cross-validation Best Fit, and
+//  tremor_wrist  [Copur 2016] Table 5: the order sweep's validation / cross-validation Best Fit,
+//  and
 //                the identified tremor frequency and amplitude against the planted ones.
-//  shoulder      paper 003: offline fit indices of models 1 and 2, EKF convergence times and
+//  shoulder      [Spagnol 2013]: offline fit indices of models 1 and 2, EKF convergence times and
 //                parameter estimates (trajectories plotted).
-//  reaching      paper 004: LOOCV normalised RMS torque error per joint of the three models.
+//  reaching      [Schearer 2014]: LOOCV normalised RMS torque error per joint of the three models.
 //  truth         what the papers could not do: prediction error of every reduced model against
 //                the noiseless full model on inputs it never saw, parameter errors where a
 //                parameter has a ground-truth counterpart, and (assumptions) how far the cohort's
-//                ground truth is from paper 000's Assumptions, by switching that aspect of the full
-//                model to the assumption and re-simulating.
+//                ground truth is from [Hand Hammerstein]'s Assumptions, by switching that aspect of
+//                the full model to the assumption and re-simulating.
 // Outputs: DIR/report.md, DIR/results.json (every figure of the report), DIR/plots/*.png; the
 // trials and fits are cached under DIR/cache/ so a killed run resumes.
 #pragma once

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -92,5 +93,28 @@ std::vector<double> ModelYamlList(const std::string& model_yaml, const std::stri
 /// A finding: "holds"/"does not hold" and the margin, as JSON and one Markdown line.
 Json Finding(const std::string& claim, bool holds, const std::string& margin);
 std::string FindingLine(const Json& finding);
+
+// The steps of RunBenchmark (run.cc).
+
+/// The report's findings table (appended to *md: one row per finding of every section, in the
+/// sections' order) and results.json "findings" (each finding with its "section").
+Json FindingsSummary(const Json& sections, std::string* md);
+
+/// What R single-threaded MPI ranks would take, from a run's loop costs (`wall_s` the run's wall
+/// time; results.json "scaling_estimate", its table appended to *md), for R = 1, 2, 4, 8, 16, 64:
+/// the loops' items spread over R ranks, the rest serial. Bounds for dynamic assignment of each
+/// loop: at least max(longest item, sum / R), at most sum / R + longest item (1 − 1/R); each
+/// loop's replay time added. Meaningful from a run with one thread per rank (item times are
+/// then single-thread times).
+Json ScalingEstimate(const std::vector<WorkLoop::LoopCost>& costs, double wall_s, std::string* md);
+
+/// A rank's work counters, summed over the ranks on rank 0 of an MPI job.
+struct WorkCounters {
+  int trials_simulated = 0, fits_run = 0, fits_cached = 0;
+  std::map<std::string, double> by_kind;  ///< thread-seconds by kind of work (Timing).
+  Json ToJson() const;
+};
+/// The sum of the ranks' counters, each as WorkCounters::ToJson's text.
+WorkCounters SumWorkCounters(const std::vector<std::string>& per_rank);
 
 }  // namespace fesim::paper_benchmark

@@ -5,8 +5,8 @@
 // mapped by the bilinear transform z = (1 + p/(2 f_s)) / (1 − p/(2 f_s)) (frequency pre-warped so
 // that |H(e^{j2π f_c/f_s})|² = 1/2 exactly), with all N zeros at z = −1 and unit gain at DC. It is
 // realised as a cascade of second-order sections (one first-order section when N is odd), each in
-// transposed direct form II. Used for the filtered random noise test of paper 002
-// (002_78a57b74c57ee464.txt §5, "FRN test": "lowpass filtering white noise").
+// transposed direct form II. Used for the filtered random noise test of [Le 2010]
+// ([Le 2010] §5, "FRN test": "lowpass filtering white noise").
 #pragma once
 
 #include <vector>

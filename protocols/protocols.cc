@@ -386,7 +386,7 @@ std::vector<StimulationProgram> StepGridDataSets(const StepGridParams& params, i
   return sets;
 }
 
-// --- paper 002 ----------------------------------------------------------------------------------
+// --- [Le 2010] ----------------------------------------------------------------------------------
 
 StimulationProgram TriangularRamp(const TriangularRampParams& params) {
   CheckChannelName("TriangularRampParams.channel", params.channel);
@@ -523,7 +523,8 @@ StimulationProgram Prms(const PrmsParams& params) {
   return FrameSingleChannel(params.channel, params.timing, times, values, params.limit);
 }
 
-// --- paper 001 ----------------------------------------------------------------------------------
+// --- [Copur 2016]
+// ----------------------------------------------------------------------------------
 
 CoactivatedPair CoactivationMap(double u_us, double coact_agonist_us, double coact_antagonist_us) {
   CoactivatedPair out;
@@ -579,7 +580,8 @@ StimulationProgram Multisine(const MultisineParams& params) {
   return ClipToLimits(std::move(p), params.limit);
 }
 
-// --- paper 003 ----------------------------------------------------------------------------------
+// --- [Spagnol 2013]
+// ----------------------------------------------------------------------------------
 
 StimulationProgram ShoulderPseudoRandomSteps(const ShoulderStepsParams& params) {
   const std::string n = "ShoulderStepsParams";
@@ -628,7 +630,8 @@ StimulationProgram ShoulderPseudoRandomSteps(const ShoulderStepsParams& params) 
   return ClipToLimits(std::move(p), params.limit);
 }
 
-// --- paper 004 ----------------------------------------------------------------------------------
+// --- [Schearer 2014]
+// ----------------------------------------------------------------------------------
 
 QuinticTiming MinimumJerk(double tau) {
   QuinticTiming q;

@@ -3,26 +3,26 @@
 // Every stimulation generator returns a StimulationProgram: piecewise-constant pulse widths, the
 // values in values_us[k] (one per channel, µs) held from times_s[k] until times_s[k+1] (the last
 // until duration_s). Where the papers' signal is continuous (ramp, filtered noise, multisine) the
-// value is updated at every stimulation pulse (pulse_rate_hz, 40 Hz in papers 000–002) and equals
-// the continuous signal at that pulse's instant. Every generator passes its output through
-// ClipToLimits (issue 3: each pulse width in [0, 300] µs and Σ_k u_k ≤ u_max), so no program
-// exceeds the limits whatever its parameters.
+// value is updated at every stimulation pulse (pulse_rate_hz, 40 Hz in [Hand Hammerstein],
+// [Copur 2016] and [Le 2010]) and equals the continuous signal at that pulse's instant. Every
+// generator passes its output through ClipToLimits (issue 3: each pulse width in [0, 300] µs and
+// Σ_k u_k ≤ u_max), so no program exceeds the limits whatever its parameters.
 //
 // Random generators draw from std::mt19937_64 seeded with `seed`, transformed by this file's own
 // uniform/normal maps (std distributions are implementation-defined), so a seed gives the same
 // program on every platform; a different seed gives a different program.
 //
 // Sources (cited by file in /work/shared/papers):
-//   000_0a6c0de9fc69df7c.txt §5.1, eq. (46), Fig. 6 — step grid over U, 5 s steps, 50 µs spacing,
+//   [Hand Hammerstein] §5.1, eq. (46), Fig. 6 — step grid over U, 5 s steps, 50 µs spacing,
 //     steady state at each step's end, four data sets, both traversal orders.
-//   002_78a57b74c57ee464.txt §5 and §6.1 — triangular ramp, staircase (τ = T_s/4, widths τ/2τ/3τ
+//   [Le 2010] §5 and §6.1 — triangular ramp, staircase (τ = T_s/4, widths τ/2τ/3τ
 //     each for 1/3 of the test, randomised), filtered random noise, PRMS; 30 s tests whose first
 //     and last 5 s are zero stimulation; isometric elbow at ≈ π/2 (the rig is the scenario's job).
-//   001_50576a960b4d02ae.txt §3.2 eq. (5)–(7), §4.1 — multisine 0.2–4 Hz on one virtual input u
+//   [Copur 2016] §3.2 eq. (5)–(7), §4.1 — multisine 0.2–4 Hz on one virtual input u
 //     mapped to agonist/antagonist pulse widths with co-activation.
-//   003_7182ceb830858ebb.txt §II–III.A — pseudo-random steps of two antagonists (anterior and
+//   [Spagnol 2013] §II–III.A — pseudo-random steps of two antagonists (anterior and
 //     posterior deltoid), never both stimulated at once.
-//   004_7ee2989736d21d4b.txt §II.A — robot-driven reaching: straight lines, fifth-order polynomial
+//   [Schearer 2014] §II.A — robot-driven reaching: straight lines, fifth-order polynomial
 //     timing, two homes × 3×3 targets × 3 repetitions, 1 s hold at the target, return.
 #pragma once
 
@@ -36,7 +36,7 @@ namespace fesim::protocols {
 
 /// Largest pulse width any stimulator channel may deliver, µs (000 eq. (46), 002 §6.1).
 constexpr double kMaxPulseWidthUs = 300.0;
-/// Stimulation pulse rate of papers 000–002, Hz.
+/// Stimulation pulse rate of [Hand Hammerstein], [Copur 2016] and [Le 2010], Hz.
 constexpr double kDefaultPulseRateHz = 40.0;
 
 /// Piecewise-constant multi-channel stimulation (see the file comment).
@@ -54,7 +54,7 @@ struct StimulationProgram {
 /// time the first value, at or after duration_s the last value.
 std::vector<double> ValueAt(const StimulationProgram& program, double t_s);
 
-/// Stimulation limit of issue 3 / paper 000 eq. (46).
+/// Stimulation limit of issue 3 / [Hand Hammerstein] eq. (46).
 struct StimulationLimit {
   /// u_max: bound on Σ_k u_k over all channels at every instant, µs, > 0 (may be +∞).
   double sum_max_us = std::numeric_limits<double>::infinity();
@@ -69,7 +69,7 @@ std::vector<double> ClipToLimits(std::vector<double> values_us, const Stimulatio
 StimulationProgram ClipToLimits(StimulationProgram program, const StimulationLimit& limit);
 
 // ---------------------------------------------------------------------------------------------
-// Paper 000 §5.1: step grid over U.
+// [Hand Hammerstein] §5.1: step grid over U.
 
 /// Traversal order of the grid (000 Fig. 6 and its caption "data was also collected applying
 /// input u_1 as in c) and u_2 as in b)").
@@ -110,7 +110,7 @@ std::vector<StimulationProgram> StepGridDataSets(const StepGridParams& params,
                                                  int num_data_sets = 4);
 
 // ---------------------------------------------------------------------------------------------
-// Paper 002 §5 / §6.1: single-channel isometric elbow tests.
+// [Le 2010] §5 / §6.1: single-channel isometric elbow tests.
 
 /// Timing shared by the paper-002 tests: a duration_s test whose first and last rest_s are zero
 /// stimulation (baseline torque offset is estimated from those rests, 002 §6.1). Switching instants
@@ -146,7 +146,7 @@ struct StaircaseParams {
   double u_min_us = 0.0;    ///< lowest level, µs, in [0, u_max_us).
   double u_max_us = 300.0;  ///< highest level, µs, in (u_min_us, 300].
   /// T_s, 98 % settling time of the muscle's response, s, in [8/pulse_rate_hz, active window/1.5]
-  /// (τ ≥ 2 pulse periods; one step of each width fits). Paper 002 gives no value; 1 s gives
+  /// (τ ≥ 2 pulse periods; one step of each width fits). [Le 2010] gives no value; 1 s gives
   /// τ = 0.25 s.
   double settling_time_s = 1.0;
   IsometricTestTiming timing;
@@ -196,7 +196,7 @@ StimulationProgram Prms(const PrmsParams& params);
 std::vector<int> PrmsSymbols(const PrmsParams& params, std::size_t length);
 
 // ---------------------------------------------------------------------------------------------
-// Paper 001 §3.2, §4.1: multisine through the co-activation mapping (horizontal-plane wrist).
+// [Copur 2016] §3.2, §4.1: multisine through the co-activation mapping (horizontal-plane wrist).
 
 /// Agonist/antagonist pulse widths for one virtual input (001 eq. (5)–(6)).
 struct CoactivatedPair {
@@ -234,15 +234,15 @@ std::vector<double> MultisineVirtualInput(const MultisineParams& params);
 StimulationProgram Multisine(const MultisineParams& params);
 
 // ---------------------------------------------------------------------------------------------
-// Paper 003 §III.A: pseudo-random steps of two antagonists, never both at once.
+// [Spagnol 2013] §III.A: pseudo-random steps of two antagonists, never both at once.
 
 /// A sequence of steps; for each, one of the two channels is chosen at random (fair coin), its
 /// level drawn uniform in [level_min_us, level_max_us] and held for a duration uniform in
 /// [step_min_s, step_max_s]; the other channel is 0 throughout. Each step is followed by a rest
 /// (both 0) uniform in [gap_min_s, gap_max_s]. Durations are rounded to whole pulse periods
 /// (≥ one). Steps continue while they end before duration_s − rest_s; rest_s of zero stimulation
-/// opens and closes the program. Paper 003 commands recruitment λ through an eEMG λ-controller;
-/// fesim has no eEMG, so the steps are on pulse width (departure).
+/// opens and closes the program. [Spagnol 2013] commands recruitment λ through an eEMG
+/// λ-controller; fesim has no eEMG, so the steps are on pulse width (departure).
 struct ShoulderStepsParams {
   std::vector<std::string> channels = {"delt_ant", "delt_post"};  ///< exactly 2 (adduction,
                                                                   ///< abduction in 003).
@@ -261,7 +261,7 @@ struct ShoulderStepsParams {
 StimulationProgram ShoulderPseudoRandomSteps(const ShoulderStepsParams& params);
 
 // ---------------------------------------------------------------------------------------------
-// Paper 004 §II.A: robot-driven reaching (hand trajectory, not stimulation; muscles relaxed).
+// [Schearer 2014] §II.A: robot-driven reaching (hand trajectory, not stimulation; muscles relaxed).
 
 using Vec3 = std::array<double, 3>;
 

@@ -1,14 +1,16 @@
 // The benchmark study file of `fesim benchmark` (issue 6): which virtual studies to generate,
-// which identification methods to fit to them, and how (papers 000–004's validation schemes).
+// which identification methods to fit to them, and how (the papers' validation schemes,
+// docs/papers.md).
 //
 //   benchmark: text                                   (required) name of the report
 //   hand_array:      {study, quick_study, methods, options, full_model, quick_full_model}
-//                                                                  paper 000 Tables 1–2
-//   elbow_tests:     {study, quick_study, methods, options}        paper 002 Tables 1–3
-//   tremor_wrist:    {study, quick_study, methods, options}        paper 001 Table 5
-//   shoulder:        {study, quick_study, methods, options}        paper 003
-//   reaching:        {scenario, quick_scenario, methods, options}  paper 004
-//   assumptions:     {participants: 1–1000}                        paper 000 Assumptions 1–7
+//                                                                  [Hand Hammerstein] Tables 1–2
+//   elbow_tests:     {study, quick_study, methods, options}        [Le 2010] Tables 1–3
+//   tremor_wrist:    {study, quick_study, methods, options}        [Copur 2016] Table 5
+//   shoulder:        {study, quick_study, methods, options}        [Spagnol 2013]
+//   reaching:        {scenario, quick_scenario, methods, options}  [Schearer 2014]
+//   assumptions:     {participants: 1–1000}                        [Hand Hammerstein] Assumptions
+//   1–7
 // Every section is optional (at least one is required). `study`/`quick_study` are study files
 // (scenarios/study.h), absolute or relative to this file; `--quick` uses `quick_study` (shorter
 // protocols, two participants). `methods` lists `fesim identify` names allowed for the section

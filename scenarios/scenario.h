@@ -43,13 +43,13 @@
 //     protocol: {name: step_grid|ramp|staircase|filtered_noise|prms|multisine|shoulder_steps,
 //                channel(s), u_min_us, u_max_us, u_sum_max_us, seed, …} (protocols/protocols.h)
 //     reaching: {repetitions, reach_duration_s, hold_s, pause_s, transfer_duration_s,
-//                sample_rate_hz, homes_m: [[x, y, z]…], targets_m: [[x, y, z]…]}  (paper 004)
+//                sample_rate_hz, homes_m: [[x, y, z]…], targets_m: [[x, y, z]…]}  ([Schearer 2014])
 //   sensors:
 //     angles:     {rate_hz, noise_std_deg, coordinates: [<coordinate>…], offset_drift_deg_per_s,
 //                  dropout_probability, dropout_mean_samples, outlier_probability, outlier_std_deg}
 //     velocities: {rate_hz, noise_std_deg_s, coordinates: […], … the same with _deg_s}
 //     torques:    {rate_hz, noise_std_nm, coordinates: […], … with _nm}  (locked/prescribed)
-//     any sensor: baseline_window_s (subtract the mean of [0, window) — paper 002's offset
+//     any sensor: baseline_window_s (subtract the mean of [0, window) — [Le 2010]'s offset
 //                 removal from the rest period)
 //     truth_rate_hz
 //   integrator: {method: cvodes|cvodes-adams|simbody-rkm, tolerance: 1e-12–1e-2}
@@ -70,7 +70,7 @@ struct Scenario {
   std::string source_text;  ///< the file's bytes (hashed into the manifest).
   sim::ModelParams model;   ///< the participant and rig.
   sim::TrialRequest trial;  ///< stimulation, duration, sensors, integrator.
-  /// Robot-driven reaching (stimulation type `reaching`, papers/004_*): the arm is moved along
+  /// Robot-driven reaching (stimulation type `reaching`, [Schearer 2014]): the arm is moved along
   /// the hand path with muscles relaxed; `fesim simulate` writes one trial per reach.
   std::optional<protocols::ReachingParams> reaching;
 };

@@ -79,7 +79,8 @@ std::vector<Participant> DrawCohort(const CohortParams& c) {
 void ApplyParticipant(const Participant& p, sim::ModelParams* m) {
   for (auto& mu : m->muscles) {
     mu.hill.max_isometric_force_n *= p.strength_scale;
-    // Recruitment thresholds u_db ∝ 1/β (paper 000 eq. 39): a higher threshold is a smaller β.
+    // Recruitment thresholds u_db ∝ 1/β ([Hand Hammerstein] eq. 39): a higher threshold is a
+    // smaller β.
     mu.recruitment.beta_per_us /= p.recruitment_threshold_scale;
     mu.activation_omega_rad_s *= p.omega_scale;
   }

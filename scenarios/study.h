@@ -14,8 +14,8 @@
 //   protocols: [{name, stimulation: {…scenario stimulation block…}}]   (required)
 //
 // Repetition r of a protocol gets protocol seed (its own `seed` or 1) + r, and a step grid
-// alternates its traversal order (paper 000 Fig. 6: both orders across the four data sets).
-// Participant k's draws come from its own random stream (seed, k), so a participant does not
+// alternates its traversal order ([Hand Hammerstein] Fig. 6: both orders across the four data
+// sets). Participant k's draws come from its own random stream (seed, k), so a participant does not
 // change when the cohort grows.
 #pragma once
 

@@ -1,4 +1,4 @@
-// Mobile arm support / exoskeleton (PRODUCT.md "Arm support"; papers/004_* §II uses rubber bands
+// Mobile arm support / exoskeleton (PRODUCT.md "Arm support"; [Schearer 2014] §II uses rubber bands
 // on a mobile arm support). Two mechanisms, each applied at a cuff point on a segment:
 //   elastic band:  F = k (L − L_s) · û  when L > L_s, else 0     (slack band; û points from the
 //                  cuff to the anchor, L = |p_anchor − p_cuff|). Potential ½ k (L − L_s)² for L >

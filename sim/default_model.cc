@@ -184,7 +184,7 @@ struct JointRow {
   double k, b, rest_deg, min_deg, max_deg, limit_k;
 };
 
-// k N·m/rad, b N·m·s/rad; Table I of papers/004_* converted from per-degree units where cited.
+// k N·m/rad, b N·m·s/rad; Table I of [Schearer 2014] converted from per-degree units where cited.
 std::vector<JointRow> JointTable() {
   return {
       {kShoulderElvPlane, 0.01 / kDeg, 0.007 / kDeg, 14.0, -90.0, 130.0, 10.0},  // 004 Table I
@@ -269,7 +269,7 @@ ModelParams DefaultModelParams(double height_m, double mass_kg) {
                               {"ECRL", mp(0.040, 0.030)}, {"ECRB", mp(0.060, 0.035)},
                               {"EDC", mp(0.070, 0.030)},  {"ECU", mp(0.065, 0.040)}};
   // Channel 1: dorsal pads (cols 4–5, rows 1–3) for the extensors; channel 2: volar pads
-  // (cols 0–1, rows 1–3) for the flexors — the two inputs of paper 000 §5.1.
+  // (cols 0–1, rows 1–3) for the flexors — the two inputs of [Hand Hammerstein] §5.1.
   model.channels = {
       {"ext", {10, 11, 16, 17, 22, 23}, {}},     {"flex", {6, 7, 12, 13, 18, 19}, {}},
       {"bic", {}, {{"BIC", 1.0}, {"BRA", 0.3}}}, {"tri", {}, {{"TRI", 1.0}}},

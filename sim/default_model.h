@@ -5,14 +5,14 @@
 // 33(6):829, Table 2 (MoBL upper-limb model); index-finger compartments EDC-I, FDS-I, FDP-I from
 // the same table. Moment arms (m, at the stated posture): wrist from Gonzalez et al. 1997
 // (J Biomech 30:705) as used by Holzbaur 2005; elbow flexors from Murray, Delp & Buchanan 1995
-// (J Biomech 28:513) expressed with eq. (10) of papers/000_* so that r grows with flexion;
+// (J Biomech 28:513) expressed with eq. (10) of [Hand Hammerstein] so that r grows with flexion;
 // finger flexors with eq. (10), extensors with eq. (9) (Brook et al. 1995). Values are rounded
 // literature figures; the shoulder moment arms of the deltoids and the biarticular heads are
 // assumed (order of magnitude from Holzbaur 2005 Fig. 4).
-// Passive joint coefficients: papers/004_7ee2989736d21d4b.txt Table I (non-SCI subject) for
+// Passive joint coefficients: [Schearer 2014] Table I (non-SCI subject) for
 // elevation plane, elevation and elbow; wrist and finger values assumed from the ranges reported
 // by Formica et al. 2012 (wrist ≈ 1 N·m/rad) and Kamper et al. 2002 (MCP).
-// Recruitment (eq. 3) and activation frequency Ω_i (eq. 6) are assumed within paper 000's
+// Recruitment (eq. 3) and activation frequency Ω_i (eq. 6) are assumed within [Hand Hammerstein]'s
 // identification bounds (Ω ∈ [0, 10] rad/s, u_db ∈ [20, 280] µs, u_sat ∈ [42, 600] µs).
 // Muscle fibres are at optimal length at the rest posture (assumption; see
 // CalibrateReferenceLengths).

@@ -10,7 +10,7 @@
 //                  dp/dt = a (1 − p) / T_rise − p / T_decay,   F ∝ 1 + g p
 //  delay         electromechanical delay δ: recruitment sees u(t − δ) (Cavanagh & Komi 1979)
 //  tremor        periodic joint torque τ = A (1 + m sin 2π f_m t) sin(2π (f t + ½ ḟ t²) + φ)
-//                (3–12 Hz; amplitude modulation m, frequency drift ḟ; papers/001_* §2)
+//                (3–12 Hz; amplitude modulation m, frequency drift ḟ; [Copur 2016] §2)
 //  crosstalk     extra current spread: a second Gaussian spread (fraction c, spread σ_x) on the
 //                array, and a fraction c to the muscles sharing a joint with a pair electrode's
 //  spasticity    velocity-dependent stretch reflex: τ = −G_d (|q̇| − v_th) sign(q̇) for |q̇| > v_th,
@@ -19,7 +19,7 @@
 //                upper-limb pattern after stroke), β = −1 of the extensors alone
 //                (Lance 1980's velocity-dependent resistance)
 //  stiction      Stribeck friction: τ = −(F_c + (F_s − F_c) e^{−(q̇/v_s)²}) tanh(q̇/v_c)
-//                (papers/003_* static friction of the exoskeleton)
+//                ([Spagnol 2013] static friction of the exoskeleton)
 //  sensor drift, dropouts, outliers: see sensors.h / SensorArtefacts.
 #pragma once
 

@@ -1,4 +1,4 @@
-// Parameters of the ground-truth upper-limb model (papers/000_0a6c0de9fc69df7c.txt eq. 12):
+// Parameters of the ground-truth upper-limb model ([Hand Hammerstein] eq. 12):
 //   y = H_RB · R · H_hill · H_IRC · A · u
 // Immutable after loading and validation (Pinocchio's Model / MuJoCo's mjModel): per-trial state
 // lives in SimTK::State and trial records.
@@ -23,7 +23,7 @@ namespace fesim::sim {
 
 /// The ten coordinates, in state order. Signs (right arm, at zero of the outer coordinates):
 ///  shoulder_elv_plane  about G's Y; 0 = frontal (abduction) plane, 90° = sagittal (flexion) plane
-///  shoulder_elevation  raises the arm within that plane (Y-X-Y Euler sequence, papers/004_*)
+///  shoulder_elevation  raises the arm within that plane (Y-X-Y Euler sequence, [Schearer 2014])
 ///  shoulder_rotation   about the humerus long axis, internal rotation positive
 ///  elbow_flexion       0 = extended, flexion positive
 ///  pro_sup             0 = neutral (thumb forward, palm medial), pronation positive
@@ -81,8 +81,8 @@ struct SinePrescription {
   double phase_rad = 0.0;
 };
 
-/// A prescribed coordinate trajectory from samples (robot-driven reaching, papers/004_*): q, q̇, q̈
-/// at strictly increasing times, interpolated by a C² quintic Hermite spline
+/// A prescribed coordinate trajectory from samples (robot-driven reaching, [Schearer 2014]): q, q̇,
+/// q̈ at strictly increasing times, interpolated by a C² quintic Hermite spline
 /// (sim/prescribed_motion.h). All four vectors have the same length (≥ 2), or all are empty.
 struct TablePrescription {
   std::vector<double> times_s;     ///< s, strictly increasing.
@@ -139,7 +139,7 @@ struct SensorParams {
   double dropout_mean_samples = 5.0;  ///< mean length of a dropout burst, samples, ≥ 1.
   double outlier_probability = 0.0;   ///< fraction of samples replaced by outliers, [0, 0.5].
   double outlier_std = 0.0;           ///< outlier deviation, measured unit, ≥ 0.
-  /// Baseline-offset removal (papers/002_* §5: the isometric rig's torque offset is taken from
+  /// Baseline-offset removal ([Le 2010] §5: the isometric rig's torque offset is taken from
   /// the rest period): when > 0, the mean of this sensor's samples in [0, window) is subtracted
   /// from every sample of the measured record, s, ≥ 0.
   double baseline_window_s = 0.0;
@@ -162,8 +162,9 @@ struct IntegratorParams {
   /// (rad/s) with t_c this time scale, so that a speed error held over t_c moves q by the
   /// tolerance — Simbody's weighting of u errors by a characteristic time (its integrators'
   /// u weights; default time scale 0.1 s). 0: the same number as for q (rad/s = rad). A
-  /// lightly damped oscillation (a tremor) is step-limited by its speeds' error: t_c = 0.1 s
-  /// takes 1.7× fewer steps for a 1.5× larger q error (docs/performance.md, issue 7). ≥ 0.
+  /// lightly damped oscillation (a tremor) is step-limited by its speeds' error: at tolerance
+  /// 1e-5, t_c = 0.1 s simulates a 60 s tremor trial 1.9× faster for a 1.6× larger q error
+  /// (docs/performance.md "Speed time scale (an option, not the default)"). ≥ 0.
   double speed_time_scale_s = 0.0;
   /// CVODES methods: internal steps over the whole integration at most (0: no limit but CVODES'
   /// 10⁶ per report interval). Used up: std::runtime_error naming the time reached. A fit whose

@@ -1,4 +1,4 @@
-// Passive joint moments (papers/000_0a6c0de9fc69df7c.txt eq. 14; values papers/004_* Table I).
+// Passive joint moments ([Hand Hammerstein] eq. 14; values [Schearer 2014] Table I).
 //
 //   τ_p(q, q̇) = k (q₀ − q) + k₂ (q₀ − q)² + k₃ (q₀ − q)³ − b q̇ + τ_lim(q) − τ_c(q̇)
 //   τ_lim(q)  = (K_L/κ) (e^{−κ (q − q_min)} − e^{−κ (q_max − q)})       (exponential range limits,
@@ -12,7 +12,7 @@
 //   k₃ (q₀ − q)³: a person's mild mid-range stiffening (or softening, k₃ < 0) of the passive
 //               curve (the person calibration of diagnosis/person.h); 0 by default
 //   τ_c(q̇)   = (F_c + (F_s − F_c) e^{−(q̇/v_s)²}) tanh(q̇ / v_c)   (optional Coulomb friction with
-//               Stribeck stiction, papers/003_*, smoothed over v_c; F_s = 0 means F_s = F_c)
+//               Stribeck stiction, [Spagnol 2013], smoothed over v_c; F_s = 0 means F_s = F_c)
 //   plus the stretch reflex of mechanisms.h (velocity-dependent resistance above v_th).
 // Units: q rad, q̇ rad/s, τ N·m, V J. Sign: positive τ accelerates q positively.
 #pragma once

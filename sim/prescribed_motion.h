@@ -1,5 +1,5 @@
 // Prescribed coordinate trajectories from samples (robot-driven reaching,
-// papers/004_7ee2989736d21d4b .txt §II.A: the robot drives the hand along smooth trajectories, so
+// [Schearer 2014] §II.A: the robot drives the hand along smooth trajectories, so
 // the joints follow smooth trajectories too).
 //
 // QuinticHermiteSpline interpolates samples (t_k, q_k, q̇_k, q̈_k) by one quintic per interval

@@ -1,4 +1,4 @@
-// Robot-driven reaching (papers/004_7ee2989736d21d4b.txt §II.A–B), end to end in the simulator:
+// Robot-driven reaching ([Schearer 2014] §II.A–B), end to end in the simulator:
 // hand path (protocols/protocols.h ReachingProgram) → inverse kinematics of the four arm joints →
 // the arm prescribed along those joint trajectories, muscles relaxed → the robot's wrench at the
 // handle → joint torques back from that wrench through the arm Jacobian (004 §II.A, eq. (1)–(2)).

@@ -40,13 +40,104 @@ class Artefacts {
   bool in_dropout_ = false;
 };
 
+/// Baseline-offset removal over the initial rest window [0, sp.baseline_window_s) of the
+/// measured times `time`: each column less the mean of its valid samples there.
+void RemoveBaseline(const SensorParams& sp, const std::vector<double>& time,
+                    std::vector<std::vector<double>>* columns) {
+  if (sp.baseline_window_s <= 0.0) return;
+  for (auto& col : *columns) {
+    double sum = 0.0;
+    int n = 0;
+    for (std::size_t i = 0; i < col.size() && time[i] < sp.baseline_window_s; ++i) {
+      if (!std::isnan(col[i])) {
+        sum += col[i];
+        ++n;
+      }
+    }
+    if (n == 0) continue;
+    for (double& x : col) x -= sum / n;
+  }
+}
+
+/// The columns of the measured record, filled row by row: time, commanded u, and the angle,
+/// velocity and torque sensors' columns (NaN where a row is not on the sensor's grid).
+struct MeasuredColumns {
+  std::vector<double> time;
+  std::vector<std::vector<double>> u, q, qd, tau;
+};
+
+/// The columns of the noiseless truth record: u, every coordinate's q, q̇ and muscle torque,
+/// every muscle's activation and force, the torque sensors' coordinates.
+struct TruthColumns {
+  std::vector<double> time;
+  std::vector<std::vector<double>> u, q, qd, a, f, tau_muscle, tau;
+};
+
+/// The measured trial record from its columns (column names from the model and the sensors).
+Trial MeasuredRecord(const MeasuredColumns& c, const ModelParams& params, const SensorSuite& sens) {
+  const auto& names = CoordinateNames();
+  Trial m;
+  m.time = c.time;
+  for (std::size_t k = 0; k < c.u.size(); ++k) m.AddColumn("u." + params.channels[k].name, c.u[k]);
+  for (std::size_t k = 0; k < c.q.size(); ++k) {
+    m.AddColumn("q." + names[sens.angles.coordinates[k]], c.q[k]);
+  }
+  for (std::size_t k = 0; k < c.qd.size(); ++k) {
+    m.AddColumn("qd." + names[sens.velocities.coordinates[k]], c.qd[k]);
+  }
+  for (std::size_t k = 0; k < c.tau.size(); ++k) {
+    m.AddColumn("tau." + names[sens.torques.coordinates[k]], c.tau[k]);
+  }
+  return m;
+}
+
+/// The truth trial record from its columns.
+Trial TruthRecord(const TruthColumns& c, const ModelParams& params, const SensorSuite& sens) {
+  const auto& names = CoordinateNames();
+  Trial t;
+  t.time = c.time;
+  for (std::size_t k = 0; k < c.u.size(); ++k) t.AddColumn("u." + params.channels[k].name, c.u[k]);
+  for (int i = 0; i < kNumCoordinates; ++i) t.AddColumn("q." + names[i], c.q[i]);
+  for (int i = 0; i < kNumCoordinates; ++i) t.AddColumn("qd." + names[i], c.qd[i]);
+  for (std::size_t j = 0; j < c.a.size(); ++j) t.AddColumn("a." + params.muscles[j].name, c.a[j]);
+  for (std::size_t j = 0; j < c.f.size(); ++j) t.AddColumn("f." + params.muscles[j].name, c.f[j]);
+  for (int i = 0; i < kNumCoordinates; ++i) t.AddColumn("tau_muscle." + names[i], c.tau_muscle[i]);
+  for (std::size_t k = 0; k < c.tau.size(); ++k) {
+    t.AddColumn("tau." + names[sens.torques.coordinates[k]], c.tau[k]);
+  }
+  return t;
+}
+
+/// The metadata lines of both records: trial name, seed, duration, steady-state times; the
+/// sensor rates on the measured one.
+void SetMetadata(const TrialRequest& req, Trial* m, Trial* t) {
+  const SensorSuite& sens = req.sensors;
+  for (Trial* trial : {m, t}) {
+    trial->metadata["trial"] = req.name;
+    trial->metadata["seed"] = std::to_string(req.seed);
+    trial->metadata["duration_s"] = std::to_string(req.duration_s);
+  }
+  if (!req.steady_state_times_s.empty()) {
+    std::string list;
+    for (double x : req.steady_state_times_s) {
+      list += (list.empty() ? "" : " ") + std::to_string(x);
+    }
+    m->metadata["steady_state_times_s"] = list;
+    t->metadata["steady_state_times_s"] = list;
+  }
+  m->metadata["record"] = "measured";
+  m->metadata["angle_rate_hz"] = std::to_string(sens.angles.rate_hz);
+  m->metadata["velocity_rate_hz"] = std::to_string(sens.velocities.rate_hz);
+  m->metadata["torque_rate_hz"] = std::to_string(sens.torques.rate_hz);
+  t->metadata["record"] = "truth";
+}
+
 }  // namespace
 
 TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
                      const std::function<void(double)>& progress) {
   if (!(req.duration_s > 0.0)) throw std::invalid_argument("trial duration must be > 0");
   const SensorSuite& sens = req.sensors;
-  const auto& names = CoordinateNames();
   const int nc = model.num_channels();
   const int nm = model.num_muscles();
 
@@ -66,23 +157,30 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
 
   // Truth record and measured record are filled row by row.
   TrialResult result;
-  std::vector<double> meas_t;
-  std::vector<std::vector<double>> meas_u(nc), meas_q(sens.angles.coordinates.size()),
-      meas_qd(sens.velocities.coordinates.size()), meas_tau(sens.torques.coordinates.size());
-  std::vector<double> truth_time;
-  std::vector<std::vector<double>> tr_u(nc), tr_q(kNumCoordinates), tr_qd(kNumCoordinates),
-      tr_a(nm), tr_f(nm), tr_tm(kNumCoordinates), tr_tau(sens.torques.coordinates.size());
+  MeasuredColumns meas;
+  meas.u.resize(nc);
+  meas.q.resize(sens.angles.coordinates.size());
+  meas.qd.resize(sens.velocities.coordinates.size());
+  meas.tau.resize(sens.torques.coordinates.size());
+  TruthColumns tr;
+  tr.u.resize(nc);
+  tr.q.resize(kNumCoordinates);
+  tr.qd.resize(kNumCoordinates);
+  tr.a.resize(nm);
+  tr.f.resize(nm);
+  tr.tau_muscle.resize(kNumCoordinates);
+  tr.tau.resize(sens.torques.coordinates.size());
   GaussianNoise angle_noise(DeriveSeed(req.seed, 1)), vel_noise(DeriveSeed(req.seed, 2)),
       torque_noise(DeriveSeed(req.seed, 3));
   std::vector<Artefacts> angle_art, vel_art, torque_art;
   std::uint64_t stream = 100;
-  for (std::size_t k = 0; k < meas_q.size(); ++k) {
+  for (std::size_t k = 0; k < meas.q.size(); ++k) {
     angle_art.emplace_back(sens.angles, DeriveSeed(req.seed, stream++));
   }
-  for (std::size_t k = 0; k < meas_qd.size(); ++k) {
+  for (std::size_t k = 0; k < meas.qd.size(); ++k) {
     vel_art.emplace_back(sens.velocities, DeriveSeed(req.seed, stream++));
   }
-  for (std::size_t k = 0; k < meas_tau.size(); ++k) {
+  for (std::size_t k = 0; k < meas.tau.size(); ++k) {
     torque_art.emplace_back(sens.torques, DeriveSeed(req.seed, stream++));
   }
   // Electromechanical delay: the muscles see the stimulation δ late; the trial records what was
@@ -110,41 +208,41 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
     if (on_truth[i]) {
       const MuscleSnapshot m = model.ComputeMuscles(s);
       result.fibre_clamped = result.fibre_clamped || m.any_clamped;
-      truth_time.push_back(s.getTime());
-      for (int k = 0; k < nc; ++k) tr_u[k].push_back(u[k]);
+      tr.time.push_back(s.getTime());
+      for (int k = 0; k < nc; ++k) tr.u[k].push_back(u[k]);
       for (int c = 0; c < kNumCoordinates; ++c) {
-        tr_q[c].push_back(q[c]);
-        tr_qd[c].push_back(qd[c]);
-        tr_tm[c].push_back(m.joint_torque_nm[c]);
+        tr.q[c].push_back(q[c]);
+        tr.qd[c].push_back(qd[c]);
+        tr.tau_muscle[c].push_back(m.joint_torque_nm[c]);
       }
       for (int j = 0; j < nm; ++j) {
-        tr_a[j].push_back(m.activation[j]);
-        tr_f[j].push_back(m.force_n[j]);
+        tr.a[j].push_back(m.activation[j]);
+        tr.f[j].push_back(m.force_n[j]);
       }
       for (std::size_t k = 0; k < sens.torques.coordinates.size(); ++k) {
-        tr_tau[k].push_back(tau[sens.torques.coordinates[k]]);
+        tr.tau[k].push_back(tau[sens.torques.coordinates[k]]);
       }
     }
-    const bool measured_row = (on_angle[i] && !meas_q.empty()) || (on_vel[i] && !meas_qd.empty()) ||
-                              (on_torque[i] && !meas_tau.empty());
+    const bool measured_row = (on_angle[i] && !meas.q.empty()) || (on_vel[i] && !meas.qd.empty()) ||
+                              (on_torque[i] && !meas.tau.empty());
     if (!measured_row) return;
-    meas_t.push_back(s.getTime());
-    for (int k = 0; k < nc; ++k) meas_u[k].push_back(u[k]);
+    meas.time.push_back(s.getTime());
+    for (int k = 0; k < nc; ++k) meas.u[k].push_back(u[k]);
     const double t = s.getTime();
-    for (std::size_t k = 0; k < meas_q.size(); ++k) {
-      meas_q[k].push_back(on_angle[i]
+    for (std::size_t k = 0; k < meas.q.size(); ++k) {
+      meas.q[k].push_back(on_angle[i]
                               ? angle_art[k].Apply(t, q[sens.angles.coordinates[k]] +
                                                           angle_noise.Sample(sens.angles.noise_std))
                               : kNaN);
     }
-    for (std::size_t k = 0; k < meas_qd.size(); ++k) {
-      meas_qd[k].push_back(
+    for (std::size_t k = 0; k < meas.qd.size(); ++k) {
+      meas.qd[k].push_back(
           on_vel[i] ? vel_art[k].Apply(t, qd[sens.velocities.coordinates[k]] +
                                               vel_noise.Sample(sens.velocities.noise_std))
                     : kNaN);
     }
-    for (std::size_t k = 0; k < meas_tau.size(); ++k) {
-      meas_tau[k].push_back(
+    for (std::size_t k = 0; k < meas.tau.size(); ++k) {
+      meas.tau[k].push_back(
           on_torque[i] ? torque_art[k].Apply(t, tau[sens.torques.coordinates[k]] +
                                                     torque_noise.Sample(sens.torques.noise_std))
                        : kNaN);
@@ -155,68 +253,12 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
       sens.torques.coordinates.empty() ? SimTK::Stage::Velocity : SimTK::Stage::Acceleration);
 
   // Baseline-offset removal over the initial rest window, per measured column.
-  const auto remove_baseline = [&](const SensorParams& sp,
-                                   std::vector<std::vector<double>>* columns) {
-    if (sp.baseline_window_s <= 0.0) return;
-    for (auto& col : *columns) {
-      double sum = 0.0;
-      int n = 0;
-      for (std::size_t i = 0; i < col.size() && meas_t[i] < sp.baseline_window_s; ++i) {
-        if (!std::isnan(col[i])) {
-          sum += col[i];
-          ++n;
-        }
-      }
-      if (n == 0) continue;
-      for (double& x : col) x -= sum / n;
-    }
-  };
-  remove_baseline(sens.angles, &meas_q);
-  remove_baseline(sens.velocities, &meas_qd);
-  remove_baseline(sens.torques, &meas_tau);
-
-  const auto& params = model.params();
-  Trial& m = result.measured;
-  m.time = meas_t;
-  for (int k = 0; k < nc; ++k) m.AddColumn("u." + params.channels[k].name, meas_u[k]);
-  for (std::size_t k = 0; k < meas_q.size(); ++k) {
-    m.AddColumn("q." + names[sens.angles.coordinates[k]], meas_q[k]);
-  }
-  for (std::size_t k = 0; k < meas_qd.size(); ++k) {
-    m.AddColumn("qd." + names[sens.velocities.coordinates[k]], meas_qd[k]);
-  }
-  for (std::size_t k = 0; k < meas_tau.size(); ++k) {
-    m.AddColumn("tau." + names[sens.torques.coordinates[k]], meas_tau[k]);
-  }
-  Trial& t = result.truth;
-  t.time = truth_time;
-  for (int k = 0; k < nc; ++k) t.AddColumn("u." + params.channels[k].name, tr_u[k]);
-  for (int c = 0; c < kNumCoordinates; ++c) t.AddColumn("q." + names[c], tr_q[c]);
-  for (int c = 0; c < kNumCoordinates; ++c) t.AddColumn("qd." + names[c], tr_qd[c]);
-  for (int j = 0; j < nm; ++j) t.AddColumn("a." + params.muscles[j].name, tr_a[j]);
-  for (int j = 0; j < nm; ++j) t.AddColumn("f." + params.muscles[j].name, tr_f[j]);
-  for (int c = 0; c < kNumCoordinates; ++c) t.AddColumn("tau_muscle." + names[c], tr_tm[c]);
-  for (std::size_t k = 0; k < tr_tau.size(); ++k) {
-    t.AddColumn("tau." + names[sens.torques.coordinates[k]], tr_tau[k]);
-  }
-  for (Trial* trial : {&m, &t}) {
-    trial->metadata["trial"] = req.name;
-    trial->metadata["seed"] = std::to_string(req.seed);
-    trial->metadata["duration_s"] = std::to_string(req.duration_s);
-  }
-  if (!req.steady_state_times_s.empty()) {
-    std::string list;
-    for (double x : req.steady_state_times_s) {
-      list += (list.empty() ? "" : " ") + std::to_string(x);
-    }
-    m.metadata["steady_state_times_s"] = list;
-    t.metadata["steady_state_times_s"] = list;
-  }
-  m.metadata["record"] = "measured";
-  m.metadata["angle_rate_hz"] = std::to_string(sens.angles.rate_hz);
-  m.metadata["velocity_rate_hz"] = std::to_string(sens.velocities.rate_hz);
-  m.metadata["torque_rate_hz"] = std::to_string(sens.torques.rate_hz);
-  t.metadata["record"] = "truth";
+  RemoveBaseline(sens.angles, meas.time, &meas.q);
+  RemoveBaseline(sens.velocities, meas.time, &meas.qd);
+  RemoveBaseline(sens.torques, meas.time, &meas.tau);
+  result.measured = MeasuredRecord(meas, model.params(), sens);
+  result.truth = TruthRecord(tr, model.params(), sens);
+  SetMetadata(req, &result.measured, &result.truth);
   return result;
 }
 

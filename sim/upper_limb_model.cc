@@ -386,7 +386,7 @@ UpperLimbModel::UpperLimbModel(ModelParams params)
   const auto& seg = p.segments;
   SimTK::MobilizedBody& ground = matter_->updGround();
 
-  // Shoulder: Y (plane) – −X (elevation) – Y (axial rotation), papers/004_* Y-X-Y sequence.
+  // Shoulder: Y (plane) – −X (elevation) – Y (axial rotation), [Schearer 2014] Y-X-Y sequence.
   SimTK::MobilizedBody::Pin plane(ground, PinFrame(Y, ToVec3(p.shoulder_in_ground_m)),
                                   SimTK::Body::Massless(), PinFrame(Y, O));
   SimTK::MobilizedBody::Pin elevation(plane, PinFrame(-X, O), SimTK::Body::Massless(),

@@ -1,12 +1,12 @@
-// The ground-truth upper-limb model of papers/000_0a6c0de9fc69df7c.txt eq. (12) in Simbody:
+// The ground-truth upper-limb model of [Hand Hammerstein] eq. (12) in Simbody:
 //   skeleton (H_RB, eq. 11) + passive joints (eq. 14 and range limits) + arm support
 //   + electrode array A (eq. 1) → recruitment (eq. 3) → activation (eq. 6, own Ω_i per muscle)
 //   → Hill muscles (eq. 4, 7) → Landsmeer tendon network R(q) (eq. 8–10) → joint torques.
 //
 // Muscles act through the tendon network as generalised forces τ = R(q) f with R = −∂l_MT/∂q
-// (papers/000 eq. 8), not as spatial line forces; this is the paper's formulation.
+// ([Hand Hammerstein] eq. 8), not as spatial line forces; this is the paper's formulation.
 //
-// Skeleton: thorax = ground. Shoulder as a Y–X–Y Euler sequence of three pins (papers/004_*)
+// Skeleton: thorax = ground. Shoulder as a Y–X–Y Euler sequence of three pins ([Schearer 2014])
 // with two massless intermediate bodies; it is singular at zero elevation (plane and axial
 // rotation share an axis), so elevation is kept ≥ 5° by its range limit. The forearm carries the
 // pro/supination pin at the wrist (the hand pronates, the forearm's inertia does not — departure

@@ -1,4 +1,4 @@
-// Landsmeer tendon moment arms (papers/000_0a6c0de9fc69df7c.txt eq. 8–10; Brook et al. 1995).
+// Landsmeer tendon moment arms ([Hand Hammerstein] eq. 8–10; Brook et al. 1995).
 //
 // Sign convention:   r(q) = −∂l_MT/∂q   (m).
 // A positive moment arm shortens the musculotendon unit as q increases, so tendon force f > 0

@@ -1,4 +1,4 @@
-// Tendon network R(y) (papers/000_0a6c0de9fc69df7c.txt eq. 8): rows = joints, columns = muscles,
+// Tendon network R(y) ([Hand Hammerstein] eq. 8): rows = joints, columns = muscles,
 // R_ij = r_ij(q_j) = −∂l_MT,j/∂q_i, and the musculotendon lengths consistent with it:
 //
 //   l_MT,m(q) = l_ref,m + Σ_i Δl(q_i − q_ref,i)   (Δl from landsmeer.h)

@@ -43,7 +43,7 @@ double ProcessCpuSeconds() {
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
-/// The forearm muscles whose A entries, β and γ are candidates (paper 000 §5.1).
+/// The forearm muscles whose A entries, β and γ are candidates ([Hand Hammerstein] §5.1).
 const std::vector<std::string>& ForearmMuscles() {
   static const std::vector<std::string> names = {"ECRL", "ECRB", "ECU", "FCR",
                                                  "FCU",  "EDC",  "FDS", "FDP"};
@@ -407,12 +407,11 @@ Eigen::MatrixXd SensitivityJacobian(const sim::ModelParams& base,
 }
 
 /// Cost of one augmented (sensitivity) simulation in plain simulations, as the kAuto rule counts
-/// it: 361 / 99.6 ms CPU on the hand-array step grid when it was set (session 5: tolerance 10×,
-/// the whole ∂f/∂y every 4th step). Now 168 / 110 ms (BM_SensitivityDataSet/29/2/16 against
-/// BM_SimulateDataSet/4, 2026-11-22 19:57 UTC) for the iterations and one 355 ms Jacobian for the
-/// intervals per fit; the rule is kept (forward differences for ≤ 3 parameters: at most three
-/// simulations per Jacobian, spread over the threads), so fits with few parameters give the same
-/// figures as before.
+/// it: 361 / 99.6 ms CPU on the hand-array step grid when the rule was set. Now 168 / 110 ms
+/// (BM_SensitivityDataSet/29/2/16 against BM_SimulateDataSet/4, docs/performance.md "Full-model
+/// fit local step") for the iterations and one 355 ms Jacobian for the intervals per fit; the
+/// rule is kept (forward differences for ≤ 3 parameters: at most three simulations per Jacobian,
+/// spread over the threads), so fits with few parameters give the same figures as before.
 constexpr double kAugmentedSimulationCost = 3.6;
 
 /// Tolerance multiple of the sensitivity Jacobian that gives the confidence intervals' JᵀJ: within
@@ -432,24 +431,35 @@ bool UseSensitivities(JacobianMethod method, int p) {
   return kAugmentedSimulationCost < p;
 }
 
-/// ∂r/∂x by `options.jacobian` (UseSensitivities), by forward differences when a sensitivity
-/// integration fails or the rig has states sensitivities cannot differentiate (fatigue,
-/// potentiation). Adds the simulation sets it used to *evaluations (1 augmented, or one per
-/// parameter); `progress` gets the forward differences' fraction done.
-Eigen::MatrixXd FitJacobian(const FullModelFitOptions& options, const sim::ModelParams& base,
-                            const std::vector<FitParameter>& params, const Eigen::VectorXd& x,
-                            const Eigen::VectorXd& r0, const Eigen::VectorXd& upper,
-                            const TrainingData& data, double tolerance, int threads,
-                            int* evaluations, const std::function<void(double)>& progress) {
+/// What a Jacobian of the fit's residuals needs besides the point: the fit's options, the model
+/// the parameters apply to, the parameters and their upper bounds, the training data, the
+/// integrator tolerance of the residuals and the worker threads.
+struct JacobianRequest {
+  const FullModelFitOptions& options;
+  const sim::ModelParams& base;
+  const std::vector<FitParameter>& params;
+  const Eigen::VectorXd& upper;
+  const TrainingData& data;
+  double tolerance;
+  int threads;
+};
+
+/// ∂r/∂x at x (residuals r0 there) by `options.jacobian` (UseSensitivities), by forward
+/// differences when a sensitivity integration fails or the rig has states sensitivities cannot
+/// differentiate (fatigue, potentiation). Adds the simulation sets it used to *evaluations (1
+/// augmented, or one per parameter); `progress` gets the forward differences' fraction done.
+Eigen::MatrixXd FitJacobian(const JacobianRequest& req, const Eigen::VectorXd& x,
+                            const Eigen::VectorXd& r0, int* evaluations,
+                            const std::function<void(double)>& progress) {
   const int p = static_cast<int>(x.size());
-  if (UseSensitivities(options.jacobian, p)) {
+  if (UseSensitivities(req.options.jacobian, p)) {
     try {
       // Never coarser than kCoarsestJacobianTolerance (unless the residuals are).
-      const double jacobian_tolerance = std::max(
-          tolerance,
-          std::min(tolerance * options.jacobian_tolerance_factor, kCoarsestJacobianTolerance));
-      Eigen::MatrixXd J =
-          SensitivityJacobian(base, params, x, upper, data, jacobian_tolerance, threads);
+      const double jacobian_tolerance =
+          std::max(req.tolerance, std::min(req.tolerance * req.options.jacobian_tolerance_factor,
+                                           kCoarsestJacobianTolerance));
+      Eigen::MatrixXd J = SensitivityJacobian(req.base, req.params, x, req.upper, req.data,
+                                              jacobian_tolerance, req.threads);
       ++*evaluations;
       return J;
     } catch (const std::exception&) {
@@ -457,8 +467,8 @@ Eigen::MatrixXd FitJacobian(const FullModelFitOptions& options, const sim::Model
     }
   }
   *evaluations += p;
-  return ParallelJacobian(base, params, x, r0, upper, data, tolerance, options.fd_relative_step,
-                          threads, progress);
+  return ParallelJacobian(req.base, req.params, x, r0, req.upper, req.data, req.tolerance,
+                          req.options.fd_relative_step, req.threads, progress);
 }
 
 int ResolveThreads(int threads) {
@@ -699,72 +709,82 @@ SimulationSensitivities SimulateLikeSensitivities(
   return out;
 }
 
-FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>& train,
-                          const FullModelFitOptions& options, const ProgressFn& progress) {
-  const auto t_total = Clock::now();
+namespace {
+
+void CheckFitOptions(const FullModelFitOptions& options) {
   if (options.keep_parameters < 1) throw std::invalid_argument("keep_parameters must be >= 1");
   if (options.starts < 1) throw std::invalid_argument("starts must be >= 1");
   if (!(options.jacobian_tolerance_factor >= 1.0)) {
     throw std::invalid_argument("jacobian_tolerance_factor must be >= 1");
   }
-  const TrainingData data = ReadTraining(rig, train);
-  const int threads = ResolveThreads(options.threads);
-  const double tol = options.integrator_tolerance;
+}
 
+/// The channels some training trial stimulates (a u.* column), in the model's order.
+std::vector<std::string> StimulatedChannels(const sim::ModelParams& rig,
+                                            const std::vector<Trial>& train) {
   std::set<std::string> stimulated;
   for (const auto& tr : train) {
     for (const auto& name : tr.NamesWithPrefix("u.")) stimulated.insert(name.substr(2));
   }
-  // Channels in the model's order.
   std::vector<std::string> channels;
   for (const auto& ch : rig.channels) {
     if (stimulated.count(ch.name)) channels.push_back(ch.name);
   }
-  FullModelFit fit;
-  const sim::ModelParams base = WithExplicitArrayWeights(rig);
-  fit.candidates = CandidateParameters(rig, channels);
-  const int nc = static_cast<int>(fit.candidates.size());
-  if (nc == 0) throw std::runtime_error("full-model: the rig offers no candidate parameter");
-  fit.residuals = data.residuals;
-  fit.distinct_simulations = static_cast<int>(data.plans.size());
+  return channels;
+}
 
-  // 1. Sensitivity ranking at the nominal point (one forward difference per candidate, parallel),
-  // skipped when the caller names the parameters and asks for no ranking.
-  std::vector<int> order(nc);
-  std::vector<double> s(nc);
-  if (options.rank || options.fit_names.empty()) {
-    if (progress) progress(0.0, "sensitivity ranking of " + std::to_string(nc) + " parameters");
-    const auto t_sens = Clock::now();
-    Eigen::VectorXd x_nom(nc), upper_all(nc);
-    for (int i = 0; i < nc; ++i) {
-      x_nom(i) = fit.candidates[i].nominal;
-      upper_all(i) = fit.candidates[i].upper;
-    }
-    const Eigen::VectorXd r_nom = Residuals(base, fit.candidates, x_nom, data, tol, threads, true);
-    const std::string sens_label = "sensitivity ranking of " + std::to_string(nc) + " parameters";
-    int ranking_simulations = 0;
-    const Eigen::MatrixXd J_nom =
-        FitJacobian(options, base, fit.candidates, x_nom, r_nom, upper_all, data, tol, threads,
-                    &ranking_simulations, [&](double f) {
-                      if (progress) progress(0.1 * f, sens_label);
-                    });
-    const double sqrt_n = std::sqrt(static_cast<double>(std::max<long>(1, data.residuals)));
-    for (int i = 0; i < nc; ++i) {
-      order[i] = i;
-      s[i] = J_nom.col(i).norm() * ScaleOf(fit.candidates[i]) / sqrt_n;
-    }
-    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return s[a] > s[b]; });
-    for (int i : order) fit.ranking.push_back({fit.candidates[i].name, s[i]});
-    fit.sensitivity_wall_s = Seconds(t_sens);
+/// The candidates' sensitivities s_i = ‖∂r/∂x_i‖ · scale_i / √N at the nominal point and their
+/// order (most influential first); all zero when not ranked.
+struct Ranking {
+  std::vector<int> order;
+  std::vector<double> s;
+};
+
+/// 1. Sensitivity ranking at the nominal point (one forward difference per candidate, parallel).
+/// Sets fit->ranking and fit->sensitivity_wall_s.
+Ranking RankCandidates(const FullModelFitOptions& options, const sim::ModelParams& base,
+                       const TrainingData& data, double tol, int threads,
+                       const ProgressFn& progress, FullModelFit* fit) {
+  const int nc = static_cast<int>(fit->candidates.size());
+  Ranking ranking{std::vector<int>(nc), std::vector<double>(nc)};
+  if (progress) progress(0.0, "sensitivity ranking of " + std::to_string(nc) + " parameters");
+  const auto t_sens = Clock::now();
+  Eigen::VectorXd x_nom(nc), upper_all(nc);
+  for (int i = 0; i < nc; ++i) {
+    x_nom(i) = fit->candidates[i].nominal;
+    upper_all(i) = fit->candidates[i].upper;
   }
+  const Eigen::VectorXd r_nom = Residuals(base, fit->candidates, x_nom, data, tol, threads, true);
+  const std::string sens_label = "sensitivity ranking of " + std::to_string(nc) + " parameters";
+  int ranking_simulations = 0;
+  const JacobianRequest request{options, base, fit->candidates, upper_all, data, tol, threads};
+  const Eigen::MatrixXd J_nom =
+      FitJacobian(request, x_nom, r_nom, &ranking_simulations, [&](double f) {
+        if (progress) progress(0.1 * f, sens_label);
+      });
+  const double sqrt_n = std::sqrt(static_cast<double>(std::max<long>(1, data.residuals)));
+  std::vector<int>& order = ranking.order;
+  std::vector<double>& s = ranking.s;
+  for (int i = 0; i < nc; ++i) {
+    order[i] = i;
+    s[i] = J_nom.col(i).norm() * ScaleOf(fit->candidates[i]) / sqrt_n;
+  }
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return s[a] > s[b]; });
+  for (int i : order) fit->ranking.push_back({fit->candidates[i].name, s[i]});
+  fit->sensitivity_wall_s = Seconds(t_sens);
+  return ranking;
+}
 
-  // 2. The kept subset.
+/// 2. The kept subset: the named parameters, else the K best ranked with a non-zero sensitivity.
+std::vector<int> KeptIndices(const FullModelFitOptions& options,
+                             const std::vector<FitParameter>& candidates, const Ranking& ranking) {
+  const int nc = static_cast<int>(candidates.size());
   std::vector<int> kept_index;
   if (!options.fit_names.empty()) {
     for (const auto& name : options.fit_names) {
       int found = -1;
       for (int i = 0; i < nc; ++i) {
-        if (fit.candidates[i].name == name) found = i;
+        if (candidates[i].name == name) found = i;
       }
       if (found < 0) throw std::invalid_argument("full-model: unknown parameter '" + name + "'");
       kept_index.push_back(found);
@@ -772,7 +792,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
   } else {
     const int keep = std::min(options.keep_parameters, nc);
     for (int r = 0; r < keep; ++r) {
-      if (s[order[r]] > 0.0) kept_index.push_back(order[r]);
+      if (ranking.s[ranking.order[r]] > 0.0) kept_index.push_back(ranking.order[r]);
     }
     if (kept_index.empty()) {
       throw std::runtime_error(
@@ -780,28 +800,43 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
           "(no stimulation in the data?)");
     }
   }
-  // Parameters not kept are frozen at nominal in the base the local runs use.
-  std::vector<char> is_kept(nc, 0);
-  for (int i : kept_index) is_kept[i] = 1;
-  const int p = static_cast<int>(kept_index.size());
-  for (int i : kept_index) fit.kept.push_back(fit.candidates[i]);
-  Eigen::VectorXd lower(p), upper(p), nominal(p);
-  for (int k = 0; k < p; ++k) {
-    lower(k) = fit.kept[k].lower;
-    upper(k) = fit.kept[k].upper;
-    nominal(k) = fit.kept[k].nominal;
-  }
-  if (data.residuals <= p) {
-    throw std::runtime_error("train: " + std::to_string(data.residuals) +
-                             " output samples, need more than " + std::to_string(p) +
-                             " for the kept parameters (too-short data)");
-  }
+  return kept_index;
+}
 
-  // 3. Multi-start local optimisation.
+/// The Levenberg–Marquardt options of the local runs.
+LmOptions LocalRunOptions(const FullModelFitOptions& options) {
+  LmOptions lm;
+  lm.max_iterations = options.max_iterations;
+  lm.relative_tolerance = options.relative_tolerance;
+  lm.step_tolerance = 1e-9;
+  lm.fd_relative_step = options.fd_relative_step;
+  lm.broyden = options.broyden;
+  // Plain path only (docs/performance.md "Full-model fit local step"): with secant updates the
+  // smaller start damping made `fesim benchmark --quick`'s capped fit cycle through rejected
+  // secant steps.
+  lm.hold_active_bounds = !options.broyden;  // bounded A, k, β, γ, R: no crawl along a bound
+  lm.scale_free_damping = !options.broyden;  // no run of short gradient steps at the start
+  // One rejected trial per iteration otherwise (docs/performance.md "Full-model fit local
+  // step"): a residual evaluation costs 0.3–0.4 of a sensitivity Jacobian.
+  lm.gain_ratio_damping = !options.broyden;
+  // The iterations' Jacobians are coarse (jacobian_tolerance_factor): no stop on one poor step.
+  lm.stop_needs_predicted_decrease = true;
+  return lm;
+}
+
+/// 3. Multi-start local optimisation of the kept parameters (request.params) between `lower`
+/// and request.upper: start 1 at `nominal`, the others spread around it. Appends every run to
+/// fit->runs, sets fit->best_run and returns the best run's result.
+LmResult MultiStart(const FullModelFitOptions& options, const JacobianRequest& request,
+                    const Eigen::VectorXd& lower, const Eigen::VectorXd& nominal,
+                    const ProgressFn& progress, FullModelFit* fit) {
+  const int p = static_cast<int>(nominal.size());
+  const Eigen::VectorXd& upper = request.upper;
   std::mt19937_64 rng(options.seed);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   const ResidualFn residual = [&](const Eigen::VectorXd& x) {
-    return Residuals(base, fit.kept, x, data, tol, threads, false);
+    return Residuals(request.base, request.params, x, request.data, request.tolerance,
+                     request.threads, false);
   };
   int current_start = 0, jacobians = 0;
   const JacobianFn jacobian = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& r,
@@ -810,28 +845,11 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     const std::string label = "start " + std::to_string(current_start + 1) + "/" +
                               std::to_string(options.starts) + ", Jacobian " +
                               std::to_string(jacobians);
-    return FitJacobian(options, base, fit.kept, x, r, upper, data, tol, threads, evaluations,
-                       [&](double f) {
-                         if (progress) {
-                           progress(0.1 + 0.85 * (current_start + f) / options.starts, label);
-                         }
-                       });
+    return FitJacobian(request, x, r, evaluations, [&](double f) {
+      if (progress) progress(0.1 + 0.85 * (current_start + f) / options.starts, label);
+    });
   };
-  LmOptions lm;
-  lm.max_iterations = options.max_iterations;
-  lm.relative_tolerance = options.relative_tolerance;
-  lm.step_tolerance = 1e-9;
-  lm.fd_relative_step = options.fd_relative_step;
-  lm.broyden = options.broyden;
-  // Plain path only (measured in docs/performance.md): with secant updates the smaller start
-  // damping made `fesim benchmark --quick`'s capped fit cycle through rejected secant steps.
-  lm.hold_active_bounds = !options.broyden;  // bounded A, k, β, γ, R: no crawl along a bound
-  lm.scale_free_damping = !options.broyden;  // no run of short gradient steps at the start
-  // One rejected trial per iteration otherwise (docs/performance.md, issue 4): a residual
-  // evaluation costs 0.3–0.4 of a sensitivity Jacobian.
-  lm.gain_ratio_damping = !options.broyden;
-  // The iterations' Jacobians are coarse (jacobian_tolerance_factor): no stop on one poor step.
-  lm.stop_needs_predicted_decrease = true;
+  const LmOptions lm = LocalRunOptions(options);
   double best_cost = std::numeric_limits<double>::infinity();
   LmResult best;
   for (int sidx = 0; sidx < options.starts; ++sidx) {
@@ -841,7 +859,7 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     if (sidx > 0) {
       for (int k = 0; k < p; ++k) {
         const double e = unit(rng) * options.start_spread;
-        x0(k) = fit.kept[k].kind == FitParameterKind::kArrayWeight
+        x0(k) = request.params[k].kind == FitParameterKind::kArrayWeight
                     ? nominal(k) + e * std::max(nominal(k), 0.05)
                     : nominal(k) * std::exp(e);
         x0(k) = std::clamp(x0(k), lower(k), upper(k));
@@ -868,35 +886,89 @@ FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>&
     run.stop_reason = LmStopReasonName(res.stop_reason);
     run.cost_history = res.cost_history;
     run.evaluations_history = res.evaluations_history;
-    fit.runs.push_back(run);
+    fit->runs.push_back(run);
     if (res.cost < best_cost) {
-      fit.best_run = fit.runs.size() - 1;
+      fit->best_run = fit->runs.size() - 1;
       best_cost = res.cost;
       best = std::move(res);
     }
   }
-  fit.values = best.x;
-  fit.cost = best.cost;
-  // Participation 1e-3: the paper's parameter set has (nearly) unidentifiable pairs — β_j and
-  // A_jk enter eq. (3) only as β_j Σ_k A_jk u_k, so for a muscle that one channel alone reaches
-  // (the other weights ≈ 0) only their product is determined. With exact (sensitivity) Jacobians
-  // that pair spans a null direction (eigenvalue 2e-13 of the largest in
-  // FullModelFitTest.MethodEntryFitsPlantedRigAndPredictsHeldOutTrial) whose eigenvector has
-  // rounding-level weights (≈ 1e-6) on every other parameter; the pair gets NaN, the rest their
-  // intervals.
-  // The iterations' sensitivity Jacobians are coarse (jacobian_tolerance_factor); the intervals
-  // get one at kConfidenceJacobianToleranceFactor at the minimiser.
-  Eigen::MatrixXd jtj = best.jtj;
+  return best;
+}
+
+/// JᵀJ for the confidence intervals at the minimiser `best`.
+/// Participation 1e-3 (FitFullModel): the paper's parameter set has (nearly) unidentifiable
+/// pairs — β_j and A_jk enter eq. (3) only as β_j Σ_k A_jk u_k, so for a muscle that one channel
+/// alone reaches (the other weights ≈ 0) only their product is determined. With exact
+/// (sensitivity) Jacobians that pair spans a null direction (eigenvalue 2e-13 of the largest in
+/// FullModelFitTest.MethodEntryFitsPlantedRigAndPredictsHeldOutTrial) whose eigenvector has
+/// rounding-level weights (≈ 1e-6) on every other parameter; the pair gets NaN, the rest their
+/// intervals. The iterations' sensitivity Jacobians are coarse (jacobian_tolerance_factor); the
+/// intervals get one at kConfidenceJacobianToleranceFactor at the minimiser.
+Eigen::MatrixXd ConfidenceJtJ(const JacobianRequest& request, const LmResult& best) {
+  const FullModelFitOptions& options = request.options;
+  const int p = static_cast<int>(request.params.size());
   if (UseSensitivities(options.jacobian, p) &&
       options.jacobian_tolerance_factor > kConfidenceJacobianToleranceFactor) {
     FullModelFitOptions fine = options;
     fine.jacobian_tolerance_factor = kConfidenceJacobianToleranceFactor;
+    const JacobianRequest fine_request{fine,           request.base, request.params,
+                                       request.upper,  request.data, request.tolerance,
+                                       request.threads};
     int evaluations = 0;
-    const Eigen::MatrixXd J = FitJacobian(fine, base, fit.kept, best.x, best.residual, upper, data,
-                                          tol, threads, &evaluations, {});
-    jtj = J.transpose() * J;
+    const Eigen::MatrixXd J = FitJacobian(fine_request, best.x, best.residual, &evaluations, {});
+    return J.transpose() * J;
   }
-  fit.ci95_half_width = ConfidenceHalfWidths95(jtj, best.cost, data.residuals, 1e-3);
+  return best.jtj;
+}
+
+}  // namespace
+
+FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>& train,
+                          const FullModelFitOptions& options, const ProgressFn& progress) {
+  const auto t_total = Clock::now();
+  CheckFitOptions(options);
+  const TrainingData data = ReadTraining(rig, train);
+  const int threads = ResolveThreads(options.threads);
+  const double tol = options.integrator_tolerance;
+
+  FullModelFit fit;
+  const sim::ModelParams base = WithExplicitArrayWeights(rig);
+  fit.candidates = CandidateParameters(rig, StimulatedChannels(rig, train));
+  const int nc = static_cast<int>(fit.candidates.size());
+  if (nc == 0) throw std::runtime_error("full-model: the rig offers no candidate parameter");
+  fit.residuals = data.residuals;
+  fit.distinct_simulations = static_cast<int>(data.plans.size());
+
+  // 1. The ranking, skipped when the caller names the parameters and asks for no ranking.
+  Ranking ranking{std::vector<int>(nc), std::vector<double>(nc)};
+  if (options.rank || options.fit_names.empty()) {
+    ranking = RankCandidates(options, base, data, tol, threads, progress, &fit);
+  }
+
+  // 2. The kept subset; parameters not kept are frozen at nominal in the base the local runs use.
+  const std::vector<int> kept_index = KeptIndices(options, fit.candidates, ranking);
+  const int p = static_cast<int>(kept_index.size());
+  for (int i : kept_index) fit.kept.push_back(fit.candidates[i]);
+  Eigen::VectorXd lower(p), upper(p), nominal(p);
+  for (int k = 0; k < p; ++k) {
+    lower(k) = fit.kept[k].lower;
+    upper(k) = fit.kept[k].upper;
+    nominal(k) = fit.kept[k].nominal;
+  }
+  if (data.residuals <= p) {
+    throw std::runtime_error("train: " + std::to_string(data.residuals) +
+                             " output samples, need more than " + std::to_string(p) +
+                             " for the kept parameters (too-short data)");
+  }
+
+  // 3. Multi-start local optimisation; 4. the intervals at the best run's minimiser.
+  const JacobianRequest request{options, base, fit.kept, upper, data, tol, threads};
+  const LmResult best = MultiStart(options, request, lower, nominal, progress, &fit);
+  fit.values = best.x;
+  fit.cost = best.cost;
+  fit.ci95_half_width =
+      ConfidenceHalfWidths95(ConfidenceJtJ(request, best), best.cost, data.residuals, 1e-3);
   fit.model = ApplyParameters(base, fit.kept, fit.values);
   fit.total_wall_s = Seconds(t_total);
   if (progress) progress(0.95, "done fitting");

@@ -1,4 +1,4 @@
-// Fit of the full model (12) of papers/000_0a6c0de9fc69df7c.txt to trial records, as in its §5.1:
+// Fit of the full model (12) of [Hand Hammerstein] to trial records, as in its §5.1:
 //   y = H_RB · R · H_hill · H_IRC · A · u                                               eq. (12)
 // (1) sensitivity analysis of the output to every candidate parameter, keep the K most influential
 // (the paper kept 29: the array matrix A, joint stiffness k_i, recruitment β_i, γ_i and two
@@ -92,7 +92,7 @@ sim::ModelParams ApplyParameters(const sim::ModelParams& base,
 
 /// The rig `fesim identify --method full-model` uses without --scenario: DefaultModelParams()
 /// (1.75 m, 75 kg) with shoulder (3 coordinates), elbow and pro/supination locked at their rest
-/// posture — the hand rig of paper 000 §5.1.
+/// posture — the hand rig of [Hand Hammerstein] §5.1.
 sim::ModelParams DefaultHandRig();
 
 /// Jacobian of the simulated outputs with respect to the fitted parameters.
@@ -133,7 +133,8 @@ struct FullModelFitOptions {
   /// Jacobian for its step direction only. At 100 (the default) the hand-array Jacobian is within
   /// 9 % (relative RMS; worst column 31 %) of the exact one and costs half of one at 10 (0.2 %,
   /// 1.5 %); the 29-parameter local step reaches the same cost in no more iterations (19 at 100;
-  /// 21 at 10 with gain-ratio damping, before the predicted-decrease stop; docs/performance.md).
+  /// 21 at 10 with gain-ratio damping, before the predicted-decrease stop; docs/performance.md
+  /// "Full-model fit local step").
   /// The confidence intervals get one Jacobian at 10 at the minimiser. ≥ 1; the Jacobians'
   /// tolerance is capped at 1e-2 (unless the residuals' is coarser).
   double jacobian_tolerance_factor = 100.0;

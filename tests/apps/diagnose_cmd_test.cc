@@ -212,7 +212,8 @@ TEST(DiagnoseCmd, InterruptedRunResumesFromTheCacheWithTheSameFigures) {
 }
 
 TEST(DiagnoseCmd, ReducedModelIsIdentifiedOnTheTrainingPartAndDiagnosed) {
-  // Paper 000's step grid (2 s steps): steady states for the static step of hammerstein-mimo.
+  // [Hand Hammerstein]'s step grid (2 s steps): steady states for the static step of
+  // hammerstein-mimo.
   const std::string dir = ::testing::TempDir() + "diag_reduced";
   std::filesystem::remove_all(dir);
   const std::string scenario = dir + "_grid.yaml";

@@ -23,7 +23,7 @@ struct Truth {
   double theta_max_post = ShoulderModel2Params().theta_max_post;
 };
 
-/// Pseudo-random activation steps, one muscle at a time (paper 003 §III-A).
+/// Pseudo-random activation steps, one muscle at a time ([Spagnol 2013] §III-A).
 ShoulderData StepInputs(double duration_s, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> level(0.2, 1.0), hold(0.8, 2.5);
@@ -181,7 +181,7 @@ TEST(Ekf, ConvergesToTrueParametersOnNoiselessOwnModelData) {
 
 TEST(Ekf, ReconvergesAfterMidTrialParameterStep) {
   // Fatigue: K_ant drops by 30 % at t = 90 s; the random walk on the parameters lets the filter
-  // follow. Measurement noise as in paper 003 §IV-B (white noise on the outputs).
+  // follow. Measurement noise as in [Spagnol 2013] §IV-B (white noise on the outputs).
   const Truth truth;
   constexpr double kStepTime = 90.0, kFatigue = 0.7;
   const ShoulderData d = OwnModelData(truth, 180.0, kStepTime, kFatigue, 1e-3, 5e-3, kSeed);

@@ -15,7 +15,7 @@ constexpr double kRecoveryTol = 1e-3;    // relative error, noiseless data
 constexpr double kNoiseStd_rad = 0.005;  // ≈ 0.3°, tracker-like angle noise
 constexpr double kNoisyTol = 0.05;       // relative error of D, Ψ, Θ under that noise
 constexpr double kSamplePeriod = 0.025;  // s (40 Hz)
-constexpr double kStep_s = 5.0;          // paper 000 §5.1
+constexpr double kStep_s = 5.0;          // [Hand Hammerstein] §5.1
 constexpr double kStepDC_tol = 1e-12;
 // Transient left 5 s after a step (Ω = 4 rad/s, μ ≤ 0.3 s): ≈ (1 + Ωt) e^{−Ωt}·|Δz| ~ 1e-6 rad.
 constexpr double kSettledTol_rad = 1e-5;
@@ -37,8 +37,8 @@ HammersteinMimoParams Planted() {
   return p;
 }
 
-// Step grid of paper 000 §5.1 / Fig. 6: 50 µs spacing over {u1 + u2 ≤ 300}, serpentine order
-// starting at rest; `transpose` swaps the roles of the inputs (the paper's second traversal).
+// Step grid of [Hand Hammerstein] §5.1 / Fig. 6: 50 µs spacing over {u1 + u2 ≤ 300}, serpentine
+// order starting at rest; `transpose` swaps the roles of the inputs (the paper's second traversal).
 Eigen::MatrixXd StepGrid(bool transpose) {
   std::vector<Eigen::Vector2d> pts;
   for (int i = 0; i <= 6; ++i) {

@@ -21,7 +21,7 @@ struct Planted {
   double noise = 0.0;      // N·m, sd
 };
 
-/// Quintic rest-to-rest profile s(τ) = 10τ³ − 15τ⁴ + 6τ⁵ with derivatives (paper 004 §II-A).
+/// Quintic rest-to-rest profile s(τ) = 10τ³ − 15τ⁴ + 6τ⁵ with derivatives ([Schearer 2014] §II-A).
 void Quintic(double tau, double T, double* s, double* sd, double* sdd) {
   const double t2 = tau * tau, t3 = t2 * tau;
   *s = 10 * t3 - 15 * t3 * tau + 6 * t3 * t2;
@@ -110,7 +110,7 @@ TEST(InverseDynamics, ParametricPredictionIntervalsHaveNominalCoverage) {
     tau(i) = truth(th(i), thd(i)) + e(rng);
   }
   const auto m = FitParametricJoint(th, thd, tau);
-  // v_p = σ_n² (1 + hᵀ (ΦᵀΦ)⁻¹ h) (paper 004 after eq. 4)
+  // v_p = σ_n² (1 + hᵀ (ΦᵀΦ)⁻¹ h) ([Schearer 2014] after eq. 4)
   const Eigen::Vector3d h = JointBasis(0.5, -0.2);
   EXPECT_NEAR(m.Predict(0.5, -0.2).variance, m.noise_variance * (1.0 + h.dot(m.gram_inverse * h)),
               kExactTol);

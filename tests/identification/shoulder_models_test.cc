@@ -14,7 +14,7 @@ constexpr double kRecoveryRelTol = 1e-2;  // planted parameters recovered within
 constexpr double kDt = 0.01;              // s
 constexpr unsigned kSeed = 20130707;
 
-/// Pseudo-random activation steps, one muscle at a time (paper 003 §III-A reference test).
+/// Pseudo-random activation steps, one muscle at a time ([Spagnol 2013] §III-A reference test).
 ShoulderData StepInputs(double duration_s, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> level(0.2, 1.0), hold(0.8, 2.5);
@@ -66,7 +66,7 @@ TEST(ShoulderModels, RegressorsReproduceTheModelEquations) {
       EXPECT_NEAR(phi1.dot(p1),
                   Model1DriveAcceleration(m1, sa, sp, theta, omega) - m1.c * (omega > 0 ? 1 : -1),
                   kExactTol);
-      // Paper 003 eq. 2 written by hand.
+      // [Spagnol 2013] eq. 2 written by hand.
       const double eq2 = m1.a_ant * sa + m1.a_post * sp - m1.k_m * theta -
                          (m1.k_ant * sa + m1.k_post * sp) * theta - m1.r_m * omega -
                          (m1.r_ant * sa + m1.r_post * sp) * omega;

@@ -17,7 +17,7 @@ constexpr double kNoisyPoleTol = 0.02;   // absolute error of a_1, a_2 under noi
 constexpr double kSamplePeriod = 0.025;  // s (40 Hz)
 constexpr unsigned kSeed = 20240611;
 
-// A staircase of mixed step widths over 0–300 µs (paper 002 §5), fixed seed.
+// A staircase of mixed step widths over 0–300 µs ([Le 2010] §5), fixed seed.
 Eigen::VectorXd Staircase(int n, std::mt19937* rng) {
   std::uniform_real_distribution<double> level(0.0, 300.0);
   std::uniform_int_distribution<int> width(8, 24);

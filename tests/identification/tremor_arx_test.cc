@@ -34,7 +34,7 @@ TremorModel Planted() {
   return m;
 }
 
-// Multisine 0.2–4 Hz in combined µs (paper 001 §4.1), random phases.
+// Multisine 0.2–4 Hz in combined µs ([Copur 2016] §4.1), random phases.
 Eigen::VectorXd Multisine(int n, std::mt19937* rng) {
   std::uniform_real_distribution<double> ph(0.0, kTwoPi);
   Eigen::VectorXd u = Eigen::VectorXd::Zero(n);

@@ -148,7 +148,7 @@ TEST(ValueAt, HoldsEachValueFromItsTime) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// paper 000: step grid
+// [Hand Hammerstein]: step grid
 
 /// All points of the 50 µs lattice inside U (000 eq. (46)), by brute force.
 std::set<std::vector<double>> LatticeInU(std::size_t n, double u_max, double spacing) {
@@ -256,7 +256,7 @@ TEST(StepGrid, RejectsBadParams) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// paper 002: triangular ramp, staircase, FRN, PRMS (30 s tests, 5 s rest at both ends)
+// [Le 2010]: triangular ramp, staircase, FRN, PRMS (30 s tests, 5 s rest at both ends)
 
 TEST(TriangularRamp, RisesToThePeakAndReturnsAtThePulseRate) {
   const TriangularRampParams params;
@@ -416,7 +416,7 @@ TEST(Prms, RejectsNonPrimeLevels) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// paper 001: multisine through the co-activation mapping
+// [Copur 2016]: multisine through the co-activation mapping
 
 TEST(CoactivationMap, Equations5And6) {
   const CoactivatedPair pos = CoactivationMap(80.0, 40.0, 30.0);
@@ -455,7 +455,7 @@ TEST(Multisine, PowerInsideTheBandAndMappedByCoactivation) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// paper 003: antagonist pseudo-random steps
+// [Spagnol 2013]: antagonist pseudo-random steps
 
 TEST(ShoulderPseudoRandomSteps, NeverBothChannelsAtOnce) {
   ShoulderStepsParams params;
@@ -556,7 +556,7 @@ TEST(Seeds, SameSeedSameProgramDifferentSeedDifferentProgram) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// paper 004: reaching
+// [Schearer 2014]: reaching
 
 TEST(MinimumJerk, QuinticBoundaryConditionsAndShape) {
   const QuinticTiming a = MinimumJerk(0.0), b = MinimumJerk(1.0);

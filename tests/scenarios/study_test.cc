@@ -84,7 +84,7 @@ protocols:
   // Participant heights reach the model through the scenario's participant block.
   EXPECT_NEAR(st.items[4].scenario.model.segments[sim::kForearm].length_m,
               0.146 * st.participants[1].height_m, 1e-12);
-  // The step grid's two repetitions traverse in opposite orders (paper 000 Fig. 6).
+  // The step grid's two repetitions traverse in opposite orders ([Hand Hammerstein] Fig. 6).
   EXPECT_NE(st.items[0].scenario.trial.stimulation.values[1],
             st.items[1].scenario.trial.stimulation.values[1]);
   EXPECT_NE(st.items[0].noise_seed, st.items[1].noise_seed);

@@ -66,7 +66,7 @@ TEST(DefaultModel, FibresOptimalAtRestAndSignsAnatomical) {
     const std::string& n = p.muscles[m].name;
     const double wrist = r[kWristFlexion * nm + m];
     if (n[0] == 'E') {
-      EXPECT_LT(wrist, 0.0) << n;  // extensors extend (paper 000 sign pattern)
+      EXPECT_LT(wrist, 0.0) << n;  // extensors extend ([Hand Hammerstein] sign pattern)
     }
     if (n == "FCR" || n == "FCU" || n == "FDS" || n == "FDP") {
       EXPECT_GT(wrist, 0.0) << n;

@@ -64,7 +64,7 @@ TEST(PassiveJoint, QuadraticAsymmetryIsMinusTheGradientOfItsCubicPotential) {
 
 TEST(PassiveJoint, LinearInsideRangeExponentialBeyond) {
   const PassiveJointParams p = Joint();
-  // Mid-range: eq. (14) of paper 000, limit moments below 1e-8 N·m.
+  // Mid-range: eq. (14) of [Hand Hammerstein], limit moments below 1e-8 N·m.
   EXPECT_NEAR(PassiveJointTorque(p, 1.0, 0.2), 2.3 * (1.4 - 1.0) - 0.5 * 0.2, 1e-8);
   // At the upper limit the limit stiffness adds K_L; beyond it the moment grows exponentially.
   const double at = PassiveElasticTorque(p, 2.6) - 2.3 * (1.4 - 2.6);

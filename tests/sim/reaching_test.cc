@@ -1,4 +1,4 @@
-// Robot-driven reaching end to end (sim/reaching.h, papers/004_7ee2989736d21d4b.txt §II, issue 3).
+// Robot-driven reaching end to end (sim/reaching.h, [Schearer 2014] §II, issue 3).
 #include "sim/reaching.h"
 
 #include <gtest/gtest.h>

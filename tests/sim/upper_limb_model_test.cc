@@ -101,7 +101,7 @@ TEST(UpperLimbModel, PowerBalanceOfMuscles) {
 }
 
 TEST(UpperLimbModel, LockedElbowSensorReadsTendonTorque) {
-  // Isometric rig (paper 002): every coordinate locked, no gravity, elbow at its passive rest
+  // Isometric rig ([Le 2010]): every coordinate locked, no gravity, elbow at its passive rest
   // angle. The torque sensor must read Σ_j R_ej f_j.
   ModelParams p = DefaultModelParams();
   p.gravity_m_s2 = {0, 0, 0};

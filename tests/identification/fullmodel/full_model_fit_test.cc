@@ -1,6 +1,6 @@
 // Full-model (12) fit (identification/fullmodel/full_model_fit.h): recovery of planted parameters
 // from noiseless and noisy full-model data, sensitivity ranking, and the Hammerstein D sign
-// pattern against the tendon matrix on full-model step-grid trials (paper 000 §5.1).
+// pattern against the tendon matrix on full-model step-grid trials ([Hand Hammerstein] §5.1).
 #include "identification/fullmodel/full_model_fit.h"
 
 #include <gtest/gtest.h>
@@ -265,8 +265,8 @@ TEST(FullModelFitTest, SensitivityRankingPutsDrivenParameterAboveUndrivenOne) {
 }
 
 TEST(FullModelFitTest, HammersteinStaticGainSignsMatchTendonMatrix) {
-  // Full-model step-grid trials of the default hand rig (paper 000 §5.1 protocol, coarser grid
-  // and shorter steps to keep the test short), both traversal orders.
+  // Full-model step-grid trials of the default hand rig ([Hand Hammerstein] §5.1 protocol, coarser
+  // grid and shorter steps to keep the test short), both traversal orders.
   const sim::ModelParams rig = DefaultHandRig();
   protocols::StepGridParams grid;
   grid.channels = {"ext", "flex"};

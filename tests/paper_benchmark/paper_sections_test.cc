@@ -1,0 +1,149 @@
+// The steps of the elbow-tests and tremor-wrist sections (paper_benchmark/paper_sections.h) on
+// known inputs; the whole sections run in benchmark_test.cc.
+#include "paper_benchmark/paper_sections.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <complex>
+#include <stdexcept>
+#include <string>
+
+namespace fesim::paper_benchmark {
+namespace {
+
+constexpr double kTol = 1e-9;  // Best Fit % and amplitudes from a few sums: rounding only.
+
+Trial Record(const std::vector<double>& time,
+             const std::vector<std::pair<std::string, std::vector<double>>>& columns) {
+  Trial t;
+  t.time = time;
+  for (const auto& [name, values] : columns) t.AddColumn(name, values);
+  return t;
+}
+
+TEST(PaperSections, FitAgainstTruthRemovesTheSensorsZeroOffset) {
+  // The measured torque is the truth less 2 N·m (a sensor zeroed at rest); a prediction equal to
+  // the measured record fits the truth perfectly once that offset is removed.
+  const std::vector<double> time = {0.0, 0.1, 0.2, 0.3, 0.4};
+  const std::vector<double> y = {1.0, 3.0, 2.0, 5.0, 4.0};
+  std::vector<double> truth_y = y;
+  for (double& v : truth_y) v += 2.0;
+  const Trial measured = Record(time, {{"tau.elbow_flexion", y}});
+  const Trial truth = Record(time, {{"tau.elbow_flexion", truth_y}});
+  EXPECT_NEAR(FitAgainstTruth(measured, truth, measured, "tau.elbow_flexion"), 100.0, kTol);
+  // A prediction off by 1 N·m everywhere: Best Fit 100 (1 − ‖1‖/‖y − ȳ‖).
+  std::vector<double> off = y;
+  for (double& v : off) v += 1.0;
+  const Trial prediction = Record(time, {{"tau.elbow_flexion", off}});
+  const double y_mean = 3.0;
+  double ss = 0.0;
+  for (double v : y) ss += (v - y_mean) * (v - y_mean);
+  EXPECT_NEAR(FitAgainstTruth(prediction, truth, measured, "tau.elbow_flexion"),
+              100.0 * (1.0 - std::sqrt(5.0) / std::sqrt(ss)), kTol);
+}
+
+TEST(PaperSections, FitCellShowsDivergedPredictionsAsBelowMinus100) {
+  EXPECT_EQ(FitCell(85.26), "85.3");
+  EXPECT_EQ(FitCell(-99.94), "-99.9");
+  EXPECT_EQ(FitCell(-150.0), "< −100");
+  EXPECT_EQ(FitCell(NAN), "–");
+}
+
+TEST(PaperSections, OutputColumnPrefersTorqueThenAngle) {
+  EXPECT_EQ(OutputColumn(Record({0.0}, {{"u.ext", {0}}, {"q.wrist", {0}}, {"tau.elbow", {0}}})),
+            "tau.elbow");
+  EXPECT_EQ(OutputColumn(Record({0.0}, {{"u.ext", {0}}, {"q.wrist", {0}}})), "q.wrist");
+  try {
+    OutputColumn(Record({0.0}, {{"u.ext", {0}}}));
+    FAIL() << "no exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "benchmark: prediction without a tau.* or q.* column");
+  }
+}
+
+TEST(PaperSections, AgonistFirstPutsThePositivelyCorrelatedChannelFirst) {
+  const std::vector<double> time = {0.0, 0.1, 0.2, 0.3};
+  const std::vector<double> a = {0, 100, 0, 100}, b = {100, 0, 100, 0};
+  const std::vector<double> q = {-0.1, 0.1, -0.1, 0.1};  // follows a − b
+  const Trial right = Record(time, {{"u.fcr", a}, {"u.ecr", b}, {"q.wrist_flexion", q}});
+  const Trial same = AgonistFirst(right);
+  EXPECT_EQ(same.names, right.names);
+  const Trial swapped_in = Record(time, {{"u.ecr", b}, {"u.fcr", a}, {"q.wrist_flexion", q}});
+  const Trial swapped = AgonistFirst(swapped_in);
+  EXPECT_EQ(swapped.names, (std::vector<std::string>{"u.fcr", "u.ecr", "q.wrist_flexion"}));
+  EXPECT_EQ(swapped.Column("u.fcr"), a);
+  EXPECT_EQ(swapped.Column("q.wrist_flexion"), q);
+  EXPECT_EQ(swapped.time, time);
+  // Not two inputs and one output: unchanged.
+  const Trial three = Record(time, {{"u.x", a}, {"u.y", b}, {"u.z", a}, {"q.w", q}});
+  EXPECT_EQ(AgonistFirst(three).names, three.names);
+}
+
+TEST(PaperSections, ElbowJobsCoverEveryFitOnceInMethodMajorOrder) {
+  const std::vector<ElbowJob> jobs = ElbowJobs(2, 3, 4, 2);
+  // Per method, participant and protocol: one cross-validation fit (r = −1) and one per trial.
+  ASSERT_EQ(jobs.size(), 2u * 3u * 4u * 3u);
+  EXPECT_EQ(jobs[0].m, 0);
+  EXPECT_EQ(jobs[0].r, -1);
+  EXPECT_EQ(jobs[1].r, 0);
+  EXPECT_EQ(jobs[2].r, 1);
+  EXPECT_EQ(jobs[3].a, 1);
+  EXPECT_EQ(jobs[12].p, 1);
+  EXPECT_EQ(jobs.back().m, 1);
+  EXPECT_EQ(jobs.back().p, 2);
+  EXPECT_EQ(jobs.back().a, 3);
+  EXPECT_EQ(jobs.back().r, 1);
+}
+
+TEST(PaperSections, ElbowBestFitsGoToIdentificationValidationAndCrossValidation) {
+  // One method, one participant, two protocols, two trials each.
+  const std::vector<ElbowJob> jobs = ElbowJobs(1, 1, 2, 2);
+  std::vector<ElbowJobFigures> figures(jobs.size());
+  for (std::size_t i = 0; i < jobs.size(); ++i) {
+    const ElbowJob& j = jobs[i];
+    ElbowJobFigures& f = figures[i];
+    if (j.r >= 0) {  // evaluated on both trials of its protocol
+      for (int r = 0; r < 2; ++r) {
+        f.bf.push_back(10.0 * j.a + r + (r == j.r ? 50.0 : 0.0));
+        f.bf_truth.push_back(NAN);
+        f.test_proto.push_back(j.a);
+        f.test_rep.push_back(r);
+      }
+    } else {  // evaluated on every trial of both protocols
+      for (int b = 0; b < 2; ++b) {
+        for (int r = 0; r < 2; ++r) {
+          f.bf.push_back(100.0 * j.a + 10.0 * b + r);
+          f.bf_truth.push_back(b != j.a ? 1000.0 + b : NAN);
+          f.test_proto.push_back(b);
+          f.test_rep.push_back(r);
+        }
+      }
+    }
+  }
+  const ElbowBestFits b = GatherElbowBestFits(jobs, figures, 1, 2);
+  // Identification: the fitted trial itself (+50); validation: the other trial.
+  EXPECT_EQ(b.ident[0][1], (std::vector<double>{60.0, 61.0}));
+  EXPECT_EQ(b.valid[0][1], (std::vector<double>{11.0, 10.0}));
+  EXPECT_EQ(b.cross[0][0][1], (std::vector<double>{10.0, 11.0}));
+  EXPECT_EQ(b.cross[0][1][0], (std::vector<double>{100.0, 101.0}));
+  EXPECT_EQ(b.cross_truth[0][0], (std::vector<double>{1001.0, 1001.0}));  // other protocol only
+  EXPECT_EQ(b.cross_truth[0][1], (std::vector<double>{1000.0, 1000.0}));
+}
+
+TEST(PaperSections, TremorAmplitudeDividesByTheArxDenominatorAtTheTremorFrequency) {
+  // |λ| = 5; without poles the amplitude is |λ|.
+  EXPECT_NEAR(TremorAngleAmplitude({}, 3.0, 4.0, 6.0, 0.01), 5.0, kTol);
+  // A_P(z) = 1 − 0.5 z⁻¹ at ωT = π (f = 50 Hz, T = 10 ms): A = 1.5.
+  EXPECT_NEAR(TremorAngleAmplitude({-0.5}, 3.0, 4.0, 50.0, 0.01), 5.0 / 1.5, kTol);
+  // At ωT = π/2 (f = 25 Hz): A = 1 − 0.5 (−j) = 1 + 0.5 j.
+  EXPECT_NEAR(TremorAngleAmplitude({-0.5}, 3.0, 4.0, 25.0, 0.01), 5.0 / std::sqrt(1.25), kTol);
+  // Two poles, against the polynomial evaluated directly.
+  const double w = 2.0 * M_PI * 6.0 * 0.01;
+  const std::complex<double> z_inv = std::polar(1.0, -w);
+  const std::complex<double> A = 1.0 - 1.6 * z_inv + 0.64 * z_inv * z_inv;
+  EXPECT_NEAR(TremorAngleAmplitude({-1.6, 0.64}, 0.1, 0.0, 6.0, 0.01), 0.1 / std::abs(A), kTol);
+}
+
+}  // namespace
+}  // namespace fesim::paper_benchmark
