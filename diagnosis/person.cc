@@ -235,12 +235,14 @@ bool ArmOutput(const LibraryContext& ctx) {
   return false;
 }
 
-/// Starts of the MAP fit over `fitted` (see person.h step 3).
+/// Starts of the MAP fit over `fitted` (see person.h step 3): nominal, and the four corners with
+/// an elbow or shoulder output; the corners alone with `corners_only`.
 std::vector<Eigen::VectorXd> CalibrationStarts(const std::vector<ModelParameter>& fitted,
-                                               const LibraryContext& ctx) {
+                                               const LibraryContext& ctx, bool corners_only) {
   Eigen::VectorXd nominal = Starts(fitted);
-  std::vector<Eigen::VectorXd> out = {nominal};
-  if (!ctx.reduced_model.empty() || !ArmOutput(ctx)) return out;
+  std::vector<Eigen::VectorXd> out;
+  if (!corners_only) out.push_back(nominal);
+  if (!corners_only && (!ctx.reduced_model.empty() || !ArmOutput(ctx))) return out;
   for (const double stiffness : {0.8, 1.25}) {
     for (const double strength : {0.8, 1.25}) {
       Eigen::VectorXd x = nominal;
@@ -374,7 +376,8 @@ PersonCalibration CalibratePerson(const sim::ModelParams& rig, const LibraryCont
   }
   for (int k : kept) out.fitted.push_back(all[static_cast<std::size_t>(k)]);
   // 3. MAP fit from the starts; the lowest posterior cost is kept.
-  const std::vector<Eigen::VectorXd> starts = CalibrationStarts(out.fitted, ctx);
+  const std::vector<Eigen::VectorXd> starts =
+      CalibrationStarts(out.fitted, ctx, options.corner_starts_only);
   out.starts = static_cast<int>(starts.size());
   const int before = out.fit.simulations;
   out.fit = FitOverStarts(rig, out.fitted, starts, train, f, options.iterations);

@@ -107,6 +107,9 @@ struct PersonCalibrationOptions {
   int iterations = 40;
   /// Identifiability threshold (step 2), ≥ 0; 0 keeps every parameter.
   double identifiable_information = kIdentifiableInformation;
+  /// Step 3 from the four corner starts alone (stiffness × {0.8, 1.25}, strength × {0.8, 1.25}),
+  /// not from nominal: the retry of a calibration that misses the black box (diagnose.h).
+  bool corner_starts_only = false;
 };
 
 /// Steps 1–4 on the training view. `fo` as for every fit (threads, integrator, simulator).

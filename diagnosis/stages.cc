@@ -122,12 +122,18 @@ std::vector<ModelParameter> FittedPersonParameters(const StageContext& ctx,
   return out;
 }
 
-CalibrationStage Calibrate(const StageContext& ctx) {
-  ctx.Report(0.0, "calibrating the person");
-  return ctx.cache.Get<CalibrationStage>({"calibrate"}, [&] {
+CalibrationStage Calibrate(const StageContext& ctx, bool corner_starts_only) {
+  ctx.Report(corner_starts_only ? 0.25 : 0.0,
+             corner_starts_only ? "calibrating the person again from the corner starts"
+                                : "calibrating the person");
+  const std::vector<std::string> key = corner_starts_only
+                                           ? std::vector<std::string>{"calibrate", "corner starts"}
+                                           : std::vector<std::string>{"calibrate"};
+  return ctx.cache.Get<CalibrationStage>(key, [&] {
     const DataView& train = ctx.data.train;
-    const PersonCalibration person =
-        CalibratePerson(ctx.rig, ctx.library, train, ctx.fit, ctx.settings.person);
+    PersonCalibrationOptions options = ctx.settings.person;
+    options.corner_starts_only = corner_starts_only;
+    const PersonCalibration person = CalibratePerson(ctx.rig, ctx.library, train, ctx.fit, options);
     CalibrationStage s;
     int sims = person.fit.simulations;
     for (const auto& p : person.fitted) s.fitted_names.push_back(p.name);

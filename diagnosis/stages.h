@@ -50,8 +50,9 @@ void FromJson(const Json& j, CalibrationStage* s);
 Json ToJson(const ReferenceResult& r);
 void FromJson(const Json& j, ReferenceResult* r);
 
-/// Stage "calibrate": CalibratePerson on the training view (person.h), held-out predictions.
-CalibrationStage Calibrate(const StageContext& ctx);
+/// Stage "calibrate": CalibratePerson on the training view (person.h), held-out predictions;
+/// `corner_starts_only`: the retry from the corner starts (PersonCalibrationOptions).
+CalibrationStage Calibrate(const StageContext& ctx, bool corner_starts_only = false);
 /// The fitted person parameters of a calibration (PersonParameters by name, in its order).
 std::vector<ModelParameter> FittedPersonParameters(const StageContext& ctx,
                                                    const CalibrationStage& calibration);
