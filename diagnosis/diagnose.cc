@@ -221,8 +221,14 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   // posterior cost of the two is kept (chosen on the training data alone).
   if (settings.model == "full" && calibration.starts == 1 &&
       !ReferenceGaps(d.baseline_heldout_nrmse_per_output, d.reference, settings).empty()) {
-    CalibrationStage corners = Calibrate(ctx, true);
-    if (corners.fit.map_cost < calibration.fit.map_cost) {
+    CalibrationStage corners;
+    bool retried = true;
+    try {
+      corners = Calibrate(ctx, true);
+    } catch (const std::runtime_error&) {
+      retried = false;  // no corner start (or its held-out prediction) simulates: keep the first
+    }
+    if (retried && corners.fit.map_cost < calibration.fit.map_cost) {
       d.notes.push_back(Fmt(
           "the calibration from nominal missed the black box; from the corner starts it reached a "
           "lower posterior cost (%.4g against %.4g), which is the calibrated person",
