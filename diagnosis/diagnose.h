@@ -121,6 +121,9 @@ struct CandidateResult {
   /// The parameter whose fit ended at its ModelParameter::collapses_at bound, where the
   /// mechanism is one the person parameters already describe: not accepted ("": none).
   std::string collapsed;
+  /// Why the residual it was to explain contradicts its signature (Mechanism::
+  /// shape_contradiction; "": consistent or not checked): not accepted.
+  std::string shape;
   std::string decision;  ///< why accepted or not, one phrase.
   std::string evidence;  ///< test and signature figures, one line.
 };

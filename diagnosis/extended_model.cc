@@ -155,6 +155,28 @@ Eigen::VectorXd StackResiduals(const DataView& view, const std::vector<Trial>& p
   return Eigen::Map<Eigen::VectorXd>(r.data(), static_cast<Eigen::Index>(r.size()));
 }
 
+std::vector<ResidualSeries> UnstackResiduals(const DataView& view, const Eigen::VectorXd& r) {
+  std::vector<ResidualSeries> out;
+  Eigen::Index row = 0;
+  for (std::size_t t = 0; t < view.trials.size(); ++t) {
+    for (const auto& name : view.outputs) {
+      ResidualSeries s;
+      s.trial = static_cast<int>(t);
+      s.output = name;
+      const auto& y = view.trials[t].Column(name);
+      for (std::size_t i = 0; i < y.size(); ++i) {
+        if (!view.use[t][i] || !std::isfinite(y[i])) continue;
+        if (row >= r.size()) throw std::invalid_argument("UnstackResiduals: residual too short");
+        s.time_s.push_back(view.trials[t].time[i]);
+        s.r.push_back(r(row++));
+      }
+      out.push_back(std::move(s));
+    }
+  }
+  if (row != r.size()) throw std::invalid_argument("UnstackResiduals: residual too long");
+  return out;
+}
+
 sim::ModelParams WithInitialPosture(const sim::ModelParams& base, const DataView& view,
                                     std::size_t t) {
   sim::ModelParams m = base;

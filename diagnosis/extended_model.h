@@ -129,6 +129,16 @@ void AddOutputDrift(const std::vector<ModelParameter>& params, const Eigen::Vect
 /// Stacked residuals y − ŷ over the counted samples (trial-major, then output, then time).
 Eigen::VectorXd StackResiduals(const DataView& view, const std::vector<Trial>& predictions);
 
+/// One output of one trial of a view: its counted samples' times and residuals.
+struct ResidualSeries {
+  int trial = 0;
+  std::string output;
+  std::vector<double> time_s, r;  ///< s, rad.
+};
+/// The stacked residual r (StackResiduals' order and size, std::invalid_argument otherwise) per
+/// trial and output of `view`.
+std::vector<ResidualSeries> UnstackResiduals(const DataView& view, const Eigen::VectorXd& r);
+
 /// Mean over outputs of the normalised error ‖y − ŷ‖ / ‖y − ȳ‖ (identification/metrics.h) on the
 /// counted samples of all trials pooled per output, dimensionless.
 double ViewNrmse(const DataView& view, const std::vector<Trial>& predictions);

@@ -51,6 +51,8 @@ struct Judgement {
   double lr = 0.0, lr_p_adj = 1.0, gain = -INFINITY, z = 0.0, z_p_adj = 1.0;
   std::string collapsed;
   std::string at_bound;  ///< a parameter at a bound of its plausible range ("": none).
+  /// Mechanism::shape_contradiction on the residual of the model it extends ("": none).
+  std::string shape;
   bool passes = false;
 };
 
@@ -230,8 +232,12 @@ Judgement Extender::Judge(const Fitted& f, const Fitted& ref, int c, Eigen::Inde
     // Bonferroni over the fits a round can run (the score test already controls the library).
     j.z_p_adj = std::min(1.0, ctx_.settings.max_screened * NormalSurvival(j.z));
   }
+  const Mechanism& mechanism = FindMechanism(lib_[c].id);
+  if (mechanism.shape_contradiction && r0.size() > 0) {
+    j.shape = mechanism.shape_contradiction(UnstackResiduals(ctx_.data.train, r0));
+  }
   const double alpha = ctx_.settings.alpha;
-  j.passes = j.collapsed.empty() && j.at_bound.empty() && j.lr_p_adj < alpha &&
+  j.passes = j.collapsed.empty() && j.at_bound.empty() && j.shape.empty() && j.lr_p_adj < alpha &&
              j.gain > ctx_.settings.min_heldout_gain &&
              (j.z_p_adj < alpha || j.gain > ctx_.settings.clear_heldout_gain);
   return j;
@@ -480,6 +486,7 @@ void Extender::Record(int c, const Fitted& f, const Judgement& j) {
   cr.heldout_z = j.z;
   cr.heldout_p_adjusted = j.z_p_adj;
   cr.collapsed = j.collapsed;
+  cr.shape = j.shape;
   cr.parameters.clear();
   for (std::size_t p = 0; p < lib_[c].params.size(); ++p) {
     const auto k = static_cast<Eigen::Index>(ns_ + p);
@@ -492,6 +499,8 @@ void Extender::Record(int c, const Fitted& f, const Judgement& j) {
     cr.decision = j.at_bound +
                   " ended at a bound of its plausible range: the fit stands in for a "
                   "misfit of the model, not for the mechanism";
+  } else if (!j.shape.empty()) {
+    cr.decision = j.shape;
   } else if (!(j.lr_p_adj < ctx_.settings.alpha)) {
     cr.decision = "its fit does not pass the robust training test";
   } else if (!(j.gain > ctx_.settings.min_heldout_gain)) {

@@ -120,6 +120,7 @@ Json DiagnosisJson(const Diagnosis& d) {
     e.Set("heldout_gain", c.fitted ? Json(c.heldout_gain) : Json());
     e.Set("heldout_z", c.fitted ? Json(c.heldout_z) : Json());
     e.Set("lr_p_adjusted", c.fitted ? Json(c.lr_p_adjusted) : Json());
+    e.Set("shape_contradiction", c.shape.empty() ? Json() : Json(c.shape));
     e.Set("accepted", c.accepted).Set("decision", c.decision).Set("evidence", c.evidence);
     cands.Push(e);
   }

@@ -1,5 +1,6 @@
 #include "diagnosis/signatures.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -245,6 +246,63 @@ double StructuredVarianceFraction(const std::vector<double>& r) {
   const double var = s2 / n - (s / n) * (s / n);
   if (var <= 0.0) return 0.0;
   return std::clamp(1.0 - (d2 / pairs) / (2.0 * var), 0.0, 1.0);
+}
+
+TrendShape TrendOrStep(const std::vector<double>& time_s, const std::vector<double>& r,
+                       double min_fraction) {
+  if (time_s.size() != r.size()) throw std::invalid_argument("TrendOrStep: sizes differ");
+  if (!(min_fraction > 0.0 && min_fraction < 0.5))
+    throw std::invalid_argument("TrendOrStep: min_fraction must be in (0, 0.5)");
+  std::vector<double> t, y;
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    if (Finite(r[i]) && Finite(time_s[i])) {
+      t.push_back(time_s[i]);
+      y.push_back(r[i]);
+    }
+  }
+  TrendShape shape;
+  const auto n = static_cast<long>(t.size());
+  const long margin = std::max(2L, static_cast<long>(std::ceil(min_fraction * n)));
+  if (n < 2 * margin + 2) return shape;
+  // Centred and scaled time for the normal equations; sums over all samples and, running from
+  // the end, over the samples at or after the step (H = 1).
+  double mean_t = 0.0;
+  for (double v : t) mean_t += v;
+  mean_t /= n;
+  const double span = std::max(t.back() - t.front(), 1e-12);
+  double st = 0, stt = 0, sy = 0, sty = 0, syy = 0;
+  for (long i = 0; i < n; ++i) {
+    const double x = (t[i] - mean_t) / span;
+    st += x, stt += x * x, sy += y[i], sty += x * y[i], syy += y[i] * y[i];
+  }
+  const double ssr_trend =
+      syy - sy * sy / n -
+      (sty - st * sy / n) * (sty - st * sy / n) / std::max(stt - st * st / n, 1e-300);
+  double best_step = INFINITY, best_full = INFINITY;
+  double h1 = 0, ht = 0, hy = 0;  // Σ over the H = 1 samples of 1, x, y.
+  for (long k = n - 1; k >= margin; --k) {
+    const double x = (t[k] - mean_t) / span;
+    h1 += 1.0, ht += x, hy += y[k];
+    if (n - k < margin) continue;
+    // Step: two means.
+    const double n0 = n - h1, s0 = sy - hy;
+    best_step = std::min(best_step, syy - s0 * s0 / n0 - hy * hy / h1);
+    // Trend + step: normal equations of [1, x, H].
+    Eigen::Matrix3d a;
+    a << n, st, h1, st, stt, ht, h1, ht, h1;
+    const Eigen::Vector3d b(sy, sty, hy);
+    const Eigen::Vector3d beta = a.ldlt().solve(b);
+    const double ssr = syy - beta.dot(b);
+    if (ssr < best_full) {
+      best_full = ssr;
+      shape.step_time_s = 0.5 * (t[k - 1] + t[k]);
+      shape.step_rad = beta(2);
+    }
+  }
+  best_full = std::max(0.0, best_full);
+  shape.trend_beyond_step = std::max(0.0, best_step - best_full);
+  shape.step_beyond_trend = std::max(0.0, ssr_trend - best_full);
+  return shape;
 }
 
 std::vector<double> CumulativeStimulation(const std::vector<double>& time_s,

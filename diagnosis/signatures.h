@@ -9,6 +9,7 @@
 // skipped everywhere. Also the χ² survival function used by the score tests (diagnose.h).
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -73,6 +74,23 @@ LagPeak CrossCorrelationPeak(const std::vector<double>& x, const std::vector<dou
 /// consecutive finite samples; 0 for white noise, → 1 for a slow structured residual. Clamped to
 /// [0, 1]; 0 when fewer than 10 pairs.
 double StructuredVarianceFraction(const std::vector<double>& r);
+
+/// The shape of a slow offset in a residual r(t): a trend a + b·t or a step a + d·H(t − τ) (a
+/// sensor drifting vs. a sensor or glove slipping once). With SSR_X the least-squares Σr² of
+/// model X over the finite samples and τ searched over every sample with at least
+/// `min_fraction` of them on either side:
+///   trend_beyond_step = min_τ SSR_step − min_τ SSR_trend+step (what the trend adds to a step),
+///   step_beyond_trend = SSR_trend − min_τ SSR_trend+step (what a step adds to a trend),
+/// both rad² and ≥ 0. A pure trend gives step_beyond_trend ≈ 0 and trend_beyond_step ≈ ¼ of its
+/// variance·N (a step at mid-recording removes 3/4 of a line's); a pure step the reverse.
+struct TrendShape {
+  double trend_beyond_step = 0.0, step_beyond_trend = 0.0;  ///< rad².
+  double step_time_s = NAN;  ///< τ of the best trend+step fit, s (NaN: too few samples).
+  double step_rad = 0.0;     ///< its d, rad.
+};
+/// Sizes of time_s and r must match (std::invalid_argument); min_fraction in (0, 0.5).
+TrendShape TrendOrStep(const std::vector<double>& time_s, const std::vector<double>& r,
+                       double min_fraction = 0.1);
 
 /// Cumulative stimulation C(t_i) = Σ_k ∫₀^{t_i} u_k dt (trapezoid), µs·s, for input columns u_k
 /// sampled at `time_s`.

@@ -64,6 +64,22 @@ void ListExtension(const std::vector<Candidate>& library, const ExtensionOutcome
   }
 }
 
+/// The candidate whose fit passes its training test and gains on the held-out data but whose
+/// signature the residual contradicts (CandidateResult::shape), the largest gain first; −1: none.
+int StructureOutsideLibrary(const std::vector<CandidateResult>& candidates,
+                            const DiagnoseSettings& settings) {
+  int best = -1;
+  for (std::size_t c = 0; c < candidates.size(); ++c) {
+    const CandidateResult& cr = candidates[c];
+    if (cr.shape.empty() || !cr.fitted || !(cr.lr_p_adjusted < settings.alpha) ||
+        !(cr.heldout_gain > settings.min_heldout_gain)) {
+      continue;
+    }
+    if (best < 0 || cr.heldout_gain > candidates[best].heldout_gain) best = static_cast<int>(c);
+  }
+  return best;
+}
+
 }  // namespace
 
 std::vector<int> ReferenceGaps(const std::vector<double>& nrmse, const ReferenceResult& reference,
@@ -92,6 +108,18 @@ void MakeVerdict(const std::vector<Candidate>& library, const ExtensionOutcome& 
       best_gain = std::max(best_gain, cr.heldout_gain);
   }
   if (extension.cause < 0) {
+    const int outside = StructureOutsideLibrary(d->candidates, settings);
+    if (outside >= 0) {
+      const CandidateResult& cr = d->candidates[outside];
+      d->cause = "unexplained";
+      d->confidence = 0.5 + 0.5 * std::min(1.0, cr.heldout_gain / settings.clear_heldout_gain);
+      d->reason = "the residual holds a structure no candidate of the library has: " +
+                  FindMechanism(cr.id).description +
+                  Fmt(" would gain %.1f %% on the held-out data, but ", 100.0 * cr.heldout_gain) +
+                  cr.shape;
+      ListExtension(library, extension, person_parameters, d);
+      return;
+    }
     if (!extension.accepted.empty()) {
       NoneBeyondControls(library, extension, gaps_after, d);
       ListExtension(library, extension, person_parameters, d);

@@ -128,6 +128,10 @@ struct Mechanism {
   /// The descriptive signature figures quoted as its evidence, from the residual summary of the
   /// output it acts on (or the largest).
   std::function<std::string(const OutputSignature& s)> evidence;
+  /// The shape its signature must have in the residual it is to explain (per training trial and
+  /// output, of the model the candidate extends), checked before a fitted candidate passes: the
+  /// reason that residual contradicts it, or "" (sensor_drift: a trend, not a step). Null: none.
+  std::function<std::string(const std::vector<ResidualSeries>& residual)> shape_contradiction;
   /// A control, not a mechanism: a way a normal person differs from the calibrated one that the
   /// person parameters (person.h) do not express. It competes with the mechanisms in the
   /// extension (extension.h) so that a mechanism is named only for what it explains beyond normal

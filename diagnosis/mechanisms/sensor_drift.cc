@@ -6,13 +6,58 @@
 // them per trial, foreign/effects.h). Planted in fesim's data: 0.0005 s rad/s on every angle
 // channel, the same in every trial.
 #include <algorithm>
+#include <cmath>
 
 #include "diagnosis/mechanisms/library.h"
+#include "diagnosis/signatures.h"
 
 namespace fesim::diagnosis {
 namespace {
 
 constexpr double kProbeRateRadS = 1e-3;
+/// A drift is contradicted when a step adds this many times more to a trend than a trend adds to
+/// a step, summed over the training trials and outputs (signatures.h TrendOrStep: a pure trend
+/// gives ≈ 0, a pure step ≈ ∞; tests/diagnosis/mechanisms/registry_test.cc) ...
+constexpr double kStepOverTrend = 2.0;
+/// ... and the largest step is no chance find of the step-time search in white noise: its Σr²
+/// exceeds this many times the residual's white variance var(Δr)/2 (the search's maximum over
+/// ≈ 3000 times of a χ²₁ stays below ≈ 20 with probability ≈ 0.999).
+constexpr double kMinStepInNoiseVariances = 20.0;
+
+/// White-noise variance of a residual, var(Δr)/2, rad².
+double WhiteVariance(const std::vector<double>& r) {
+  double d2 = 0.0;
+  int pairs = 0;
+  for (std::size_t i = 1; i < r.size(); ++i) {
+    if (std::isfinite(r[i]) && std::isfinite(r[i - 1])) {
+      d2 += (r[i] - r[i - 1]) * (r[i] - r[i - 1]);
+      ++pairs;
+    }
+  }
+  return pairs > 0 ? d2 / (2.0 * pairs) : 0.0;
+}
+
+/// "" when the slow part of the residual is a trend (or no offset stands out of the noise); else
+/// where it steps instead.
+std::string StepNotTrend(const std::vector<ResidualSeries>& residual) {
+  double trend = 0.0, step = 0.0, largest = 0.0, largest_in_noise = 0.0;
+  std::string where;
+  for (const ResidualSeries& s : residual) {
+    const TrendShape shape = TrendOrStep(s.time_s, s.r);
+    trend += shape.trend_beyond_step;
+    step += shape.step_beyond_trend;
+    if (shape.step_beyond_trend > largest) {
+      largest = shape.step_beyond_trend;
+      const double white = WhiteVariance(s.r);
+      largest_in_noise = white > 0.0 ? largest / white : INFINITY;
+      where = s.output + Fmt(" steps by %.3f rad at %.1f s", shape.step_rad, shape.step_time_s) +
+              (residual.back().trial > 0 ? Fmt(" of trial %.0f", s.trial + 1.0) : "");
+    }
+  }
+  if (!(step > kStepOverTrend * trend) || !(largest_in_noise > kMinStepInNoiseVariances)) return "";
+  return "the offset steps rather than drifts (" + where +
+         Fmt("; a step adds %.3g rad² to a trend, a trend %.3g rad² to a step)", step, trend);
+}
 
 Candidate DriftCandidate(const LibraryContext& ctx) {
   Candidate c;
@@ -70,6 +115,7 @@ Mechanism SensorDriftMechanism() {
       planted->push_back({"sensor_drift:drift." + o, "rad/s", 0.0005 * ctx.scale, NAN});
     }
   };
+  m.shape_contradiction = StepNotTrend;
   m.evidence = [](const OutputSignature& s) {
     return Fmt("corr(residual, time) %.2f, corr(residual, cumulative stimulation) %.2f",
                s.corr_time, s.corr_cumulative_stimulation);

@@ -529,5 +529,29 @@ TEST(ExtendedModel, APriorKeepsAParameterTheDataDoNotSeeAtItsStart) {
   EXPECT_GE(fit.map_cost, fit.cost);
 }
 
+TEST(ExtendedModel, UnstackResidualsUndoesStackResidualsPerTrialAndOutput) {
+  Trial a;
+  for (int i = 0; i < 5; ++i) a.time.push_back(0.1 * i);
+  a.AddColumn("q.wrist_flexion", {1, 2, NAN, 4, 5});
+  a.AddColumn("q.mcp_flexion", {6, 7, 8, 9, 10});
+  DataView v;
+  v.trials = {a, a};
+  v.use = {{1, 1, 1, 1, 0}, {0, 1, 1, 1, 1}};
+  v.outputs = {"q.wrist_flexion", "q.mcp_flexion"};
+  Trial zero = a;
+  zero.MutableColumn("q.wrist_flexion").assign(5, 0.0);
+  zero.MutableColumn("q.mcp_flexion").assign(5, 0.0);
+  const Eigen::VectorXd r = StackResiduals(v, {zero, zero});
+  const std::vector<ResidualSeries> s = UnstackResiduals(v, r);
+  ASSERT_EQ(s.size(), 4u);
+  EXPECT_EQ(s[0].r, (std::vector<double>{1, 2, 4}));
+  EXPECT_EQ(s[0].time_s, (std::vector<double>{0.0, 0.1, 0.30000000000000004}));
+  EXPECT_EQ(s[3].trial, 1);
+  EXPECT_EQ(s[3].output, "q.mcp_flexion");
+  EXPECT_EQ(s[3].r, (std::vector<double>{7, 8, 9, 10}));
+  EXPECT_THROW(UnstackResiduals(v, r.head(r.size() - 1)), std::invalid_argument);
+  EXPECT_THROW(UnstackResiduals(v, Eigen::VectorXd::Zero(r.size() + 1)), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace fesim::diagnosis

@@ -23,6 +23,50 @@ std::vector<double> WhiteNoise(double sd, unsigned seed) {
   return v;
 }
 
+std::vector<double> Times() {
+  std::vector<double> t(kN);
+  for (int i = 0; i < kN; ++i) t[i] = i * kDt;
+  return t;
+}
+
+// A line over [0, T] has variance b²T²/12; a step at mid-recording removes 3/4 of it, so a trend
+// adds N·b²T²/48 to the best step, and a step adds nothing beyond the noise to the trend.
+TEST(Signatures, TrendOrStepCreditsALineToTheTrendByAQuarterOfItsVariance) {
+  const std::vector<double> t = Times();
+  std::vector<double> r = WhiteNoise(0.01, 7);
+  const double b = 0.0005;  // rad/s
+  for (int i = 0; i < kN; ++i) r[i] += b * t[i];
+  r[200] = NAN;
+  const TrendShape s = TrendOrStep(t, r);
+  const double span = t.back();
+  EXPECT_NEAR(s.trend_beyond_step, kN * b * b * span * span / 48.0,
+              0.1 * kN * b * b * span * span / 48.0);
+  // A step search over white noise removes a few σ² (≈ 2 ln ln N of a max over ~N tests).
+  EXPECT_LT(s.step_beyond_trend, 20 * 0.01 * 0.01);
+}
+
+// A step of height h at fraction q of the samples: a line explains ρ² = 3p(1−p) of its variance
+// p(1−p)·h² (p = 1 − q the share after the step), so a step adds N·h²·p(1−p)·(1 − 3p(1−p)).
+TEST(Signatures, TrendOrStepFindsAStepItsTimeAndHeight) {
+  const std::vector<double> t = Times();
+  std::vector<double> r = WhiteNoise(0.01, 8);
+  const double h = -0.03, tau = 18.0;
+  for (int i = 0; i < kN; ++i) r[i] += t[i] >= tau ? h : 0.0;
+  const TrendShape s = TrendOrStep(t, r);
+  EXPECT_NEAR(s.step_time_s, tau, 0.05);
+  EXPECT_NEAR(s.step_rad, h, 0.002);
+  const double p = 0.7;
+  const double expected = kN * h * h * p * (1 - p) * (1 - 3 * p * (1 - p));
+  EXPECT_NEAR(s.step_beyond_trend, expected, 0.1 * expected);
+  EXPECT_LT(s.trend_beyond_step, 20 * 0.01 * 0.01);
+}
+
+TEST(Signatures, TrendOrStepNeedsSamplesOnBothSidesAndMatchingSizes) {
+  EXPECT_TRUE(std::isnan(TrendOrStep({0, 1, 2}, {0, 1, 0}).step_time_s));
+  EXPECT_THROW(TrendOrStep({0, 1}, {0}), std::invalid_argument);
+  EXPECT_THROW(TrendOrStep(Times(), WhiteNoise(1, 1), 0.5), std::invalid_argument);
+}
+
 TEST(Signatures, SpectrumPeakFindsAPlantedTremorFrequencyBelowTheNoise) {
   std::vector<double> r = WhiteNoise(1.0, 1);
   for (int i = 0; i < kN; ++i) r[i] += 0.3 * std::sin(2 * kPi * 6.37 * i * kDt + 0.4);

@@ -119,5 +119,31 @@ TEST(Verdict, AMechanismBeyondAControlIsNamedAndAControlAsGoodAsTheMechanismMake
   EXPECT_EQ(u.d.cause, "unexplained") << u.d.reason;
 }
 
+// A sensor offset that steps once (a glove slip, outside the library) fits as a drift and gains
+// on the held-out data; its shape contradicts the drift (mechanisms/sensor_drift.cc), so the
+// verdict names the structure, not `none` and not the drift.
+TEST(Verdict, AFitThatGainsButWhoseSignatureTheResidualContradictsIsUnexplainedWithTheShape) {
+  VerdictCase s;
+  s.Fitted("passive_asymmetry@pip_flexion", 0.04, true);
+  s.Fitted("sensor_drift", 0.17, false);
+  s.d.candidates[s.Index("sensor_drift")].shape =
+      "the offset steps rather than drifts (q.pip_flexion steps by -0.052 rad at 30.1 s)";
+  const ExtensionOutcome e = s.Outcome({"passive_asymmetry@pip_flexion"}, -1);
+  MakeVerdict(s.library, e, 0, s.settings, &s.d);
+  EXPECT_EQ(s.d.cause, "unexplained");
+  EXPECT_DOUBLE_EQ(s.d.confidence, 1.0);
+  EXPECT_NE(s.d.reason.find("17.0 %"), std::string::npos) << s.d.reason;
+  EXPECT_NE(s.d.reason.find("steps by -0.052 rad at 30.1 s"), std::string::npos) << s.d.reason;
+  EXPECT_TRUE(s.d.mechanisms.empty());
+  // A contradicted fit that does not gain on the held-out data is no structure: `none`.
+  VerdictCase weak;
+  weak.Fitted("passive_asymmetry@pip_flexion", 0.04, true);
+  weak.Fitted("sensor_drift", 0.01, false);
+  weak.d.candidates[weak.Index("sensor_drift")].shape = "the offset steps rather than drifts";
+  MakeVerdict(weak.library, weak.Outcome({"passive_asymmetry@pip_flexion"}, -1), 0, weak.settings,
+              &weak.d);
+  EXPECT_EQ(weak.d.cause, "none");
+}
+
 }  // namespace
 }  // namespace fesim::diagnosis

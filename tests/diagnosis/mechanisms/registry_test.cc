@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 #include <set>
 #include <utility>
 
@@ -415,6 +416,42 @@ TEST(Mechanisms, PotentiationCollapsesIntoAConstantGainAtItsShortestRiseTime) {
   EXPECT_LT(hi - lo, 0.07);
   const auto [lo5, hi5] = p_range(5.0);
   EXPECT_GT(hi5 - lo5, 0.3);
+}
+
+/// Two training trials × two outputs of 60 s at 60 Hz: white noise (0.01 rad) plus `offset`(t)
+/// on output q.mcp_flexion of trial 2.
+std::vector<ResidualSeries> SlowOffset(const std::function<double(double)>& offset) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  std::vector<ResidualSeries> out;
+  for (int t = 0; t < 2; ++t) {
+    for (const char* name : {"q.wrist_flexion", "q.mcp_flexion"}) {
+      ResidualSeries s;
+      s.trial = t;
+      s.output = name;
+      for (int i = 0; i < 3600; ++i) {
+        s.time_s.push_back(i / 60.0);
+        s.r.push_back(noise(rng) + (t == 1 && s.output == "q.mcp_flexion" ? offset(i / 60.0) : 0));
+      }
+      out.push_back(s);
+    }
+  }
+  return out;
+}
+
+// A drift is a trend of the sensor offset (sim/sensors.h); a glove or marker slip steps it once
+// (foreign/effects.h "slip", outside the library): the drift must not stand in for it.
+TEST(Mechanisms, ADriftIsContradictedByAStepOfTheOffsetButNotByATrend) {
+  const auto& check = FindMechanism("sensor_drift").shape_contradiction;
+  ASSERT_TRUE(check);
+  EXPECT_EQ(check(SlowOffset([](double t) { return 0.0005 * t; })), "");
+  const std::string step = check(SlowOffset([](double t) { return t > 25.0 ? 0.03 : 0.0; }));
+  EXPECT_NE(step.find("q.mcp_flexion steps by 0.03"), std::string::npos) << step;
+  EXPECT_NE(step.find("rad at 25.0 s of trial 2"), std::string::npos) << step;
+  // Half the noise RMS of a step is still one.
+  EXPECT_NE(check(SlowOffset([](double t) { return t > 40.0 ? -0.005 : 0.0; })), "");
+  // Noise alone: nothing to contradict.
+  EXPECT_EQ(check(SlowOffset([](double) { return 0.0; })), "");
 }
 
 }  // namespace
