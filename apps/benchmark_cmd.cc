@@ -15,7 +15,8 @@ namespace {
 
 void PrintHelp() {
   std::printf(
-      "usage: fesim benchmark [STUDY.yaml] [--out DIR] [--quick] [--threads N] [--seed N]\n\n"
+      "usage: fesim benchmark [STUDY.yaml] [--out DIR] [--quick] [--threads N] [--seed N]\n"
+      "                       [--quiet]\n\n"
       "Generates the virtual studies named in STUDY.yaml (default scenarios/default_study.yaml),\n"
       "fits every identification method with the papers' validation schemes (papers 000-004),\n"
       "compares with the papers' tables and with the ground truth, and writes\n"
@@ -34,7 +35,8 @@ void PrintHelp() {
 }  // namespace
 
 int RunBenchmark(int argc, char** argv, cluster::Cluster& job) {
-  const auto args = cli::Parse(argc, argv, 2, {"help", "quick"}, {"out", "threads", "seed"});
+  const auto args =
+      cli::Parse(argc, argv, 2, {"help", "quick", "quiet"}, {"out", "threads", "seed"});
   if (args.Has("help")) {
     PrintHelp();
     return 0;
@@ -51,7 +53,8 @@ int RunBenchmark(int argc, char** argv, cluster::Cluster& job) {
   const long seed = args.GetInt("seed", 1);
   if (seed < 0) throw std::runtime_error("--seed: must be >= 0");
   o.seed = static_cast<std::uint64_t>(seed);
-  if (job.is_root()) o.progress = cli::ShowProgress;
+  const cli::Progress progress(cli::ProgressFor(args));
+  if (job.is_root()) o.progress = progress;
   o.cluster = &job;
   // Fault injection for the failure-handling tests (docs/cluster.md): the named work item fails.
   if (const char* fail = std::getenv("FESIM_FAIL_ITEM")) o.fail_item = fail;
@@ -64,7 +67,7 @@ int RunBenchmark(int argc, char** argv, cluster::Cluster& job) {
   }
   const auto outcome = paper_benchmark::RunBenchmark(spec, o);
   if (job.is_root()) {
-    cli::ShowProgress(1.0, "done");
+    progress(1.0, "done");
     std::fprintf(stderr, "fesim benchmark: %s in %.1f s%s -> %s/report.md\n", spec.name.c_str(),
                  outcome.wall_s,
                  job.size() > 1 ? (" on " + std::to_string(job.size()) + " MPI ranks").c_str() : "",

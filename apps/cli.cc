@@ -1,8 +1,14 @@
 #include "apps/cli.h"
 
+#include <sys/ioctl.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
+#include <mutex>
 #include <stdexcept>
 
 namespace fesim::cli {
@@ -90,16 +96,112 @@ std::vector<std::string> SplitList(const std::string& s) {
   return out;
 }
 
-void ShowProgress(double fraction, const std::string& stage) {
-  // NaN would make the integer conversions below undefined: show it as 0.
+std::string FormatDuration(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0.0) seconds = 0.0;
+  const long s = std::lround(seconds);
+  char buf[32];
+  if (s < 60) {
+    std::snprintf(buf, sizeof buf, "%ld s", s);
+  } else if (s < 3600) {
+    std::snprintf(buf, sizeof buf, "%ld min %02ld s", s / 60, s % 60);
+  } else {
+    std::snprintf(buf, sizeof buf, "%ld h %02ld min", s / 3600, (s % 3600) / 60);
+  }
+  return buf;
+}
+
+ProgressOptions ProgressFor(const Args& args) {
+  ProgressOptions o;
+  if (args.Has("quiet")) {
+    o.mode = ProgressOptions::Mode::kQuiet;
+  } else if (isatty(fileno(stderr))) {
+    o.mode = ProgressOptions::Mode::kBar;
+    winsize w{};
+    if (ioctl(fileno(stderr), TIOCGWINSZ, &w) == 0 && w.ws_col >= 40) o.columns = w.ws_col;
+  }
+  return o;
+}
+
+struct Progress::State {
+  ProgressOptions options;
+  std::mutex mutex;
+  double start_s = 0.0;
+  double anchor_s = NAN, anchor_fraction = 0.0;  ///< first report with a fraction above 0.
+  double last_line_s = -INFINITY;
+  bool done = false;
+
+  double Now() const {
+    if (options.clock) return options.clock();
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+  }
+  std::string TimeOfDay() const {
+    if (options.time_of_day) return options.time_of_day();
+    const std::time_t t = std::time(nullptr);
+    std::tm tm{};
+    localtime_r(&t, &tm);
+    char buf[16];
+    std::strftime(buf, sizeof buf, "%H:%M:%S", &tm);
+    return buf;
+  }
+  /// "ETA …" from the pace since the anchor, "" while it is not measured yet.
+  std::string Eta(double now, double fraction) const {
+    if (fraction >= 1.0) return "";
+    const double done_since = fraction - anchor_fraction;
+    const double elapsed = now - anchor_s;
+    if (!std::isfinite(anchor_s) || done_since < 0.02 || elapsed < 1.0) return "";
+    return "ETA " + FormatDuration(elapsed / done_since * (1.0 - fraction));
+  }
+  void Bar(double fraction, const std::string& stage, const std::string& eta) {
+    constexpr int kBarWidth = 30;
+    const int filled = static_cast<int>(std::lround(fraction * kBarWidth));
+    const std::string tail = eta.empty() ? "" : "  " + eta;
+    // "[bar] 100 % " is kBarWidth + 9 characters; one column kept free against auto-wrap.
+    const int room =
+        std::max(8, options.columns - 1 - (kBarWidth + 9) - static_cast<int>(tail.size()));
+    std::string label = stage;
+    if (static_cast<int>(label.size()) > room) label = label.substr(0, room - 3) + "...";
+    std::fprintf(options.out, "\r[%.*s%*s] %3d %% %-*s%s", filled,
+                 "==============================", kBarWidth - filled, "",
+                 static_cast<int>(std::lround(fraction * 100.0)), room, label.c_str(),
+                 tail.c_str());
+    if (fraction >= 1.0) std::fputc('\n', options.out);
+  }
+  void Line(double now, double fraction, const std::string& stage, const std::string& eta) {
+    std::string text = "[" + TimeOfDay() + "] " +
+                       std::to_string(static_cast<int>(std::lround(fraction * 100.0))) + " % " +
+                       stage + " (" + FormatDuration(now - start_s) + " elapsed" +
+                       (eta.empty() ? "" : ", " + eta) + ")";
+    std::fprintf(options.out, "%s\n", text.c_str());
+    last_line_s = now;
+  }
+};
+
+Progress::Progress(ProgressOptions options) : state_(std::make_shared<State>()) {
+  state_->options = std::move(options);
+  state_->start_s = state_->Now();
+}
+
+void Progress::operator()(double fraction, const std::string& stage) const {
+  State& s = *state_;
+  if (s.options.mode == ProgressOptions::Mode::kQuiet) return;
+  // NaN would make the integer conversions undefined: show it as 0.
   fraction = std::isnan(fraction) ? 0.0 : std::clamp(fraction, 0.0, 1.0);
-  const int width = 30;
-  const int filled = static_cast<int>(std::lround(fraction * width));
-  std::fprintf(stderr, "\r[%.*s%*s] %3d%% %-40.40s", filled,
-               "==============================", width - filled, "",
-               static_cast<int>(std::lround(fraction * 100.0)), stage.c_str());
-  if (fraction >= 1.0) std::fputc('\n', stderr);
-  std::fflush(stderr);
+  const std::lock_guard<std::mutex> lock(s.mutex);
+  if (s.done) return;  // one final line, however often the end is reported
+  const double now = s.Now();
+  if (!std::isfinite(s.anchor_s) && fraction > 0.0) {
+    s.anchor_s = now;
+    s.anchor_fraction = fraction;
+  }
+  const std::string eta = s.Eta(now, fraction);
+  s.done = fraction >= 1.0;
+  if (s.options.mode == ProgressOptions::Mode::kBar) {
+    s.Bar(fraction, stage, eta);
+  } else if (s.done || now - s.last_line_s >= s.options.line_interval_s) {
+    s.Line(now, fraction, stage, eta);
+  }
+  std::fflush(s.options.out);
 }
 
 }  // namespace fesim::cli

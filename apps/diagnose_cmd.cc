@@ -19,11 +19,12 @@
 namespace fesim {
 
 int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
-  const auto args = cli::Parse(argc, argv, 2, {"help"}, {"scenario", "out", "model", "threads"});
+  const auto args =
+      cli::Parse(argc, argv, 2, {"help", "quiet"}, {"scenario", "out", "model", "threads"});
   if (args.Has("help")) {
     std::printf(
         "usage: fesim diagnose MEASURED.csv[,MORE.csv...] --scenario RIG.yaml [--out DIR]\n"
-        "                      [--model full|NAME] [--threads N]\n\n"
+        "                      [--model full|NAME] [--threads N] [--quiet]\n\n"
         "Calibrates the full model (12) of the rig to the measured trials of a person it has "
         "never\n"
         "seen (recruitment, strength, passive stiffness, damping and rest angles, activation "
@@ -102,7 +103,7 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
   execution.threads = static_cast<int>(threads);
   execution.cache = &cache;
   execution.cache_inputs = cache_inputs;
-  if (job.is_root()) execution.progress = cli::ShowProgress;
+  if (job.is_root()) execution.progress = cli::Progress(cli::ProgressFor(args));
   if (job.size() > 1) {
     // An MPI job: every rank runs the diagnosis; the probe simulations and the candidates'
     // screening fits are spread over the ranks, each rank gets every result back, rank 0 writes.

@@ -16,7 +16,8 @@ namespace {
 void PrintHelp(const std::vector<identification::MethodEntry>& methods) {
   std::printf(
       "usage: fesim identify --method NAME --train A.csv[,B.csv...] [--test C.csv[,...]] "
-      "[--out DIR] [--scenario S.yaml]\n\nFits an identification method to trial CSVs and writes "
+      "[--out DIR] [--scenario S.yaml] [--quiet]\n\nFits an identification method to trial CSVs "
+      "and writes "
       "DIR/model.yaml,\nDIR/prediction_<k>.csv and DIR/metrics.json (default DIR: out/identify).\n"
       "--scenario names the rig the trials come from (used by full-model; without it full-model\n"
       "assumes the default participant on the hand rig of paper 000, arm locked).\n\nmethods:\n");
@@ -29,7 +30,7 @@ int RunIdentify(int argc, char** argv) {
   auto methods = identification::BuiltinMethods();
   for (auto& m : ExtraIdentificationMethods()) methods.push_back(std::move(m));
   const auto args =
-      cli::Parse(argc, argv, 2, {"help"}, {"method", "train", "test", "out", "scenario"});
+      cli::Parse(argc, argv, 2, {"help", "quiet"}, {"method", "train", "test", "out", "scenario"});
   if (args.Has("help")) {
     PrintHelp(methods);
     return 0;
@@ -67,7 +68,7 @@ int RunIdentify(int argc, char** argv) {
     for (auto& t : train) t.metadata["scenario_path"] = scenario;
   }
 
-  const auto result = method->run(train, test, cli::ShowProgress);
+  const auto result = method->run(train, test, cli::Progress(cli::ProgressFor(args)));
 
   MakeDirs(out);
   WriteFileAtomic(out + "/model.yaml", result.model_yaml);

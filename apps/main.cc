@@ -58,6 +58,8 @@ void PrintUsage() {
       "  fesim --version\n\n"
       "simulate (study files), benchmark and diagnose also run as an MPI job, spread over its\n"
       "ranks: mpirun -np N fesim benchmark ... (docs/cluster.md).\n"
+      "Progress goes to stderr: a live bar on a terminal, a time-stamped line at most every 5 s\n"
+      "into a pipe or file; --quiet (every subcommand) shows none.\n"
       "Run 'fesim SUBCOMMAND --help' for details.\n",
       FESIM_VERSION);
 }

@@ -37,7 +37,7 @@ void PrintHelp() {
   std::printf(
       "usage: fesim render TRIAL.csv --scenario SCENARIO.yaml (--out MOVIE.mp4 | --frames DIR)\n"
       "                    [--width W] [--height H] [--fps F] [--camera front|side|top|orbit]\n"
-      "                    [--compare OTHER.csv]\n\n"
+      "                    [--compare OTHER.csv] [--quiet]\n\n"
       "Replays the trial's q.<coordinate> columns (rad) through the scenario model's kinematics\n"
       "and renders them off-screen: shaded segments, muscle paths coloured by activation\n"
       "(a.<muscle> columns; neutral grey without them), electrode pads coloured by stimulation\n"
@@ -129,7 +129,7 @@ std::vector<double> RowValues(const FrameTrial& t, const std::vector<int>& colum
 
 int RunRender(int argc, char** argv) {
   const auto args =
-      cli::Parse(argc, argv, 2, {"help"},
+      cli::Parse(argc, argv, 2, {"help", "quiet"},
                  {"scenario", "out", "frames", "width", "height", "fps", "camera", "compare"});
   if (args.Has("help")) {
     PrintHelp();
@@ -202,6 +202,7 @@ int RunRender(int argc, char** argv) {
   inputs.title = BaseName(trial_path) +
                  (args.Has("compare") ? " (ghost: " + BaseName(args.Get("compare")) + ")" : "");
   render::Image image;
+  const cli::Progress progress(cli::ProgressFor(args));
   for (std::size_t k = 0; k < n_frames; ++k) {
     SetPoseFromTrialRow(model, main_frames.frames, main_frames.pose, k, &state);
     inputs.time_s = times[k];
@@ -216,8 +217,8 @@ int RunRender(int argc, char** argv) {
     if (movie) movie->AddFrame(image);
     if (pngs) pngs->AddFrame(image);
     if (k % kProgressEvery == 0 || k + 1 == n_frames) {
-      cli::ShowProgress(static_cast<double>(k + 1) / n_frames,
-                        "frame " + std::to_string(k + 1) + "/" + std::to_string(n_frames));
+      progress(static_cast<double>(k + 1) / n_frames,
+               "frame " + std::to_string(k + 1) + "/" + std::to_string(n_frames));
     }
   }
   if (movie) movie->Finish();

@@ -29,7 +29,8 @@ namespace {
 
 void PrintHelp() {
   std::printf(
-      "usage: fesim simulate SCENARIO.yaml|STUDY.yaml [--out DIR] [--seed N] [--threads N]\n\n"
+      "usage: fesim simulate SCENARIO.yaml|STUDY.yaml [--out DIR] [--seed N] [--threads N]\n"
+      "                      [--quiet]\n\n"
       "Simulates the scenario's trial on its virtual participant and writes, atomically:\n"
       "  DIR/<name>.csv        measured trial (sensors with noise; NaN where a sensor did not "
       "sample)\n"
@@ -207,7 +208,7 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
     for (std::size_t i; in >> i;) pending.push_back(i);
   }
   const std::size_t resumed = st.items.size() - pending.size();
-  std::mutex progress_mutex;
+  const cli::Progress progress(cli::ProgressFor(args));
   const auto outcomes = job.Map(
       pending.size(), [&](std::size_t k) { return item_files(pending[k]); }, threads,
       [&](std::size_t n, std::size_t k, const cluster::ItemOutcome& o) {
@@ -229,14 +230,8 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
           record.Set("files", files).Set("integration", stats[i]);
           records.Store(record_key(i), record);
         }
-        std::lock_guard<std::mutex> lock(progress_mutex);
-        const double elapsed =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        const double left =
-            elapsed / static_cast<double>(n) * static_cast<double>(pending.size() - n);
-        cli::ShowProgress(static_cast<double>(n) / static_cast<double>(pending.size()),
-                          st.name + " " + std::to_string(n) + "/" + std::to_string(pending.size()) +
-                              ", ~" + std::to_string(std::lround(left)) + " s left");
+        progress(static_cast<double>(n) / static_cast<double>(pending.size()),
+                 st.name + " " + std::to_string(n) + "/" + std::to_string(pending.size()));
       });
   // Failed items, as rank 0 saw them, on every rank: one message; the finished ones are written.
   std::string failed;
@@ -302,7 +297,7 @@ int RunReaching(const Scenario& sc, const std::string& out, long seed) {
 }  // namespace
 
 int RunSimulate(int argc, char** argv, cluster::Cluster& job) {
-  const auto args = cli::Parse(argc, argv, 2, {"help"}, {"out", "seed", "threads"});
+  const auto args = cli::Parse(argc, argv, 2, {"help", "quiet"}, {"out", "seed", "threads"});
   if (args.Has("help")) {
     PrintHelp();
     return 0;
@@ -325,9 +320,10 @@ int RunSimulate(int argc, char** argv, cluster::Cluster& job) {
   if (sc.reaching) return RunReaching(sc, out, seed);
 
   const auto t0 = std::chrono::steady_clock::now();
+  const cli::Progress progress(cli::ProgressFor(args));
   const sim::UpperLimbModel model(sc.model);
-  const sim::TrialResult r = sim::RunTrial(
-      model, sc.trial, [&](double f) { cli::ShowProgress(f, "simulating " + sc.name); });
+  const sim::TrialResult r =
+      sim::RunTrial(model, sc.trial, [&](double f) { progress(f, "simulating " + sc.name); });
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   Trial measured = r.measured, truth = r.truth;

@@ -260,7 +260,7 @@ TEST(CliInterrupt, SignalDuringAtomicWriteRemovesTheTemporaryFile) {
   const pid_t pid = Spawn({"simulate", sc, "--out", out}, err);
   const std::string fifo = out + "/short.csv.tmp." + std::to_string(pid) + "." + TempSuffixHost();
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
-  ASSERT_TRUE(WaitFor(err, "100%", 60.0)) << "simulation did not finish";
+  ASSERT_TRUE(WaitFor(err, "100 %", 60.0)) << "simulation did not finish";
   // Give the writer time to reach open() on the FIFO (it then blocks there).
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   ::kill(pid, SIGTERM);

@@ -97,6 +97,21 @@ TEST(SimulateCmd, BadInputFailsWithOneLineAndLeavesNoOutput) {
   EXPECT_FALSE(Exists(dir));
 }
 
+// Into a file (as into a pipe or a CI log) progress is plain lines, no carriage returns; --quiet
+// shows none, and only the summary line remains.
+TEST(SimulateCmd, ProgressIntoAFileIsPlainLinesAndQuietShowsNone) {
+  const std::string dir = ::testing::TempDir() + "simprogress";
+  const std::string sc = Scenario("short", kShort);
+  Result r = RunFesim("simulate " + sc + " --out " + dir + "/a");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err.find('\r'), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("] 100 % simulating short ("), std::string::npos) << r.err;
+  r = RunFesim("simulate " + sc + " --quiet --out " + dir + "/b");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err.find('%'), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.rfind("fesim simulate: ", 0), 0u) << r.err;
+}
+
 TEST(SimulateCmd, StudyResultsDoNotDependOnThreadCount) {
   const std::string dir = ::testing::TempDir() + "study";
   const std::string rig = Scenario("rig", kShort);
