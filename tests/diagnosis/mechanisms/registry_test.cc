@@ -448,8 +448,9 @@ TEST(Mechanisms, ADriftIsContradictedByAStepOfTheOffsetButNotByATrend) {
   const std::string step = check(SlowOffset([](double t) { return t > 25.0 ? 0.03 : 0.0; }));
   EXPECT_NE(step.find("q.mcp_flexion steps by 0.03"), std::string::npos) << step;
   EXPECT_NE(step.find("rad at 25.0 s of trial 2"), std::string::npos) << step;
-  // Half the noise RMS of a step is still one.
-  EXPECT_NE(check(SlowOffset([](double t) { return t > 40.0 ? -0.005 : 0.0; })), "");
+  // Three noise SDs late in the recording are a step; one SD is not told from model misfit.
+  EXPECT_NE(check(SlowOffset([](double t) { return t > 35.0 ? -0.03 : 0.0; })), "");
+  EXPECT_EQ(check(SlowOffset([](double t) { return t > 30.0 ? -0.01 : 0.0; })), "");
   // Noise alone: nothing to contradict.
   EXPECT_EQ(check(SlowOffset([](double) { return 0.0; })), "");
 }
