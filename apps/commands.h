@@ -14,6 +14,7 @@ namespace fesim {
 int RunSimulate(int argc, char** argv, cluster::Cluster& job);
 int RunIdentify(int argc, char** argv);
 int RunRender(int argc, char** argv);
+int RunExport(int argc, char** argv);
 int RunBenchmark(int argc, char** argv, cluster::Cluster& job);
 int RunDiagnose(int argc, char** argv, cluster::Cluster& job);
 

@@ -3,8 +3,10 @@
 #include <stdexcept>
 #include <string>
 
+#include "apps/api.h"
 #include "apps/cli.h"
 #include "apps/commands.h"
+#include "apps/matfile.h"
 #include "base/result_cache.h"
 #include "base/trial.h"
 #include "identification/method.h"
@@ -18,7 +20,9 @@ void PrintHelp(const std::vector<identification::MethodEntry>& methods) {
       "usage: fesim identify --method NAME --train A.csv[,B.csv...] [--test C.csv[,...]] "
       "[--out DIR] [--scenario S.yaml] [--quiet]\n\nFits an identification method to trial CSVs "
       "and writes "
-      "DIR/model.yaml,\nDIR/prediction_<k>.csv and DIR/metrics.json (default DIR: out/identify).\n"
+      "DIR/model.yaml,\nDIR/prediction_<k>.csv and DIR/metrics.json (default DIR: out/identify); a "
+      "discrete\n"
+      "model (spline-arx, spline-oe) also as DIR/model.mat for MATLAB's idpoly / idnlhw (README).\n"
       "--scenario names the rig the trials come from (used by full-model; without it full-model\n"
       "assumes the default participant on the hand rig of paper 000, arm locked).\n\nmethods:\n");
   for (const auto& m : methods) std::printf("  %-22s %s\n", m.name.c_str(), m.summary.c_str());
@@ -27,8 +31,7 @@ void PrintHelp(const std::vector<identification::MethodEntry>& methods) {
 }  // namespace
 
 int RunIdentify(int argc, char** argv) {
-  auto methods = identification::BuiltinMethods();
-  for (auto& m : ExtraIdentificationMethods()) methods.push_back(std::move(m));
+  const auto methods = AllIdentificationMethods();
   const auto args =
       cli::Parse(argc, argv, 2, {"help", "quiet"}, {"method", "train", "test", "out", "scenario"});
   if (args.Has("help")) {
@@ -39,15 +42,11 @@ int RunIdentify(int argc, char** argv) {
     throw std::runtime_error("unexpected argument '" + args.positional[0] + "'");
   if (!args.Has("method")) throw std::runtime_error("--method is required (see --help)");
   if (!args.Has("train")) throw std::runtime_error("--train is required (see --help)");
-  const std::string name = args.Get("method");
   const identification::MethodEntry* method = nullptr;
-  for (const auto& m : methods) {
-    if (m.name == name) method = &m;
-  }
-  if (method == nullptr) {
-    std::string list;
-    for (const auto& m : methods) list += (list.empty() ? "" : ", ") + m.name;
-    throw std::runtime_error("--method: unknown method '" + name + "' (allowed: " + list + ")");
+  try {
+    method = &FindIdentificationMethod(methods, args.Get("method"));
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(std::string("--method: ") + e.what());
   }
   const std::string out = cli::OutPath(args, "out", "out/identify");
   std::vector<Trial> train, test;
@@ -77,7 +76,13 @@ int RunIdentify(int argc, char** argv) {
                     FormatTrialCsv(result.predictions[k]));
   }
   WriteFileAtomic(out + "/metrics.json", result.metrics.Dump());
-  std::fprintf(stderr, "fesim identify: %s written to %s\n", name.c_str(), out.c_str());
+  // MATLAB (README "MATLAB"): a discrete model as idpoly / idnlhw fields.
+  for (std::size_t k = 0; k < result.discrete_models.size(); ++k) {
+    WriteDiscreteModelMat(
+        result.discrete_models[k],
+        out + (k == 0 ? "/model.mat" : "/model_" + std::to_string(k + 1) + ".mat"));
+  }
+  std::fprintf(stderr, "fesim identify: %s written to %s\n", method->name.c_str(), out.c_str());
   // Issue 10: a fit whose best local optimisation did not converge says so (one line each; the
   // reason is also in metrics.json and model.yaml).
   for (const auto& w : result.warnings) {

@@ -55,6 +55,7 @@ void PrintUsage() {
       "  fesim render    TRIAL.csv --scenario SCENARIO.yaml --out MOVIE.mp4 | --frames DIR\n"
       "                  [--width W --height H --fps F --camera front|side|top|orbit]\n"
       "                  [--compare OTHER.csv]\n"
+      "  fesim export    TRIAL.csv [--scenario SCENARIO.yaml] [--mat] [--out DIR]\n"
       "  fesim --version\n\n"
       "simulate (study files), benchmark and diagnose also run as an MPI job, spread over its\n"
       "ranks: mpirun -np N fesim benchmark ... (docs/cluster.md).\n"
@@ -90,7 +91,7 @@ int main(int argc, char** argv) {
     if (cmd == "simulate") return fesim::RunSimulate(argc, argv, *job);
     if (cmd == "benchmark") return fesim::RunBenchmark(argc, argv, *job);
     if (cmd == "diagnose") return fesim::RunDiagnose(argc, argv, *job);
-    if (cmd != "render" && cmd != "identify") {
+    if (cmd != "render" && cmd != "identify" && cmd != "export") {
       if (job->is_root()) {
         std::fprintf(stderr, "fesim: unknown subcommand '%s' (see fesim --help)\n", cmd.c_str());
       }
@@ -106,6 +107,7 @@ int main(int argc, char** argv) {
       return 2;
     }
     if (cmd == "render") return fesim::RunRender(argc, argv);
+    if (cmd == "export") return fesim::RunExport(argc, argv);
     return fesim::RunIdentify(argc, argv);
   } catch (const fesim::cluster::CollectiveError& e) {
     // Every rank threw it at the same point: rank 0 says it once, all end normally.

@@ -12,6 +12,7 @@
 #include <thread>
 #include <vector>
 
+#include "apps/api.h"
 #include "apps/cli.h"
 #include "apps/commands.h"
 #include "base/json.h"
@@ -20,6 +21,7 @@
 #include "fesim/version.h"
 #include "scenarios/scenario.h"
 #include "scenarios/study.h"
+#include "sim/opensim.h"
 #include "sim/reaching.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
@@ -36,6 +38,8 @@ void PrintHelp() {
       "sample)\n"
       "  DIR/<name>.sto        the same as an OpenSim storage file\n"
       "  DIR/<name>_truth.csv  noiseless ground truth (all coordinates, activations, forces)\n"
+      "  DIR/<name>.osim       the participant as an OpenSim 4 model (fesim export --help)\n"
+      "  DIR/<name>.mot        the truth's angles in degrees, to play the .osim in OpenSim\n"
       "  DIR/manifest.json     scenario hash, seed, version, files, integrator statistics\n"
       "Same scenario and seed give the same bytes. Default DIR: out/<name>, seed 1.\n\n"
       "A study file (top-level key `study:`, see scenarios/study.h) runs every participant x\n"
@@ -49,16 +53,6 @@ void PrintHelp() {
 }
 
 /// FNV-1a, 64 bit: a stable content hash for the manifest.
-Json StatsJson(const sim::TrialResult& r) {
-  Json stats = Json::Object();
-  stats.Set("steps", static_cast<double>(r.stats.steps))
-      .Set("rhs_evaluations", static_cast<double>(r.stats.rhs_evaluations))
-      .Set("jacobian_evaluations", static_cast<double>(r.stats.jacobian_evaluations))
-      .Set("breakpoints", static_cast<double>(r.stats.breakpoints))
-      .Set("fibre_length_clamped", r.fibre_clamped);
-  return stats;
-}
-
 /// `fesim simulate STUDY.yaml`: every participant × protocol × repetition, in parallel.
 /// Whether study item `stem` finished in an earlier run: its record in `records` (key `key`)
 /// exists and every file it lists under `out` still has the size and hash written
@@ -168,7 +162,7 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
       t->metadata["repetition"] = std::to_string(item.repetition + 1);
       t->metadata["fesim_version"] = FESIM_VERSION;
     }
-    std::string stats_line = StatsJson(r).Dump(0);
+    std::string stats_line = IntegrationStatsJson(r).Dump(0);
     while (!stats_line.empty() && stats_line.back() == '\n') stats_line.pop_back();
     truth.metadata["integration"] = stats_line;  // one metadata line
     Json packed = Json::Object();
@@ -321,18 +315,12 @@ int RunSimulate(int argc, char** argv, cluster::Cluster& job) {
 
   const auto t0 = std::chrono::steady_clock::now();
   const cli::Progress progress(cli::ProgressFor(args));
-  const sim::UpperLimbModel model(sc.model);
-  const sim::TrialResult r =
-      sim::RunTrial(model, sc.trial, [&](double f) { progress(f, "simulating " + sc.name); });
+  const SimulatedTrial r =
+      SimulateScenario(sc, [&](double f) { progress(f, "simulating " + sc.name); });
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-
-  Trial measured = r.measured, truth = r.truth;
+  const Trial& measured = r.measured;
+  const Trial& truth = r.truth;
   const std::string hash = Fnv1a64Hex(sc.source_text);
-  for (Trial* t : {&measured, &truth}) {
-    t->metadata["scenario"] = sc.name;
-    t->metadata["scenario_hash"] = hash;
-    t->metadata["fesim_version"] = FESIM_VERSION;
-  }
   Json files = Json::Array();
   Json manifest = Json::Object();
   manifest.Set("fesim_version", FESIM_VERSION)
@@ -341,14 +329,19 @@ int RunSimulate(int argc, char** argv, cluster::Cluster& job) {
       .Set("scenario_hash_fnv1a64", hash)
       .Set("seed", static_cast<double>(seed))
       .Set("duration_s", sc.trial.duration_s);
-  manifest.Set("integration", StatsJson(r));
+  manifest.Set("integration", r.stats);
 
   MakeDirs(out);
   const std::string base = out + "/" + sc.name;
   WriteFileAtomic(base + ".csv", FormatTrialCsv(measured));
   WriteFileAtomic(base + ".sto", FormatTrialSto(measured, sc.name));
   WriteFileAtomic(base + "_truth.csv", FormatTrialCsv(truth));
-  for (const char* suffix : {".csv", ".sto", "_truth.csv"}) files.Push(sc.name + suffix);
+  // OpenSim playback (sim/opensim.h): the participant and the noiseless angles.
+  WriteFileAtomic(base + ".osim", sim::FormatOsimModel(sc.model, sc.name));
+  WriteFileAtomic(base + ".mot", sim::FormatOsimMotion(truth, sc.model, sc.name));
+  for (const char* suffix : {".csv", ".sto", "_truth.csv", ".osim", ".mot"}) {
+    files.Push(sc.name + suffix);
+  }
   manifest.Set("files", files);
   WriteFileAtomic(out + "/manifest.json", manifest.Dump());
   std::fprintf(stderr, "fesim simulate: %s, %.1f s simulated in %.2f s (%.0fx real time) -> %s\n",

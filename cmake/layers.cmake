@@ -12,6 +12,9 @@ set(FESIM_PACKAGE_ITEMS_yaml-cpp yaml-cpp)
 set(FESIM_PACKAGE_ITEMS_MPI MPI::MPI_CXX)
 set(FESIM_PACKAGE_ITEMS_OSMesa PkgConfig::OSMESA)
 set(FESIM_PACKAGE_ITEMS_zlib ZLIB::ZLIB)
+set(FESIM_PACKAGE_ITEMS_matio PkgConfig::MATIO)
+set(FESIM_PACKAGE_ITEMS_pybind11 pybind11::module pybind11::lto pybind11::windows_extras
+  pybind11::pybind11 pybind11::headers pybind11::python_link_helper)
 
 # fesim_layer(FOLDER [USES FOLDER... | USES ALL] [PACKAGES PACKAGE...]): the row of FOLDER (a
 # path below the source root). ALL: every folder and package (the tests, benchmarks and fuzzers).

@@ -11,6 +11,23 @@
 namespace fesim::identification {
 
 /// What a method returns: the identified model, its predictions and its fit measures.
+/// A discrete-time model in the terms of MATLAB's System Identification Toolbox (idpoly,
+/// idnlhw): A(q) y(t) = Σ_k B_k(q)/F(q) f_k(u_k(t)) + e(t) + offset, polynomials in q⁻¹ with
+/// the leading coefficient of A and F equal to 1 and the input delay as leading zeros of B_k;
+/// f_k the static input nonlinearity of a Hammerstein model (breakpoints), absent when linear.
+/// `fesim identify` writes it to model.mat (apps/matfile.h).
+struct DiscreteModel {
+  double sample_time_s = 0.0;  ///< Ts, s.
+  std::vector<std::string> inputs, input_units;
+  std::string output, output_unit;
+  std::vector<double> a = {1.0}, f = {1.0};
+  std::vector<std::vector<double>> b;  ///< per input.
+  /// Per input: breakpoints u (input unit) and f(u) (output unit) of the input nonlinearity,
+  /// sampled finely enough to be linearly interpolated; empty: linear in u.
+  std::vector<std::vector<double>> nonlinearity_u, nonlinearity_f;
+  double output_offset = 0.0;  ///< added to the simulated output, output unit.
+};
+
 struct MethodResult {
   /// The identified model as YAML text: every parameter with its unit and, where the optimiser
   /// provides one, a 95 % confidence interval.
@@ -23,6 +40,9 @@ struct MethodResult {
   /// One line each, printed on stderr by `fesim identify` (e.g. the best local optimisation did
   /// not converge; the reason is also in `metrics` and `model_yaml`).
   std::vector<std::string> warnings;
+  /// The identified model as discrete-time polynomials, for the methods that identify one
+  /// (spline-arx, spline-oe); empty for the others.
+  std::vector<DiscreteModel> discrete_models;
 };
 
 /// Reports progress in [0, 1] with a short stage label (printed on stderr by the CLI).

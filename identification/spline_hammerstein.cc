@@ -471,11 +471,12 @@ SplineOptions ReadOptions(const Trial& first) {
 }
 
 std::string ModelYaml(const std::string& method, const SplineFitReport& rep,
-                      const SisoColumns& cols, const std::string& unit) {
+                      const SisoColumns& cols, const std::string& unit, double sample_period_s) {
   const SplineHammersteinModel& m = rep.model;
   std::string s = "# fesim identify: " + method +
                   " (paper 002_78a57b74c57ee464 eq. 1-2; f normalised to G(1) = 1)\n";
   s += "method: " + method + "\ninput: " + cols.input + "\noutput: " + cols.output + "\n";
+  s += YamlParam("sample_time_s", sample_period_s, "s", NAN, 0);
   s += "orders: {zeros_n: " + std::to_string(m.orders.zeros_n) +
        ", poles_l: " + std::to_string(m.orders.poles_l) +
        ", delay_d: " + std::to_string(m.orders.delay_d) +
@@ -499,6 +500,35 @@ std::string ModelYaml(const std::string& method, const SplineFitReport& rep,
     s += YamlParam("b" + std::to_string(i), m.linear.b(i), "1", rep.b_ci95(i), 2);
   }
   return s;
+}
+
+/// The model as MATLAB polynomials (method.h DiscreteModel): ARX A = [1 a], F = 1; OE A = 1,
+/// F = [1 a]; B = [0 × d, b]; f(u) at kNonlinearityPoints breakpoints over the knots' span.
+DiscreteModel DiscreteOf(bool oe, const SplineHammersteinModel& m, const SisoColumns& cols,
+                         const std::string& unit, double sample_period_s) {
+  constexpr int kNonlinearityPoints = 101;
+  DiscreteModel d;
+  d.sample_time_s = sample_period_s;
+  d.inputs = {cols.input};
+  d.input_units = {"us"};
+  d.output = cols.output;
+  d.output_unit = unit;
+  std::vector<double> poles = {1.0};
+  for (Eigen::Index i = 0; i < m.linear.a.size(); ++i) poles.push_back(m.linear.a(i));
+  (oe ? d.f : d.a) = poles;
+  std::vector<double> b(static_cast<std::size_t>(m.orders.delay_d), 0.0);
+  for (Eigen::Index i = 0; i < m.linear.b.size(); ++i) b.push_back(m.linear.b(i));
+  d.b = {b};
+  std::vector<double> u, f;
+  const double lo = m.knots_us(0), hi = m.knots_us(m.knots_us.size() - 1);
+  for (int k = 0; k < kNonlinearityPoints; ++k) {
+    u.push_back(lo + (hi - lo) * k / (kNonlinearityPoints - 1));
+    f.push_back(SplineValue(m.knots_us, m.beta, u.back()));
+  }
+  d.nonlinearity_u = {u};
+  d.nonlinearity_f = {f};
+  d.output_offset = m.baseline;
+  return d;
 }
 
 Json FitMetrics(const SplineFitReport& rep) {
@@ -567,7 +597,8 @@ SplineFitted FitSplineOnTrials(bool oe, const std::vector<Trial>& train_rows,
   final_rep.model.baseline = tr.baselines[0];
   const std::string unit = cols.output.rfind("tau.", 0) == 0 ? "N m" : "rad";
   MethodResult result;
-  result.model_yaml = ModelYaml(method, final_rep, cols, unit);
+  result.model_yaml = ModelYaml(method, final_rep, cols, unit, tr.data.sample_period_s);
+  result.discrete_models = {DiscreteOf(oe, final_rep.model, cols, unit, tr.data.sample_period_s)};
   result.model_yaml += "# how the alternation stopped (Algorithm 1" +
                        std::string(oe ? " and 2" : "") + ")\nconvergence:\n";
   const auto add_convergence = [&](const std::string& key, const SplineFitReport& rep) {

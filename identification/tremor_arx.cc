@@ -653,6 +653,7 @@ std::string TremorModelYaml(const TremorColumns& cols, const Coactivation& c,
   std::string y = "# fesim identify: tremor-arx (paper 001_50576a960b4d02ae eq. 5-21; P(1) = 1)\n";
   y += "method: tremor-arx\ninputs: {agonist: " + cols.agonist +
        ", antagonist: " + cols.antagonist + "}\noutput: " + cols.output + "\n";
+  y += YamlParam("sample_time_s", m.sample_period_s, "s", NAN, 0);
   y += "orders: {poles_l: " + std::to_string(m.orders.poles_l) +
        ", zeros_n: " + std::to_string(m.orders.zeros_n) +
        ", delay_m: " + std::to_string(m.orders.delay_m) +

@@ -272,10 +272,37 @@ TEST(CliInterrupt, SignalDuringAtomicWriteRemovesTheTemporaryFile) {
   EXPECT_EQ(List(out), std::vector<std::string>{});  // no short.csv, no short.csv.tmp.PID
   // A rerun completes and writes every file.
   ASSERT_EQ(RunFesim({"simulate", sc, "--out", out}, err).exit_code, 0) << ReadFile(err);
-  for (const char* f : {"short.csv", "short.sto", "short_truth.csv", "manifest.json"}) {
+  for (const char* f :
+       {"short.csv", "short.sto", "short_truth.csv", "short.osim", "short.mot", "manifest.json"}) {
     EXPECT_TRUE(Exists(out + "/" + f)) << f;
   }
-  EXPECT_EQ(List(out).size(), 4u);
+  EXPECT_EQ(List(out).size(), 6u);
+}
+
+// A discrete model is also written for MATLAB (README "MATLAB"; the fields are tested in
+// matfile_test, the polynomials against the method's prediction in spline_hammerstein_test).
+TEST(CliIdentify, ADiscreteModelIsAlsoAMatFileWithItsSampleTime) {
+  const std::string dir = Dir("identify_mat");
+  // A first-order response (pole 0.9) to a quadratic recruitment of stimulation bursts, 50 Hz.
+  Trial t;
+  std::vector<double> u(600), q(600);
+  double y = 0.0;
+  for (int k = 0; k < 600; ++k) {
+    t.time.push_back(0.02 * k);
+    u[k] = (k / 40) % 2 ? 40.0 + 4.0 * (k % 50) : 0.0;
+    q[k] = y;
+    y = 0.9 * y + 0.1 * (u[k] / 250.0) * (u[k] / 250.0);
+  }
+  t.AddColumn("u.ext", u);
+  t.AddColumn("q.wrist_flexion", q);
+  WriteFileAtomic(dir + "/t.csv", FormatTrialCsv(t));
+  const Result r = RunFesim(
+      {"identify", "--method", "spline-oe", "--train", dir + "/t.csv", "--out", dir + "/out"},
+      dir + "/err.txt");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(ReadFile(dir + "/out/model.mat").substr(0, 6), "MATLAB");
+  EXPECT_NE(ReadFile(dir + "/out/model.yaml").find("sample_time_s: {value: 0.02, unit: \"s\"}"),
+            std::string::npos);
 }
 
 // A study interrupted after some trials were written: the rerun simulates only the others and

@@ -52,7 +52,8 @@ TEST(SimulateCmd, SameSeedSameBytesDifferentSeedDifferentNoise) {
   ASSERT_EQ(RunFesim("simulate " + sc + " --out " + dir + "/a --seed 5").exit_code, 0);
   ASSERT_EQ(RunFesim("simulate " + sc + " --out " + dir + "/b --seed 5").exit_code, 0);
   ASSERT_EQ(RunFesim("simulate " + sc + " --out " + dir + "/c --seed 6").exit_code, 0);
-  for (const char* f : {"/short.csv", "/short.sto", "/short_truth.csv", "/manifest.json"}) {
+  for (const char* f : {"/short.csv", "/short.sto", "/short_truth.csv", "/short.osim", "/short.mot",
+                        "/manifest.json"}) {
     EXPECT_EQ(ReadFile(dir + "/a" + f), ReadFile(dir + "/b" + f)) << f;
   }
   EXPECT_NE(ReadFile(dir + "/a/short.csv"), ReadFile(dir + "/c/short.csv"));
@@ -71,6 +72,26 @@ TEST(SimulateCmd, SameSeedSameBytesDifferentSeedDifferentNoise) {
   EXPECT_GT(m.Column("tau.elbow_flexion").back(), m.Column("tau.elbow_flexion").front() + 1.0);
   const std::string sto = ReadFile(dir + "/a/short.sto");
   EXPECT_NE(sto.find("endheader"), std::string::npos);
+  // OpenSim playback: the model and the truth's angles in degrees (sim/opensim.h, tested there).
+  EXPECT_NE(ReadFile(dir + "/a/short.osim").find("<CustomJoint name=\"wrist_flexion\">"),
+            std::string::npos);
+  EXPECT_NE(ReadFile(dir + "/a/short.mot").find("inDegrees=yes\nendheader\ntime\t"),
+            std::string::npos);
+}
+
+TEST(SimulateCmd, ExportWritesTheOpenSimModelAndMotionOfAnExistingTrial) {
+  const std::string sc = Scenario("short", kShort);
+  const std::string dir = ::testing::TempDir() + "simexport";
+  ASSERT_EQ(RunFesim("simulate " + sc + " --out " + dir + " --seed 5").exit_code, 0);
+  Result r = RunFesim("export " + dir + "/short.csv --scenario " + sc + " --out " + dir + "/os");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(ReadFile(dir + "/os/short.osim"), ReadFile(dir + "/short.osim"));
+  const std::string mot = ReadFile(dir + "/os/short.mot");
+  EXPECT_EQ(mot.rfind("short\nversion=1\nnRows=201\nnColumns=11\ninDegrees=yes\n", 0), 0u);
+  r = RunFesim("export " + dir + "/short.csv --out " + dir + "/os2");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("nothing to export: give --scenario"), std::string::npos) << r.err;
+  EXPECT_FALSE(Exists(dir + "/os2"));
 }
 
 TEST(SimulateCmd, BadInputFailsWithOneLineAndLeavesNoOutput) {

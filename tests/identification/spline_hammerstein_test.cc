@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -238,6 +239,66 @@ TEST(SplineHammerstein, MissingOutputSamplesAreLeftOutOfTheFit) {
     EXPECT_GT(gaps_fit, complete_fit - 1.0) << m.name;  // ARX 78.5 vs 78.8, OE 96.0 vs 96.0 %
     EXPECT_GT(BestFitPercent(complete.predictions[0].Column("tau.elbow"), predicted), 97.0)
         << m.name;
+  }
+}
+
+/// The discrete model as MATLAB's idnlhw simulates it: v = f(u) by linear interpolation of the
+/// breakpoints (held beyond them), A(q) F(q)-filtered: F(q) w = B(q) v, A(q) y = w, y + offset
+/// (zero initial conditions).
+std::vector<double> SimulateDiscrete(const DiscreteModel& d, const std::vector<double>& u) {
+  const auto& bu = d.nonlinearity_u[0];
+  const auto& bf = d.nonlinearity_f[0];
+  std::vector<double> v(u.size()), w(u.size()), y(u.size());
+  for (std::size_t t = 0; t < u.size(); ++t) {
+    const double x = std::clamp(u[t], bu.front(), bu.back());
+    std::size_t k = std::upper_bound(bu.begin(), bu.end(), x) - bu.begin();
+    k = std::clamp<std::size_t>(k, 1, bu.size() - 1);
+    v[t] = bf[k - 1] + (x - bu[k - 1]) / (bu[k] - bu[k - 1]) * (bf[k] - bf[k - 1]);
+  }
+  const auto filter = [](const std::vector<double>& num, const std::vector<double>& den,
+                         const std::vector<double>& in) {
+    std::vector<double> out(in.size());
+    for (std::size_t t = 0; t < in.size(); ++t) {
+      double acc = 0.0;
+      for (std::size_t i = 0; i < num.size() && i <= t; ++i) acc += num[i] * in[t - i];
+      for (std::size_t i = 1; i < den.size() && i <= t; ++i) acc -= den[i] * out[t - i];
+      out[t] = acc / den[0];
+    }
+    return out;
+  };
+  w = filter(d.b[0], d.f, v);
+  y = filter({1.0}, d.a, w);
+  for (double& x : y) x += d.output_offset;
+  return y;
+}
+
+// What model.mat carries (apps/matfile.h) must be the model the method predicts with: the
+// discrete polynomials and the sampled nonlinearity, simulated as MATLAB would, reproduce the
+// method's own prediction of its training trial.
+TEST(SplineHammerstein, TheDiscreteModelReproducesTheMethodsPrediction) {
+  const SplineHammersteinModel truth = Planted();
+  const SisoData data = Generate(truth, 1, 1200, 0.0, kSeed + 5);
+  Trial t = ToTrial(data.u_us[0], data.y[0], "tau.elbow");
+  t.metadata["spline.knots_m"] = "5";
+  for (const MethodEntry& m : {SplineArxMethod(), SplineOeMethod()}) {
+    const MethodResult r = m.run({t}, {}, nullptr);
+    ASSERT_EQ(r.discrete_models.size(), 1u) << m.name;
+    const DiscreteModel& d = r.discrete_models[0];
+    EXPECT_DOUBLE_EQ(d.sample_time_s, kSamplePeriod);
+    EXPECT_EQ(d.inputs, std::vector<std::string>{"u.triceps"});
+    EXPECT_EQ(d.output, "tau.elbow");
+    EXPECT_EQ(d.b[0][0], 0.0) << "delay d = 1: a leading zero of B";
+    EXPECT_EQ((m.name == "spline-oe" ? d.a : d.f), std::vector<double>{1.0}) << m.name;
+    const std::vector<double> y = SimulateDiscrete(d, t.Column("u.triceps"));
+    const std::vector<double>& pred = r.predictions[0].Column("tau.elbow");
+    double err = 0.0, ref = 0.0;
+    for (std::size_t k = 0; k < y.size(); ++k) {
+      err += (y[k] - pred[k]) * (y[k] - pred[k]);
+      ref += pred[k] * pred[k];
+    }
+    // The breakpoints interpolate the cubic spline: 101 points over 0–300 µs.
+    EXPECT_LT(std::sqrt(err / ref), 1e-3) << m.name;
+    EXPECT_NE(r.model_yaml.find("sample_time_s: "), std::string::npos);
   }
 }
 
