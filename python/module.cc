@@ -281,15 +281,22 @@ py::dict Diagnose(const py::object& trials_in, const std::string& scenario, int 
 void Render(const py::object& trial, const std::string& scenario, const py::object& out,
             const py::object& frames, int width, int height, double fps, const std::string& camera,
             const py::object& compare) {
+  // Trial objects go to a private temporary folder (tempfile.mkdtemp: no name race), removed after.
+  std::string temp_dir;
   std::vector<std::string> temp_files;
   const auto path_of = [&](const py::object& t) {
     if (py::isinstance<py::str>(t)) return t.cast<std::string>();
-    const Trial tr = t.cast<Trial>();
-    const std::string path =
-        py::module_::import("tempfile").attr("mktemp")(".csv").cast<std::string>();
-    WriteFileAtomic(path, FormatTrialCsv(tr));
+    if (temp_dir.empty()) {
+      temp_dir = py::module_::import("tempfile").attr("mkdtemp")().cast<std::string>();
+    }
+    const std::string path = temp_dir + "/trial" + std::to_string(temp_files.size() + 1) + ".csv";
+    WriteFileAtomic(path, FormatTrialCsv(t.cast<Trial>()));
     temp_files.push_back(path);
     return path;
+  };
+  const auto clean_up = [&] {
+    for (const auto& f : temp_files) std::remove(f.c_str());
+    if (!temp_dir.empty()) std::remove(temp_dir.c_str());
   };
   std::vector<std::string> args = {"fesim",
                                    "render",
@@ -314,10 +321,10 @@ void Render(const py::object& trial, const std::string& scenario, const py::obje
     py::gil_scoped_release release;
     RunRender(static_cast<int>(argv.size()), argv.data());
   } catch (...) {
-    for (const auto& f : temp_files) std::remove(f.c_str());
+    clean_up();
     throw;
   }
-  for (const auto& f : temp_files) std::remove(f.c_str());
+  clean_up();
 }
 
 void DefineTrial(py::module_& m) {
