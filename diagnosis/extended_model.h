@@ -55,8 +55,9 @@ struct ModelParameter {
   /// factors, start > 0 and lower > 0: a factor 2 and a factor ½ are equally far).
   bool log_prior = false;
   /// kModel only: `set` changes nothing but what sim::IntegrateTrialSensitivities differentiates
-  /// (recruitment, the electrode matrix, Hill and passive joint parameters, muscle paths), so its
-  /// Jacobian column may come from forward sensitivities.
+  /// (recruitment, the electrode matrix, activation rates Ω, Hill and passive joint parameters,
+  /// muscle paths, the tremor torque), so its Jacobian column may come from forward
+  /// sensitivities.
   bool sensitivity = false;
   /// kModel only: the value applies to trial `trial` of the view it is simulated on alone (−1:
   /// to every trial) — a value no two trials share, such as the phase of a tremor that starts

@@ -666,7 +666,7 @@ void Extender::ScreenRound(const ScreenStage& screen) {
         Concat(base_.stage.fit.x, lib_[c].start_from_step(screen.tests[c].theta));
     FitStage s = FitStageOf({c}, x0, ctx_.settings.screen_iterations, 0.0, true);
     Json control;  // null: judged against the calibrated person
-    if (!lib_[c].profile_starts.empty()) {
+    if (reference_gap_ && !lib_[c].profile_starts.empty()) {
       const Eigen::VectorXd x = LowestProfileStart(c);
       if (x.size()) {
         FitStage alt = FitStageOf({c}, x, ctx_.settings.screen_iterations, 0.0);

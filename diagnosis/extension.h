@@ -19,14 +19,17 @@
 // own parameters from the test's Gauss–Newton step (Candidate::start_from_step), fitted together
 // with the person parameters (screen_iterations LM steps, person priors on) — all of them when
 // the extended model has forward sensitivities, else (fatigue, potentiation) the kRelevantPerson
-// whose Jacobian columns point most along the candidate's probe directions. A candidate with
-// profile starts (Candidate::profile_starts, arm_support) is also fitted from the lowest of the
-// person fits with it held at each (two parabolic refinements when one parameter varies,
-// ParabolaVertex); the lower Σr² is kept. When the calibrated model misses the black box on
-// some output (`reference_gap`, verdict.h ReferenceGaps), such a candidate is fitted whatever its
-// score test: a mechanism that the person parameters mimic along a curved valley (a strong
-// crosstalk that stronger, stiffer muscles half-reproduce) leaves little along its direction at
-// "off", where the test looks, and much beyond it.
+// whose Jacobian columns point most along the candidate's probe directions. When the calibrated
+// model misses the black box on some output (`reference_gap`, verdict.h ReferenceGaps), a
+// candidate with profile starts (Candidate::profile_starts: arm_support, crosstalk) is fitted
+// whatever its score test, and also from the lowest of the person fits with it held at each
+// (two parabolic refinements when one parameter varies, ParabolaVertex); the lower Σr² is kept:
+// a mechanism that the person parameters mimic along a curved valley (a strong crosstalk that
+// stronger, stiffer muscles half-reproduce) leaves little along its direction at "off", where
+// the test looks, and much beyond it — and leaves the calibrated model short of the black box.
+// Without such a gap the profile is not run (its person fits, up to the calibration's iteration
+// limit each, cost more than the rest of the screen: 130 of 285 s on the clean
+// BM_DiagnoseClean3x60s, docs/performance.md).
 //
 // Acceptance (Judgement): a fit passes when
 //   robust LR (noise_model.h) of its training residual against the model it extends:

@@ -185,7 +185,7 @@ ModelParameter OmegaScale(const sim::ModelParams& rig, const std::vector<MuscleG
                                 m->muscles[ms[i]].activation_omega_rad_s = v * omega[i];
                               }
                             }),
-                      1.35, false);
+                      1.35, false);  // differences: docs/diagnosis.md "The person" step 3
 }
 
 /// arm.g@j: the group's crossings of joint j × s, l_MT at the rig's rest posture kept.

@@ -181,7 +181,10 @@ struct SensitivityData {
     muscles::ArrayMatrix array;              // BuildElectrodeMatrix(*params)
     std::vector<tendons::MusclePath> paths;  // params->muscles[j].path
     double step;                             // θ_k change, its unit
-    bool moves_torques;  // TorqueParametersMayDiffer from the model: τ is re-evaluated
+    bool moves_torques;         // TorqueParametersMayDiffer from the model: τ is re-evaluated
+    bool moves_tremor;          // TremorParametersDiffer from the model: the tremor torque too
+    std::vector<double> omega;  // Ω_j of params, rad/s
+    bool moves_omega;           // some Ω_j differs from the model's
   };
   CvodesContext* ctx = nullptr;
   std::vector<Parameter> p;
@@ -250,17 +253,46 @@ bool TorqueParametersMayDiffer(const ModelParams& a, const ModelParams& b) {
   return false;
 }
 
+/// True when `a` and `b` give different tremor torques (mechanisms.h TremorTorque) at some t.
+bool TremorParametersDiffer(const TremorParams& a, const TremorParams& b) {
+  if (!a.enabled && !b.enabled) return false;
+  return a.enabled != b.enabled || a.coordinate != b.coordinate ||
+         a.frequency_hz != b.frequency_hz || a.amplitude_nm != b.amplitude_nm ||
+         a.amplitude_modulation != b.amplitude_modulation || a.modulation_hz != b.modulation_hz ||
+         a.frequency_drift_hz_per_s != b.frequency_drift_hz_per_s || a.phase_rad != b.phase_rad;
+}
+
+/// The direct part of ∂(a, ȧ)_j/∂θ_k after dt in an interval of input w_j from (a, ȧ)_j(t₀) (the
+/// interval's, CvodesContext::w and a0): the difference quotient of eq. (6)'s free response in
+/// Ω_j (zero unless θ_k moves Ω_j). The rest — through ∂w/∂θ and ∂(a, ȧ)(t₀)/∂θ — is linear.
+muscles::ActivationState DirectOmegaSensitivity(const CvodesContext& c,
+                                                const SensitivityData::Parameter& pk, std::size_t j,
+                                                double dt) {
+  if (!pk.moves_omega || pk.omega[j] == c.omega[j]) return {};
+  const auto moved = muscles::ActivationFreeResponse(pk.omega[j], c.w[j], c.a0[j], dt);
+  const auto base = muscles::ActivationFreeResponse(c.omega[j], c.w[j], c.a0[j], dt);
+  return {(moved.a - base.a) / pk.step, (moved.a_dot - base.a_dot) / pk.step};
+}
+
 /// At a stimulation breakpoint (or the start): ∂a/∂θ carried over in closed form (eq. 6 is linear
-/// in w and the initial state, so the sensitivities obey it with input ∂w/∂θ), then ∂w/∂θ of the
-/// new interval by difference quotients of RecruitedFractions.
+/// in w and the initial state, so the sensitivities obey it with input ∂w/∂θ; plus the direct
+/// part of a θ that moves Ω, DirectOmegaSensitivity, over the interval that ends), then ∂w/∂θ of
+/// the new interval by difference quotients of RecruitedFractions.
 void BeginSensitivityInterval(SensitivityData* d, const SimTK::State& state, double t) {
-  const CvodesContext& c = *d->ctx;
+  const CvodesContext& c = *d->ctx;  // c.w, c.a0: still the interval that ends at t
   const std::size_t nm = c.omega.size();
   for (std::size_t k = 0; k < d->p.size(); ++k) {
     for (std::size_t j = 0; j < nm; ++j) {
-      d->da0[k][j] = d->started ? muscles::ActivationFreeResponse(c.omega[j], d->dw[k][j],
-                                                                  d->da0[k][j], t - d->t0)
-                                : muscles::ActivationState{};
+      if (!d->started) {
+        d->da0[k][j] = muscles::ActivationState{};
+        continue;
+      }
+      const double dt = t - d->t0;
+      auto next = muscles::ActivationFreeResponse(c.omega[j], d->dw[k][j], d->da0[k][j], dt);
+      const auto direct = DirectOmegaSensitivity(c, d->p[k], j, dt);
+      next.a += direct.a;
+      next.a_dot += direct.a_dot;
+      d->da0[k][j] = next;
     }
   }
   const std::vector<double> u = c.model->GetStimulation(state);
@@ -415,13 +447,22 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
   for (int k = 0; k < np; ++k) {
     const auto& pk = d->p[k];
     std::fill(udot.begin(), udot.end(), 0.0);
-    if (pk.moves_torques) {
-      solve_difference(MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a), pk.step);
+    if (pk.moves_torques || pk.moves_tremor) {
+      std::vector<double> tau =
+          pk.moves_torques ? MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a) : tau0;
+      if (pk.moves_tremor) {  // the tremor torque is a known function of t (TremorTorque)
+        const TremorParams& tk = pk.params->mechanisms.tremor;
+        const TremorParams& tb = base.mechanisms.tremor;
+        if (tk.enabled) tau[tk.coordinate] += TremorTorque(tk, t);
+        if (tb.enabled) tau[tb.coordinate] -= TremorTorque(tb, t);
+      }
+      solve_difference(tau, pk.step);
     }
     // ∂a_j/∂θ_k at t (zero for muscles θ_k does not reach).
     for (std::size_t j = 0; j < nm; ++j) {
       const auto& a0 = d->da0[k][j];
-      const double da = c_w[j] * d->dw[k][j] + c_a[j] * a0.a + c_ad[j] * a0.a_dot;
+      const double da = c_w[j] * d->dw[k][j] + c_a[j] * a0.a + c_ad[j] * a0.a_dot +
+                        DirectOmegaSensitivity(*c, pk, j, dt).a;
       if (da == 0.0) continue;
       for (int f = 0; f < nf; ++f) udot[f] += x_da[j * nf + f] * da;
     }
@@ -764,12 +805,22 @@ IntegrationStats IntegrateTrialSensitivities(
         pp.params.channels.size() != base.channels.size()) {
       throw std::invalid_argument("sensitivities: perturbed model has other muscles or channels");
     }
-    SensitivityData::Parameter q{&pp.params,
-                                 BuildElectrodeMatrix(pp.params),
-                                 {},
-                                 pp.step,
-                                 TorqueParametersMayDiffer(pp.params, base)};
-    for (const auto& m : pp.params.muscles) q.paths.push_back(m.path);
+    SensitivityData::Parameter q{
+        &pp.params,
+        BuildElectrodeMatrix(pp.params),
+        {},
+        pp.step,
+        TorqueParametersMayDiffer(pp.params, base),
+        TremorParametersDiffer(pp.params.mechanisms.tremor, base.mechanisms.tremor),
+        {},
+        false};
+    for (std::size_t j = 0; j < pp.params.muscles.size(); ++j) {
+      const auto& m = pp.params.muscles[j];
+      q.paths.push_back(m.path);
+      q.omega.push_back(m.activation_omega_rad_s);
+      q.moves_omega =
+          q.moves_omega || m.activation_omega_rad_s != base.muscles[j].activation_omega_rad_s;
+    }
     d.p.push_back(std::move(q));
     scales.push_back(pp.scale);
   }

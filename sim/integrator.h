@@ -53,9 +53,11 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
 
 /// One parameter θ_k of a forward-sensitivity integration: the model with θ_k moved by `step`.
 /// The sensitivity right-hand side re-evaluates only what depends on the parameters through
-/// pure functions — recruitment and the electrode matrix (RecruitedFractions), Hill and passive
-/// joint parameters and muscle paths (MuscleAndPassiveTorques) — so `params` may differ from the
-/// integrated model only there (differences elsewhere, e.g. segment masses or Ω, are not seen).
+/// pure functions — recruitment and the electrode matrix (RecruitedFractions), the activation
+/// rates Ω (eq. 6 in closed form), Hill and passive joint parameters and muscle paths
+/// (MuscleAndPassiveTorques), the tremor torque (TremorTorque, a function of t) — so `params` may
+/// differ from the integrated model only there (differences elsewhere, e.g. segment masses or the
+/// electromechanical delay, are not seen).
 struct ParameterPerturbation {
   ModelParams params;
   double step = 0.0;   ///< θ_k(params) − θ_k(model), in θ_k's unit, ≠ 0 and small.
@@ -72,9 +74,10 @@ using SensitivityObserver =
 /// (`parameters`), integrated alongside it: ṡ_k = (∂f/∂y) s_k + ∂f/∂θ_k, s_k(0) = 0 (the initial
 /// state does not depend on them), CVODES' staggered corrector, sensitivities kept out of the
 /// local error test (the state takes the same steps as without them). ∂f/∂θ_k =
-/// [0; M_ff⁻¹ ∂τ_f/∂θ_k], with τ = MuscleAndPassiveTorques at the activations a(t; θ) whose
-/// sensitivities ∂a/∂θ_k follow eq. (6) in closed form (linear in w and the initial state) from
-/// ∂w/∂θ_k = difference quotient of RecruitedFractions, and M_ff the mass matrix of the free
+/// [0; M_ff⁻¹ ∂τ_f/∂θ_k], with τ = MuscleAndPassiveTorques (+ TremorTorque) at the activations
+/// a(t; θ) whose sensitivities ∂a/∂θ_k follow eq. (6) in closed form (linear in w and the initial
+/// state) from ∂w/∂θ_k = difference quotient of RecruitedFractions (plus, for a θ_k that moves
+/// Ω, the difference quotient of the free response in Ω), and M_ff the mass matrix of the free
 /// coordinates. ∂f/∂y = [0 I; ∂u̇/∂q ∂u̇/∂u] is split in two: M_ff⁻¹ ∂τ/∂y of the muscle and
 /// passive torques (stiff and fast-changing with the activations) is formed at every step by
 /// difference quotients of the pure MuscleAndPassiveTorques; the rest (gravity, velocity

@@ -75,17 +75,17 @@ Mechanism CrosstalkMechanism() {
       return std::vector<Candidate>{c};
     }
     c.params.push_back(
-        Param("crosstalk.fraction", "1", 0.0, 0.0, 1.0, 0.1,
-              [](double v, sim::ModelParams* p) { p->mechanisms.crosstalk.fraction = v; }));
+        Sensed(Param("crosstalk.fraction", "1", 0.0, 0.0, 1.0, 0.1,
+                     [](double v, sim::ModelParams* p) { p->mechanisms.crosstalk.fraction = v; })));
     const std::vector<Reach> reaches = AntagonistReaches(rig, ctx.channels);
-    c.params.push_back(Param("crosstalk.antagonist_fraction", "1", 0.0, 0.0, 1.0, 0.1,
-                             [reaches](double v, sim::ModelParams* p) {
-                               if (v <= 0.0) return;
-                               for (const Reach& r : reaches) {
-                                 p->channels[r.channel].muscle_weights.emplace_back(r.muscle,
-                                                                                    v * r.weight);
-                               }
-                             }));
+    c.params.push_back(Sensed(Param("crosstalk.antagonist_fraction", "1", 0.0, 0.0, 1.0, 0.1,
+                                    [reaches](double v, sim::ModelParams* p) {
+                                      if (v <= 0.0) return;
+                                      for (const Reach& r : reaches) {
+                                        p->channels[r.channel].muscle_weights.emplace_back(
+                                            r.muscle, v * r.weight);
+                                      }
+                                    })));
     c.probes = {ProbeAt(c.params, 0, 0.1), ProbeAt(c.params, 1, 0.1)};
     c.one_sided = {true, true};
     // A strong antagonist reach is half-reproduced by stronger, stiffer muscles (extension.h):

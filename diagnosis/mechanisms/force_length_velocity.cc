@@ -17,12 +17,13 @@ Mechanism ForceLengthVelocityMechanism() {
     std::vector<double> vmax;
     vmax.reserve(forearm.size());
     for (int k : forearm) vmax.push_back(rig.muscles[k].hill.max_contraction_velocity);
-    c.params.push_back(Param("hill.vmax_scale", "1", 1.0, 0.05, 5.0, 1.0,
-                             [forearm, vmax](double v, sim::ModelParams* p) {
-                               for (std::size_t i = 0; i < forearm.size(); ++i) {
-                                 p->muscles[forearm[i]].hill.max_contraction_velocity = v * vmax[i];
-                               }
-                             }));
+    c.params.push_back(Sensed(Param("hill.vmax_scale", "1", 1.0, 0.05, 5.0, 1.0,
+                                    [forearm, vmax](double v, sim::ModelParams* p) {
+                                      for (std::size_t i = 0; i < forearm.size(); ++i) {
+                                        p->muscles[forearm[i]].hill.max_contraction_velocity =
+                                            v * vmax[i];
+                                      }
+                                    })));
     c.probes = {ProbeAt(c.params, 0, 0.5)};
     c.one_sided = {false};
     return std::vector<Candidate>{c};

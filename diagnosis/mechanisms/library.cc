@@ -21,6 +21,11 @@ ModelParameter Param(const std::string& name, const std::string& unit, double st
   return p;
 }
 
+ModelParameter Sensed(ModelParameter p) {
+  p.sensitivity = true;
+  return p;
+}
+
 Eigen::VectorXd Starts(const std::vector<ModelParameter>& params) {
   Eigen::VectorXd x(params.size());
   for (std::size_t k = 0; k < params.size(); ++k) x(k) = params[k].start;

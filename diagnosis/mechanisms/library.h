@@ -18,6 +18,14 @@ ModelParameter Param(const std::string& name, const std::string& unit, double st
                      double upper, double scale,
                      std::function<void(double, sim::ModelParams*)> set);
 
+/// `p` with its Jacobian column from forward sensitivities (ModelParameter::sensitivity): for a
+/// parameter whose setter moves only recruitment, the electrode matrix, activation rates Ω, Hill
+/// or passive joint parameters, muscle paths or the tremor torque (MechanismParameters.
+/// SensedColumnsMatchCentralDifferencesOfWholeSimulations checks each). A candidate fit then
+/// costs one sensitivity integration per trial for all such columns instead of a simulation
+/// per column and trial.
+ModelParameter Sensed(ModelParameter p);
+
 /// The start values of `params` as a vector.
 Eigen::VectorXd Starts(const std::vector<ModelParameter>& params);
 

@@ -21,24 +21,24 @@ Mechanism MomentArmPostureMechanism() {
     for (int j : OutputJoints(ctx)) {
       Candidate c;
       c.joint = sim::CoordinateNames()[j];
-      c.params.push_back(Param("momentarm.posture_ratio", "1", 0.0, -12.0, 12.0, 1.0,
-                               [j, rest](double v, sim::ModelParams* p) {
-                                 for (auto& muscle : p->muscles) {
-                                   const double before =
-                                       tendons::MusculotendonLength(muscle.path, rest);
-                                   bool changed = false;
-                                   for (auto& cr : muscle.path.crossings) {
-                                     if (cr.joint != j || cr.arm.d_m == 0.0) continue;
-                                     cr.arm.model = tendons::MomentArmParams::Model::kLandsmeer;
-                                     cr.arm.d_tilde_m += v * cr.arm.d_m;
-                                     changed = true;
-                                   }
-                                   if (changed) {
-                                     muscle.path.length_at_ref_m +=
-                                         before - tendons::MusculotendonLength(muscle.path, rest);
-                                   }
-                                 }
-                               }));
+      c.params.push_back(
+          Sensed(Param("momentarm.posture_ratio", "1", 0.0, -12.0, 12.0, 1.0,
+                       [j, rest](double v, sim::ModelParams* p) {
+                         for (auto& muscle : p->muscles) {
+                           const double before = tendons::MusculotendonLength(muscle.path, rest);
+                           bool changed = false;
+                           for (auto& cr : muscle.path.crossings) {
+                             if (cr.joint != j || cr.arm.d_m == 0.0) continue;
+                             cr.arm.model = tendons::MomentArmParams::Model::kLandsmeer;
+                             cr.arm.d_tilde_m += v * cr.arm.d_m;
+                             changed = true;
+                           }
+                           if (changed) {
+                             muscle.path.length_at_ref_m +=
+                                 before - tendons::MusculotendonLength(muscle.path, rest);
+                           }
+                         }
+                       })));
       c.probes = {ProbeAt(c.params, 0, 0.5)};
       c.one_sided = {false};
       out.push_back(c);

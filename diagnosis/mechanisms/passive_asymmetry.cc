@@ -23,11 +23,11 @@ Mechanism PassiveAsymmetryControl() {
     for (int j : OutputJoints(ctx)) {
       Candidate c;
       c.joint = sim::CoordinateNames()[j];
-      c.params.push_back(
+      c.params.push_back(Sensed(
           Param("passive.asymmetry", "1", 0.0, -1.0, 1.0, 0.3, [j](double v, sim::ModelParams* p) {
             auto& pj = p->coordinates[j].passive;
             pj.quadratic_stiffness_nm_per_rad2 = v * pj.stiffness_nm_per_rad;
-          }));
+          })));
       c.probes = {ProbeAt(c.params, 0, 0.3)};
       c.one_sided = {false};
       out.push_back(std::move(c));

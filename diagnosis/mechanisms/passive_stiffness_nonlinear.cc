@@ -15,15 +15,15 @@ Candidate PassiveAt(const sim::ModelParams& rig, int j) {
   c.joint = sim::CoordinateNames()[j];
   const auto& pj = rig.coordinates[j].passive;
   const double kl = std::max(pj.limit_stiffness_nm_per_rad, 0.1 * JointTorqueScale(rig, j));
-  c.params.push_back(Param("passive.limit_scale", "1", 1.0, 0.0, 100.0, 1.0,
-                           [j, kl](double v, sim::ModelParams* p) {
-                             p->coordinates[j].passive.limit_stiffness_nm_per_rad = v * kl;
-                           }));
+  c.params.push_back(Sensed(Param("passive.limit_scale", "1", 1.0, 0.0, 100.0, 1.0,
+                                  [j, kl](double v, sim::ModelParams* p) {
+                                    p->coordinates[j].passive.limit_stiffness_nm_per_rad = v * kl;
+                                  })));
   const double kappa = pj.limit_sharpness_per_rad;
-  c.params.push_back(Param("passive.sharpness_per_rad", "1/rad", kappa, 2.0, 60.0, kappa,
-                           [j](double v, sim::ModelParams* p) {
-                             p->coordinates[j].passive.limit_sharpness_per_rad = v;
-                           }));
+  c.params.push_back(Sensed(Param("passive.sharpness_per_rad", "1/rad", kappa, 2.0, 60.0, kappa,
+                                  [j](double v, sim::ModelParams* p) {
+                                    p->coordinates[j].passive.limit_sharpness_per_rad = v;
+                                  })));
   // Probe 1: a broad extra nonlinearity (κ = 5/rad, K_L × 5), felt across the range of motion
   // rather than only at its ends (with the wrist within ±25° a κ = 8/rad limit torque is
   // e^{−8·0.95} ≈ 5e-4 of K_L/κ); probe 2: the nominal shape made broader. The start takes probe

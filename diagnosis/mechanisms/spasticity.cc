@@ -12,15 +12,15 @@ Candidate SpasticityAt(const sim::ModelParams& rig, int j) {
   Candidate c;
   c.joint = sim::CoordinateNames()[j];
   const double tj = JointTorqueScale(rig, j);
-  c.params.push_back(Param("reflex.gain_nms_per_rad", "N*m*s/rad", 0.0, 0.0, 2.0 * tj, 0.05 * tj,
-                           [j](double v, sim::ModelParams* p) {
-                             p->coordinates[j].passive.reflex_gain_nms_per_rad = v;
-                           }));
+  c.params.push_back(Sensed(Param("reflex.gain_nms_per_rad", "N*m*s/rad", 0.0, 0.0, 2.0 * tj,
+                                  0.05 * tj, [j](double v, sim::ModelParams* p) {
+                                    p->coordinates[j].passive.reflex_gain_nms_per_rad = v;
+                                  })));
   const double vth = rig.coordinates[j].passive.reflex_threshold_rad_s;
-  c.params.push_back(Param("reflex.threshold_rad_s", "rad/s", vth, 0.0, 5.0, 0.5,
-                           [j](double v, sim::ModelParams* p) {
-                             p->coordinates[j].passive.reflex_threshold_rad_s = v;
-                           }));
+  c.params.push_back(Sensed(Param("reflex.threshold_rad_s", "rad/s", vth, 0.0, 5.0, 0.5,
+                                  [j](double v, sim::ModelParams* p) {
+                                    p->coordinates[j].passive.reflex_threshold_rad_s = v;
+                                  })));
   c.probes = {ProbeAt(c.params, 0, 0.05 * tj)};
   c.one_sided = {true};
   return c;

@@ -14,18 +14,18 @@ Candidate TremorAt(const sim::ModelParams& rig, int j, double f0) {
   Candidate c;
   c.joint = sim::CoordinateNames()[j];
   const double tj = JointTorqueScale(rig, j);
-  c.params.push_back(Param("tremor.amplitude_nm", "N*m", 0.0, 0.0, tj, 0.05 * tj,
-                           [j](double v, sim::ModelParams* p) {
-                             p->mechanisms.tremor.enabled = v > 0.0;
-                             p->mechanisms.tremor.coordinate = j;
-                             p->mechanisms.tremor.amplitude_nm = v;
-                           }));
+  c.params.push_back(Sensed(Param("tremor.amplitude_nm", "N*m", 0.0, 0.0, tj, 0.05 * tj,
+                                  [j](double v, sim::ModelParams* p) {
+                                    p->mechanisms.tremor.enabled = v > 0.0;
+                                    p->mechanisms.tremor.coordinate = j;
+                                    p->mechanisms.tremor.amplitude_nm = v;
+                                  })));
   c.params.push_back(
-      Param("tremor.phase_rad", "rad", 0.0, -10.0, 10.0, 1.0,
-            [](double v, sim::ModelParams* p) { p->mechanisms.tremor.phase_rad = v; }));
-  c.params.push_back(
+      Sensed(Param("tremor.phase_rad", "rad", 0.0, -10.0, 10.0, 1.0,
+                   [](double v, sim::ModelParams* p) { p->mechanisms.tremor.phase_rad = v; })));
+  c.params.push_back(Sensed(
       Param("tremor.frequency_hz", "Hz", f0, std::max(3.0, f0 - 0.15), std::min(12.0, f0 + 0.15),
-            0.1, [](double v, sim::ModelParams* p) { p->mechanisms.tremor.frequency_hz = v; }));
+            0.1, [](double v, sim::ModelParams* p) { p->mechanisms.tremor.frequency_hz = v; })));
   c.params[1].range_is_plausible = c.params[2].range_is_plausible = false;  // search windows
   c.free_phase_param = 1;
   // Two quadrature probes (sine and cosine at f0): the test is a harmonic regression.

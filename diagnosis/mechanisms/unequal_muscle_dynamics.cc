@@ -13,13 +13,13 @@ Mechanism UnequalMuscleDynamicsMechanism() {
   m.candidates = [](const sim::ModelParams& rig, const LibraryContext&) {
     Candidate c;
     const std::vector<int> ext = WristGroup(rig, true), flex = WristGroup(rig, false);
-    c.params.push_back(Param("omega.ext_flex_ratio", "1", 1.0, 0.2, 5.0, 1.0,
-                             [ext, flex](double v, sim::ModelParams* p) {
-                               // Relative to the model's current Ω (which the person's common
-                               // scale has set), so the two compose.
-                               for (int k : ext) p->muscles[k].activation_omega_rad_s *= v;
-                               for (int k : flex) p->muscles[k].activation_omega_rad_s /= v;
-                             }));
+    c.params.push_back(Sensed(Param("omega.ext_flex_ratio", "1", 1.0, 0.2, 5.0, 1.0,
+                                    [ext, flex](double v, sim::ModelParams* p) {
+                                      // Relative to the model's current Ω (which the person's
+                                      // common scale has set), so the two compose.
+                                      for (int k : ext) p->muscles[k].activation_omega_rad_s *= v;
+                                      for (int k : flex) p->muscles[k].activation_omega_rad_s /= v;
+                                    })));
     c.probes = {ProbeAt(c.params, 0, 1.3)};
     c.one_sided = {false};
     return std::vector<Candidate>{c};
