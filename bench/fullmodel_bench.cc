@@ -267,6 +267,8 @@ BENCHMARK(BM_SensitivityDataSet)
     ->Args({29, 3, 8})
     ->Args({29, 3, 16})  // the confidence intervals' Jacobian with residuals at 1e-4
     ->Args({29, 2, 16})  // the iterations' Jacobians with residuals at 1e-4
+    ->Args({6, 3, 16})   // cost against the parameter count (docs/performance.md, diagnose)
+    ->Args({12, 3, 16})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(3);
 
