@@ -309,6 +309,44 @@ void BeginSensitivityInterval(SensitivityData* d, const SimTK::State& state, dou
   d->jac_age = -1;
 }
 
+/// M_ff⁻¹ of the free coordinates at the state `s` (realised to Stage::Position) into
+/// d->mass_inv (nf × nf, column-major).
+void FormMassInverse(SensitivityData* d, const SimTK::State& s) {
+  const int nf = static_cast<int>(d->free_coordinates.size());
+  SimTK::Matrix M;
+  d->ctx->model->matter().calcM(s, M);
+  SimTK::Matrix Mff(nf, nf);
+  for (int r = 0; r < nf; ++r) {
+    for (int col = 0; col < nf; ++col) Mff(r, col) = M(d->free_u_slot[r], d->free_u_slot[col]);
+  }
+  const SimTK::FactorLU lu(Mff);
+  SimTK::Vector e(nf, 0.0), col(nf);
+  for (int k = 0; k < nf; ++k) {
+    e[k] = 1.0;
+    lu.solve(e, col);
+    e[k] = 0.0;
+    for (int r = 0; r < nf; ++r) d->mass_inv[static_cast<std::size_t>(k) * nf + r] = col[r];
+  }
+}
+
+/// The torques of the model with θ_k moved (pk) at (t, q, q̇, a), where they may differ from the
+/// model's τ0: MuscleAndPassiveTorques re-evaluated when pk moves them, plus the change of the
+/// tremor torque (a known function of t, TremorTorque) when pk moves the tremor.
+std::vector<double> PerturbedTorques(const SensitivityData::Parameter& pk, const ModelParams& base,
+                                     double t, const std::vector<double>& q,
+                                     const std::vector<double>& qd, const std::vector<double>& a,
+                                     const std::vector<double>& tau0) {
+  std::vector<double> tau =
+      pk.moves_torques ? MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a) : tau0;
+  if (pk.moves_tremor) {
+    const TremorParams& tk = pk.params->mechanisms.tremor;
+    const TremorParams& tb = base.mechanisms.tremor;
+    if (tk.enabled) tau[tk.coordinate] += TremorTorque(tk, t);
+    if (tb.enabled) tau[tb.coordinate] -= TremorTorque(tb, t);
+  }
+  return tau;
+}
+
 /// ∂f/∂y and ∂f/∂θ at (t, y) into d's cache (see IntegrateTrialSensitivities). Returns 0, or 1
 /// (recoverable) when a right-hand side fails.
 ///
@@ -357,22 +395,7 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
   const ModelParams& base = c->model->params();
   const std::vector<double> tau0 = MuscleAndPassiveTorques(base, d->paths, q, qd, a);
   const std::vector<double> dtau_da = TorquePerActivation(base, d->paths, q, qd, a);
-  if (refresh) {
-    SimTK::Matrix M;
-    c->model->matter().calcM(s, M);
-    SimTK::Matrix Mff(nf, nf);
-    for (int r = 0; r < nf; ++r) {
-      for (int col = 0; col < nf; ++col) Mff(r, col) = M(d->free_u_slot[r], d->free_u_slot[col]);
-    }
-    const SimTK::FactorLU lu(Mff);
-    SimTK::Vector e(nf, 0.0), col(nf);
-    for (int k = 0; k < nf; ++k) {
-      e[k] = 1.0;
-      lu.solve(e, col);
-      e[k] = 0.0;
-      for (int r = 0; r < nf; ++r) d->mass_inv[static_cast<std::size_t>(k) * nf + r] = col[r];
-    }
-  }
+  if (refresh) FormMassInverse(d, s);
   const std::vector<double>& minv = d->mass_inv;
   std::vector<double> v(nf), udot(nf);
   // udot = M_ff⁻¹ v.
@@ -448,15 +471,7 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
     const auto& pk = d->p[k];
     std::fill(udot.begin(), udot.end(), 0.0);
     if (pk.moves_torques || pk.moves_tremor) {
-      std::vector<double> tau =
-          pk.moves_torques ? MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a) : tau0;
-      if (pk.moves_tremor) {  // the tremor torque is a known function of t (TremorTorque)
-        const TremorParams& tk = pk.params->mechanisms.tremor;
-        const TremorParams& tb = base.mechanisms.tremor;
-        if (tk.enabled) tau[tk.coordinate] += TremorTorque(tk, t);
-        if (tb.enabled) tau[tb.coordinate] -= TremorTorque(tb, t);
-      }
-      solve_difference(tau, pk.step);
+      solve_difference(PerturbedTorques(pk, base, t, q, qd, a, tau0), pk.step);
     }
     // ∂a_j/∂θ_k at t (zero for muscles θ_k does not reach).
     for (std::size_t j = 0; j < nm; ++j) {
