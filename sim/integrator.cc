@@ -185,6 +185,10 @@ struct SensitivityData {
     bool moves_tremor;          // TremorParametersDiffer from the model: the tremor torque too
     std::vector<double> omega;  // Ω_j of params, rad/s
     bool moves_omega;           // some Ω_j differs from the model's
+    // The model of *params and a state of it, when params moves a segment's inertia
+    // (BodyInertiaDiffers): its whole right-hand side is differenced at the same (t, y).
+    std::shared_ptr<const UpperLimbModel> body;
+    std::shared_ptr<SimTK::State> body_state;
   };
   CvodesContext* ctx = nullptr;
   std::vector<Parameter> p;
@@ -254,6 +258,19 @@ bool TorqueParametersMayDiffer(const ModelParams& a, const ModelParams& b) {
 }
 
 /// True when `a` and `b` give different tremor torques (mechanisms.h TremorTorque) at some t.
+/// Whether some segment's mass, centre of mass or inertia differs between `a` and `b` (what the
+/// Simbody system computes and the pure torque functions do not see).
+bool BodyInertiaDiffers(const ModelParams& a, const ModelParams& b) {
+  for (std::size_t i = 0; i < a.segments.size(); ++i) {
+    const SegmentParams &x = a.segments[i], &y = b.segments[i];
+    if (x.mass_kg != y.mass_kg || x.com_in_body_m != y.com_in_body_m ||
+        x.inertia_about_com_kg_m2 != y.inertia_about_com_kg_m2) {
+      return true;
+    }
+  }
+  return false;
+}
+
 bool TremorParametersDiffer(const TremorParams& a, const TremorParams& b) {
   if (!a.enabled && !b.enabled) return false;
   return a.enabled != b.enabled || a.coordinate != b.coordinate ||
@@ -300,6 +317,7 @@ void BeginSensitivityInterval(SensitivityData* d, const SimTK::State& state, dou
       RecruitedFractions(c.model->params(), c.model->electrode_matrix(), u);
   for (std::size_t k = 0; k < d->p.size(); ++k) {
     const auto& pk = d->p[k];
+    if (pk.body) pk.body->SetStimulation(*pk.body_state, u);
     const std::vector<double> wk = RecruitedFractions(*pk.params, pk.array, u);
     for (std::size_t j = 0; j < nm; ++j) d->dw[k][j] = (wk[j] - w[j]) / pk.step;
   }
@@ -345,6 +363,30 @@ std::vector<double> PerturbedTorques(const SensitivityData::Parameter& pk, const
     if (tb.enabled) tau[tb.coordinate] -= TremorTorque(tb, t);
   }
   return tau;
+}
+
+/// M_ff⁻¹-free direct term of a parameter that moves a segment's inertia: the free u rows of
+/// (f_k(t, y) − f(t, y)) / step into `udot`, with f_k the Simbody right-hand side of the model of
+/// pk.params realised at the state the context loaded (same q, u, activations), `ydot` = f(t, y).
+/// Returns 0, or 1 (recoverable) when that realisation fails.
+int BodyRhsDifference(const SensitivityData& d, const SensitivityData::Parameter& pk, double t,
+                      const double* ydot, std::vector<double>* udot) {
+  const CvodesContext& c = *d.ctx;
+  SimTK::State& s = *pk.body_state;
+  s.updY() = c.state->getY();
+  s.setTime(t);
+  try {
+    if (c.prescribe) pk.body->system().prescribe(s);
+    pk.body->system().realize(s, SimTK::Stage::Acceleration);
+  } catch (const std::exception&) {
+    return 1;
+  }
+  const SimTK::Vector& yd = s.getYDot();
+  for (std::size_t f = 0; f < d.u_component.size(); ++f) {
+    const int i = d.u_component[f];
+    (*udot)[f] = (yd[c.y_index[i]] - ydot[i]) / pk.step;
+  }
+  return 0;
 }
 
 /// ∂f/∂y and ∂f/∂θ at (t, y) into d's cache (see IntegrateTrialSensitivities). Returns 0, or 1
@@ -470,7 +512,9 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
   for (int k = 0; k < np; ++k) {
     const auto& pk = d->p[k];
     std::fill(udot.begin(), udot.end(), 0.0);
-    if (pk.moves_torques || pk.moves_tremor) {
+    if (pk.body) {  // the whole right-hand side differenced: torques and tremor included
+      if (BodyRhsDifference(*d, pk, t, ydot, &udot) != 0) return 1;
+    } else if (pk.moves_torques || pk.moves_tremor) {
       solve_difference(PerturbedTorques(pk, base, t, q, qd, a, tau0), pk.step);
     }
     // ∂a_j/∂θ_k at t (zero for muscles θ_k does not reach).
@@ -828,13 +872,22 @@ IntegrationStats IntegrateTrialSensitivities(
         TorqueParametersMayDiffer(pp.params, base),
         TremorParametersDiffer(pp.params.mechanisms.tremor, base.mechanisms.tremor),
         {},
-        false};
+        false,
+        nullptr,
+        nullptr};
     for (std::size_t j = 0; j < pp.params.muscles.size(); ++j) {
       const auto& m = pp.params.muscles[j];
       q.paths.push_back(m.path);
       q.omega.push_back(m.activation_omega_rad_s);
       q.moves_omega =
           q.moves_omega || m.activation_omega_rad_s != base.muscles[j].activation_omega_rad_s;
+    }
+    if (BodyInertiaDiffers(pp.params, base)) {
+      q.body = std::make_shared<const UpperLimbModel>(pp.params);
+      q.body_state = std::make_shared<SimTK::State>(q.body->MakeInitialState());
+      if (q.body_state->getNY() != state->getNY()) {
+        throw std::invalid_argument("sensitivities: perturbed model has another state layout");
+      }
     }
     d.p.push_back(std::move(q));
     scales.push_back(pp.scale);

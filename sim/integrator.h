@@ -55,9 +55,11 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
 /// The sensitivity right-hand side re-evaluates only what depends on the parameters through
 /// pure functions — recruitment and the electrode matrix (RecruitedFractions), the activation
 /// rates Ω (eq. 6 in closed form), Hill and passive joint parameters and muscle paths
-/// (MuscleAndPassiveTorques), the tremor torque (TremorTorque, a function of t) — so `params` may
-/// differ from the integrated model only there (differences elsewhere, e.g. segment masses or the
-/// electromechanical delay, are not seen).
+/// (MuscleAndPassiveTorques), the tremor torque (TremorTorque, a function of t) — and, when a
+/// segment's mass, centre of mass or inertia differs, the whole Simbody right-hand side of a model
+/// built from `params` at the same (t, y). `params` may differ from the integrated model only
+/// there (differences elsewhere, e.g. the arm support or the electromechanical delay, are not
+/// seen).
 struct ParameterPerturbation {
   ModelParams params;
   double step = 0.0;   ///< θ_k(params) − θ_k(model), in θ_k's unit, ≠ 0 and small.
@@ -78,23 +80,26 @@ using SensitivityObserver =
 /// a(t; θ) whose sensitivities ∂a/∂θ_k follow eq. (6) in closed form (linear in w and the initial
 /// state) from ∂w/∂θ_k = difference quotient of RecruitedFractions (plus, for a θ_k that moves
 /// Ω, the difference quotient of the free response in Ω), and M_ff the mass matrix of the free
-/// coordinates. ∂f/∂y = [0 I; ∂u̇/∂q ∂u̇/∂u] is split in two: M_ff⁻¹ ∂τ/∂y of the muscle and
-/// passive torques (stiff and fast-changing with the activations) is formed at every step by
-/// difference quotients of the pure MuscleAndPassiveTorques; the rest (gravity, velocity
-/// products, ∂M_ff/∂q, support, tremor) is the difference quotient of the Simbody right-hand side
-/// (one per CVODES component) less that part, formed with M_ff at every
-/// `state_jacobian_every`-th new (t, y) and at each stimulation breakpoint, and reused in
-/// between. 1 is exact to the integrator's tolerance; 16 (the default) costs n_y/16 right-hand
-/// sides per step and gives sensitivities within 0.07 % of central differences of whole
-/// simulations (Integrator.ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) and
-/// within 0.2 % (whole Jacobian; worst column 1.5 %, relative RMS) of the exact ones on the
-/// hand-array step grid at tolerance 1e-3 (bench/fullmodel_bench.cc BM_SensitivityDataSet;
-/// forming the whole ∂f/∂y every 4th step instead gave 1.4 % / 5.9 %). A perturbed simulation
-/// per parameter costs ≈ 2 right-hand sides per step; this costs ≈ 3 + n_y/state_jacobian_every
-/// per step for all P together (CVODES evaluates f once more per step for the staggered
-/// corrector) plus 1 + n_y + (parameters that move τ) evaluations of the pure torque function.
-/// Throws std::invalid_argument when the model integrates other states (fatigue, potentiation)
-/// or the method is Simbody's RKM, and std::runtime_error like IntegrateTrial on failure.
+/// coordinates; for a θ_k that moves a segment's inertia, ∂u̇/∂θ_k is instead the difference
+/// quotient of the right-hand side of a second Simbody system built from its parameters, realised
+/// at the same (t, y) (one realize(Acceleration) per step and such parameter). ∂f/∂y = [0 I; ∂u̇/∂q
+/// ∂u̇/∂u] is split in two: M_ff⁻¹ ∂τ/∂y of the muscle and passive torques (stiff and fast-changing
+/// with the activations) is formed at every step by difference quotients of the pure
+/// MuscleAndPassiveTorques; the rest (gravity, velocity products, ∂M_ff/∂q, support, tremor) is the
+/// difference quotient of the Simbody right-hand side (one per CVODES component) less that part,
+/// formed with M_ff at every `state_jacobian_every`-th new (t, y) and at each stimulation
+/// breakpoint, and reused in between. 1 is exact to the integrator's tolerance; 16 (the default)
+/// costs n_y/16 right-hand sides per step and gives sensitivities within 0.07 % of central
+/// differences of whole simulations
+/// (Integrator.ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) and within 0.2 %
+/// (whole Jacobian; worst column 1.5 %, relative RMS) of the exact ones on the hand-array step grid
+/// at tolerance 1e-3 (bench/fullmodel_bench.cc BM_SensitivityDataSet; forming the whole ∂f/∂y every
+/// 4th step instead gave 1.4 % / 5.9 %). A perturbed simulation per parameter costs ≈ 2 right-hand
+/// sides per step; this costs ≈ 3 + n_y/state_jacobian_every per step for all P together (CVODES
+/// evaluates f once more per step for the staggered corrector) plus 1 + n_y + (parameters that move
+/// τ) evaluations of the pure torque function. Throws std::invalid_argument when the model
+/// integrates other states (fatigue, potentiation) or the method is Simbody's RKM, and
+/// std::runtime_error like IntegrateTrial on failure.
 IntegrationStats IntegrateTrialSensitivities(
     const UpperLimbModel& model, const IntegratorParams& params,
     const StimulationSchedule& schedule, const std::vector<double>& report_times,
