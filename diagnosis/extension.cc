@@ -161,9 +161,17 @@ class Extender {
   std::map<int, double> accept_p_, accept_gain_;
   std::string baseline_note_;  ///< ExtensionOutcome::baseline_note.
   std::vector<double> on_top_reference_;
-  // End points of fits run here (residual, Jacobian when all free): a fit from there starts
-  // without simulating them again (FitStart).
-  std::map<std::string, FitStart> ends_;
+  /// End point of a fit run here: its residual and predictions, and its Jacobian's columns with
+  /// the parameter (index into ParamsOf) of each.
+  struct EndPoint {
+    FitStart start;
+    std::vector<int> columns;
+  };
+  /// What is known at `point_key` (PointKey) for a fit whose free parameters are `free_order`:
+  /// residual and predictions, and the Jacobian when every free column is known.
+  FitStart KnownEnd(const std::string& point_key, const std::vector<int>& free_order);
+  // A fit from the end point of an earlier one starts without simulating it again.
+  std::map<std::string, EndPoint> ends_;
   std::mutex ends_mutex_;
   std::map<int, Eigen::MatrixXd> directions_;  ///< the first screen's probe directions.
   std::mutex directions_mutex_;
@@ -299,6 +307,24 @@ std::vector<int> Extender::FreePerson(const std::vector<int>& cands) {
   return out;
 }
 
+FitStart Extender::KnownEnd(const std::string& point_key, const std::vector<int>& free_order) {
+  const std::lock_guard<std::mutex> lock(ends_mutex_);
+  const auto it = ends_.find(point_key);
+  if (it == ends_.end()) return {};
+  FitStart start = it->second.start;
+  const std::vector<int>& known = it->second.columns;
+  start.jacobian.resize(0, 0);
+  if (known.empty()) return start;
+  Eigen::MatrixXd j(it->second.start.jacobian.rows(), static_cast<Eigen::Index>(free_order.size()));
+  for (std::size_t i = 0; i < free_order.size(); ++i) {
+    const auto k = std::find(known.begin(), known.end(), free_order[i]);
+    if (k == known.end()) return start;
+    j.col(static_cast<Eigen::Index>(i)) = it->second.start.jacobian.col(k - known.begin());
+  }
+  start.jacobian = std::move(j);
+  return start;
+}
+
 FitStage Extender::FitStageOf(const std::vector<int>& cands, const Eigen::VectorXd& x0,
                               int iterations, double fd_step, bool from_test_step) {
   const std::vector<ModelParameter> params = ParamsOf(cands);
@@ -326,19 +352,14 @@ FitStage Extender::FitStageOf(const std::vector<int>& cands, const Eigen::Vector
     const int held = static_cast<int>(order.size());
     for (int k : free_person) order.push_back(k);
     for (int k = ns_; k < static_cast<int>(params.size()); ++k) order.push_back(k);
-    const bool identity = held == 0;
     std::vector<ModelParameter> ordered;
     Eigen::VectorXd x0_ordered(x0.size());  // may be backtracked below
     for (std::size_t i = 0; i < order.size(); ++i) {
       ordered.push_back(params[order[i]]);
       x0_ordered(static_cast<Eigen::Index>(i)) = x0(order[i]);
     }
-    FitStart start;
-    if (identity) {
-      const std::lock_guard<std::mutex> lock(ends_mutex_);
-      const auto it = ends_.find(PointKey(cands, x0));
-      if (it != ends_.end()) start = it->second;
-    }
+    const std::vector<int> free_order(order.begin() + held, order.end());
+    FitStart start = KnownEnd(PointKey(cands, x0), free_order);
     if (fd_step > 0.0) start.jacobian.resize(0, 0);  // a known Jacobian is at the default step
     int sims = 0;
     if (start.residual.size() == 0 && from_test_step) {
@@ -386,12 +407,15 @@ FitStage Extender::FitStageOf(const std::vector<int>& cands, const Eigen::Vector
           StackResiduals(ctx_.data.train, Predict(ctx_.rig, params, fit.x, ctx_.data.train, fo));
       sims += static_cast<int>(ctx_.data.train.trials.size());
     }
-    if (identity && fd_step <= 0.0 && fit.residual.size() > 0) {
-      FitStart end;
-      end.residual = fit.residual;
-      if (fit.jacobian_x.size() == fit.x.size() && fit.jacobian_x == fit.x)
-        end.jacobian = fit.jacobian;
-      end.predictions = fit.predictions;
+    if (fd_step <= 0.0 && fit.residual.size() > 0) {
+      EndPoint end;
+      end.start.residual = fit.residual;
+      end.start.predictions = fit.predictions;
+      if (ordered_fit.jacobian_x.size() == ordered_fit.x.size() &&
+          ordered_fit.jacobian_x == ordered_fit.x) {
+        end.start.jacobian = ordered_fit.jacobian;
+        end.columns = free_order;
+      }
       const std::lock_guard<std::mutex> lock(ends_mutex_);
       ends_[PointKey(cands, fit.x)] = std::move(end);
     }

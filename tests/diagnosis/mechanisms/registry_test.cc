@@ -300,7 +300,9 @@ TEST(Mechanisms, CrosstalkAntagonistFractionReachesTheOtherGroupWithItsOwnWeight
       EXPECT_NEAR(after(j, flex), flex_expected, 1e-12) << rig.muscles[j].name;
       reached += after(j, ext) != before(j, ext) || after(j, flex) != before(j, flex);
       for (int k = 0; k < before.channels; ++k) {
-        if (k != ext && k != flex) EXPECT_EQ(after(j, k), before(j, k));
+        if (k != ext && k != flex) {
+          EXPECT_EQ(after(j, k), before(j, k));
+        }
       }
     }
     EXPECT_GE(reached, 6);  // the three wrist extensors, EDC and the flexors
