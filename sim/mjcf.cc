@@ -39,7 +39,8 @@ struct Hinge {
 /// E·(Eᵀŷ)(q₁)·(−X)(q₂ − e)·Y(q₃) = Y(q₁)·(−X)(e)·(−X)(q₂ − e)·Y(q₃) = Simbody's, for every q.
 const std::array<Hinge, kNumCoordinates>& Hinges() {
   static const std::array<Hinge, kNumCoordinates> hinges = {{
-      {{0, std::cos(kShoulderRefElevationRad), std::sin(kShoulderRefElevationRad)}, 0.0},
+      {{0, std::cos(kShoulderRefElevationRad), std::sin(kShoulderRefElevationRad)},
+       0.0},                                   // shoulder_elv_plane: Eᵀŷ
       {{-1, 0, 0}, kShoulderRefElevationRad},  // shoulder_elevation
       {{0, 1, 0}, 0.0},                        // shoulder_rotation
       {{0, 0, 1}, 0.0},                        // elbow_flexion
@@ -71,8 +72,19 @@ std::vector<int> JointsOfSegment(int segment) {
   }
 }
 
+/// A name written into an XML attribute: non-empty, without the characters XML would need
+/// escaped there.
+void CheckName(const std::string& what, const std::string& name) {
+  if (name.empty() || name.find_first_of("\"<>&'") != std::string::npos) {
+    throw std::invalid_argument("WriteMjcf: " + what + " \"" + name +
+                                "\" must be non-empty and without \" < > & '");
+  }
+}
+
 /// Rejects what the MJCF cannot express (mjcf.h) with a one-line reason.
 void CheckRepresentable(const ModelParams& p, const MjcfOptions& options) {
+  CheckName("model name", options.model_name);
+  for (const auto& m : p.muscles) CheckName("muscle name", m.name);
   if (!(options.timestep_s > 0.0) || !std::isfinite(options.timestep_s)) {
     throw std::invalid_argument("WriteMjcf: timestep_s must be > 0, got " +
                                 Num(options.timestep_s));

@@ -104,6 +104,7 @@ std::vector<double> MjcfTendonCoefficients(const ModelParams& params);
 /// rest (a = ȧ = 0) at t = 0: w = H_IRC(A u) per interval (eq. 1, 3; RecruitedFractions of
 /// upper_limb_model.h) and the exact solution of eq. (6) between the schedule's times
 /// (muscles::ActivationFreeResponse) — the values fesim's integrator gives the activation states.
+/// No electromechanical delay: RunTrial shifts the schedule's times by it, so would the caller.
 class ActivationTrack {
  public:
   /// Throws std::invalid_argument when a schedule row has the wrong number of channels, the

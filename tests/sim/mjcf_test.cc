@@ -160,6 +160,9 @@ TEST(Mjcf, RejectsWhatItCannotExpressNamingIt) {
   MjcfOptions bad;
   bad.timestep_s = 0.0;
   EXPECT_THROW(WriteMjcf(DefaultModelParams(), bad), std::invalid_argument);
+  ModelParams quote = DefaultModelParams();
+  quote.muscles[0].name = "EC\"RL";  // would end the attribute
+  EXPECT_THROW(WriteMjcf(quote), std::invalid_argument);
 }
 
 TEST(Mjcf, ActivationTrackEqualsFesimsActivationsThroughATrial) {
