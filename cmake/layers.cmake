@@ -10,6 +10,7 @@ set(FESIM_PACKAGE_ITEMS_SUNDIALS SUNDIALS::cvodes_static SUNDIALS::sunlinsoldens
   SUNDIALS::sunmatrixdense_static SUNDIALS::nvecserial_static SUNDIALS::generic_static)
 set(FESIM_PACKAGE_ITEMS_yaml-cpp yaml-cpp)
 set(FESIM_PACKAGE_ITEMS_MPI MPI::MPI_CXX)
+set(FESIM_PACKAGE_ITEMS_MuJoCo mujoco::mujoco)
 set(FESIM_PACKAGE_ITEMS_OSMesa PkgConfig::OSMESA)
 set(FESIM_PACKAGE_ITEMS_zlib ZLIB::ZLIB)
 set(FESIM_PACKAGE_ITEMS_matio PkgConfig::MATIO)
