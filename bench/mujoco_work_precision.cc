@@ -37,6 +37,7 @@
 #include <vector>
 
 #include "base/trial.h"
+#include "bench/default_trial.h"
 #include "render/plot.h"
 #include "scenarios/scenario.h"
 #include "sim/mjcf.h"
@@ -84,23 +85,10 @@ Args ParseArgs(int argc, char** argv) {
   return a;
 }
 
-/// The trial of bench/sim_bench.cc: default scenario, 60 s, every channel on, levels changing
-/// every 2 s through a fixed pattern.
+/// The trial of bench/sim_bench.cc (bench/default_trial.h), recorded at 1 / kSampleS.
 fesim::Scenario BenchmarkScenario() {
-  fesim::Scenario sc =
-      fesim::LoadScenario(std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/default.yaml");
-  sc.trial.duration_s = kDurationS;
+  fesim::Scenario sc = fesim::bench::DefaultModelTrial(kDurationS);
   sc.trial.sensors.truth_rate_hz = 1.0 / kSampleS;
-  auto& stim = sc.trial.stimulation;
-  stim.times.clear();
-  stim.values.clear();
-  const double levels[] = {120, 200, 90, 260, 150, 60, 230, 180};
-  for (int k = 0; k < 30; ++k) {
-    stim.times.push_back(2.0 * k);
-    std::vector<double> u;
-    for (int c = 0; c < 6; ++c) u.push_back(levels[(k + 3 * c) % 8]);
-    stim.values.push_back(u);
-  }
   return sc;
 }
 

@@ -3,6 +3,7 @@
 // that change every 2 s, a 60 s trial, CVODES BDF at tolerance 1e-6, one core.
 #include <benchmark/benchmark.h>
 
+#include "bench/default_trial.h"
 #include "scenarios/scenario.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
@@ -10,22 +11,8 @@
 namespace {
 
 fesim::Scenario DefaultScenario() {
-  fesim::Scenario sc =
-      fesim::LoadScenario(std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/default.yaml");
-  sc.trial.duration_s = 60.0;
+  fesim::Scenario sc = fesim::bench::DefaultModelTrial(60.0);
   sc.trial.integrator.tolerance = 1e-6;
-  auto& stim = sc.trial.stimulation;
-  stim.times.clear();
-  stim.values.clear();
-  // Every channel active; levels cycle through a fixed pseudo-random pattern (all muscles on).
-  const double levels[] = {120, 200, 90, 260, 150, 60, 230, 180};
-  for (int k = 0; k < 30; ++k) {
-    stim.times.push_back(2.0 * k);
-    std::vector<double> u;
-    u.reserve(6);
-    for (int c = 0; c < 6; ++c) u.push_back(levels[(k + 3 * c) % 8]);
-    stim.values.push_back(u);
-  }
   return sc;
 }
 
