@@ -518,25 +518,31 @@ void Plots(const HandArrayInputs& in, const std::array<HandArrayModel, 2>& model
   }
   render::Axes ax;
   ax.title = "Hand array: normalised cross-validation error (paper 000 Tables 1-2)";
-  ax.y_label = "normalised error";
+  ax.y_label = "normalised error (dimensionless)";
   if (ctx->write_outputs)
     render::WriteBarChartPng(ctx->plots_dir + "/hand_array_error.png", ax, cats, bars);
   *md += "\n![hand array error](plots/hand_array_error.png)\n";
   if (in.do_ham && !example.time.empty()) {
     const Trial& measured = in.data.measured[in.Index(0, 0, 0)];
+    // Angles are plotted in degrees (SI inside, degrees at the edges: PRODUCT.md conventions).
+    const auto degrees = [](std::vector<double> v) {
+      for (double& x : v) x *= 180.0 / M_PI;
+      return v;
+    };
     std::vector<render::Series> series;
     for (int j = 0; j < nj; ++j) {
-      render::Series y{in.joints[j] + " measured", measured.time, measured.Column(in.joints[j]),
+      const std::string joint = in.joints[j].substr(2);
+      render::Series y{joint + " measured", measured.time, degrees(measured.Column(in.joints[j])),
                        render::PaletteColour(j), true};
-      render::Series yh{in.joints[j] + " Hammerstein", example.time, example.Column(in.joints[j]),
+      render::Series yh{joint + " Hammerstein", example.time, degrees(example.Column(in.joints[j])),
                         render::PaletteColour(j), false};
       series.push_back(y);
       series.push_back(yh);
     }
     render::Axes ax2;
     ax2.title = "Hand array: held-out data set 1 of participant 1, Hammerstein prediction";
-    ax2.x_label = "time s";
-    ax2.y_label = "angle rad";
+    ax2.x_label = "time (s)";
+    ax2.y_label = "joint angle (deg)";
     ax2.width_px = 1000;
     if (ctx->write_outputs)
       render::WriteLinePlotPng(ctx->plots_dir + "/hand_array_prediction.png", ax2, series);

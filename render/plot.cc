@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <limits>
 #include <stdexcept>
 
@@ -111,10 +112,37 @@ std::vector<std::string> TickLabels(const std::vector<double>& ticks, bool log_y
   return labels;
 }
 
+/// Axes::y_min/y_max when set (checked), else the autoscaled range y.
+Extent FixedOrAuto(const Axes& axes, Extent y) {
+  const bool lo = std::isfinite(axes.y_min), hi = std::isfinite(axes.y_max);
+  if (!lo && !hi) return y;
+  if (lo != hi || !(axes.y_min < axes.y_max) || (axes.log_y && !(axes.y_min > 0))) {
+    throw std::invalid_argument("plot y range [" + std::to_string(axes.y_min) + ", " +
+                                std::to_string(axes.y_max) +
+                                "] needs both bounds finite, min < max (> 0 on a log axis)");
+  }
+  return Extent{axes.y_min, axes.y_max};
+}
+
+/// Wraps the title to the image width (scale one larger than the text) and sets its pixel box.
+void LayOutTitle(const Axes& axes, int pad, PlotFrame* f) {
+  const int ts = TextScale(axes) + 1;
+  f->title_scale = ts;
+  f->title_lines = WrapText(axes.title, axes.width_px - 2 * pad, ts);
+  if (f->title_lines.empty()) return;
+  int w = 0;
+  for (const std::string& l : f->title_lines) w = std::max(w, TextWidthPx(l, ts));
+  const int n = static_cast<int>(f->title_lines.size());
+  f->title_box = PixelBox{(axes.width_px - w) / 2, pad, w, (n - 1) * kLineHeight * ts + 7 * ts};
+}
+
 /// Lays out the plot area around the text and picks ticks. categories: number of categories on a
-/// categorical x axis (ticks at 0 … n − 1), or −1 for a numeric x axis.
-PlotFrame MakeFrame(const Axes& axes, Extent x, Extent y, int categories) {
+/// categorical x axis (ticks at 0 … n − 1), or −1 for a numeric x axis. reserve_right_px: width
+/// kept free right of the plot area (for a legend placed outside).
+PlotFrame MakeFrame(const Axes& axes, Extent x, Extent y, int categories,
+                    int reserve_right_px = 0) {
   CheckSize(axes);
+  y = FixedOrAuto(axes, y);
   const int s = TextScale(axes);
   const int line = kLineHeight * s;
   const int pad = 6 * s;
@@ -124,7 +152,8 @@ PlotFrame MakeFrame(const Axes& axes, Extent x, Extent y, int categories) {
   f.x_hi = x.hi;
   f.y_lo = y.lo;
   f.y_hi = y.hi;
-  f.top = pad + (axes.title.empty() ? 0 : 7 * (s + 1) + pad) + (axes.y_label.empty() ? 0 : line);
+  LayOutTitle(axes, pad, &f);
+  f.top = pad + (f.title_box.empty() ? 0 : f.title_box.h + pad) + (axes.y_label.empty() ? 0 : line);
   f.top += pad;
   f.bottom = axes.height_px - 1 - pad - (axes.x_label.empty() ? 0 : line) - line - 4 * s;
   const int max_y_ticks = std::clamp((f.bottom - f.top) / (40 * s) + 1, 2, 12);
@@ -134,7 +163,7 @@ PlotFrame MakeFrame(const Axes& axes, Extent x, Extent y, int categories) {
     label_w = std::max(label_w, TextWidthPx(t, s));
   }
   f.left = pad + label_w + 4 * s + 2 * s;
-  f.right = axes.width_px - 1 - pad - 3 * kGlyphAdvance * s;
+  f.right = axes.width_px - 1 - pad - 3 * kGlyphAdvance * s - reserve_right_px;
   if (categories >= 0) {
     for (int i = 0; i < categories; ++i) f.x_ticks.push_back(i);
   } else {
@@ -152,9 +181,40 @@ void Fill(Image* image, const PlotFrame& f, int x, int y, int w, int h, Rgba col
 
 int Px(double v) { return static_cast<int>(std::lround(std::clamp(v, -1e6, 1e6))); }
 
+/// Clips the segment (xa, ya)–(xb, yb) to the plot area widened by 2 px (Liang–Barsky); false
+/// when nothing of it is inside. Keeps Bresenham short when a point lies far outside a fixed
+/// y range.
+bool ClipSegment(const PlotFrame& f, double* xa, double* ya, double* xb, double* yb) {
+  const double dx = *xb - *xa, dy = *yb - *ya;
+  const double p[4] = {-dx, dx, -dy, dy};
+  const double q[4] = {*xa - (f.left - 2), (f.right + 2) - *xa, *ya - (f.top - 2),
+                       (f.bottom + 2) - *ya};
+  double t0 = 0, t1 = 1;
+  for (int k = 0; k < 4; ++k) {
+    if (p[k] == 0) {
+      if (q[k] < 0) return false;
+      continue;
+    }
+    const double t = q[k] / p[k];
+    if (p[k] < 0) {
+      t0 = std::max(t0, t);
+    } else {
+      t1 = std::min(t1, t);
+    }
+  }
+  if (t0 > t1) return false;
+  const double x0 = *xa, y0 = *ya;
+  *xa = x0 + t0 * dx;
+  *ya = y0 + t0 * dy;
+  *xb = x0 + t1 * dx;
+  *yb = y0 + t1 * dy;
+  return true;
+}
+
 /// 2 px thick Bresenham line between pixel positions, clipped to the plot area.
 void Line(Image* image, const PlotFrame& f, double xa, double ya, double xb, double yb,
           Rgba colour) {
+  if (!ClipSegment(f, &xa, &ya, &xb, &yb)) return;
   int x0 = Px(xa), y0 = Px(ya);
   const int x1 = Px(xb), y1 = Px(yb);
   const int dx = std::abs(x1 - x0), dy = -std::abs(y1 - y0);
@@ -216,9 +276,11 @@ void Decorate(Image* image, const Axes& axes, const PlotFrame& f,
     DrawText(image, std::max(0, f.left + (w - tw) / 2), label_row + line, axes.x_label, s, kInk);
   }
   if (!axes.y_label.empty()) DrawText(image, pad, f.top - pad - 7 * s, axes.y_label, s, kInk);
-  if (!axes.title.empty()) {
-    const int tw = TextWidthPx(axes.title, s + 1);
-    DrawText(image, std::max(0, (axes.width_px - tw) / 2), pad, axes.title, s + 1, kInk);
+  const int ts = f.title_scale;
+  for (std::size_t i = 0; i < f.title_lines.size(); ++i) {
+    const int tw = TextWidthPx(f.title_lines[i], ts);
+    DrawText(image, std::max(0, (axes.width_px - tw) / 2),
+             f.title_box.y + static_cast<int>(i) * kLineHeight * ts, f.title_lines[i], ts, kInk);
   }
 }
 
@@ -235,32 +297,89 @@ struct LegendEntry {
   bool square;
 };
 
-/// Legend box in the top right corner of the plot area.
+/// Width of the legend box of entries, pixels.
+int LegendWidthPx(const Axes& axes, const std::vector<LegendEntry>& entries) {
+  const int s = TextScale(axes);
+  int text_w = 0;
+  for (const LegendEntry& e : entries) text_w = std::max(text_w, TextWidthPx(e.label, s));
+  return 6 * s + 16 * s + 6 * s + text_w + 6 * s;
+}
+
+/// Whether the data layer (data drawn on white) has a non-white pixel in box widened by margin.
+bool HasData(const Image& layer, PixelBox box, int margin) {
+  const int x0 = std::max(0, box.x - margin), y0 = std::max(0, box.y - margin);
+  const int x1 = std::min(layer.width, box.x + box.w + margin);
+  const int y1 = std::min(layer.height, box.y + box.h + margin);
+  for (int y = y0; y < y1; ++y) {
+    for (int x = x0; x < x1; ++x) {
+      const std::uint8_t* p = layer.At(x, y);
+      if (p[0] != 255 || p[1] != 255 || p[2] != 255) return true;
+    }
+  }
+  return false;
+}
+
+/// Draws a plot's data (no grid, frame or text) into an image in a frame's transform.
+using DataPainter = std::function<void(Image*, const PlotFrame&)>;
+/// The frame of a plot with reserve_right_px kept free right of the plot area.
+using FrameMaker = std::function<PlotFrame(int reserve_right_px)>;
+
+/// The frame with its legend box: the first corner of the plot area (top right, top left,
+/// bottom right, bottom left) whose box, with a gap, holds no pixel paint draws there; if every
+/// corner holds data, a frame narrowed by the legend's width and the legend right of it, level
+/// with the plot area's top. Fewer than 2 entries: no legend.
+PlotFrame PlaceLegend(const Axes& axes, const std::vector<LegendEntry>& entries,
+                      const FrameMaker& make, const DataPainter& paint) {
+  PlotFrame f = make(0);
+  if (entries.size() < 2) return f;
+  const int pad = 6 * TextScale(axes);
+  const int w = LegendWidthPx(axes, entries), h = LegendHeightPx(axes, entries.size());
+  Image layer = MakeImage(axes.width_px, axes.height_px, kWhite);
+  paint(&layer, f);
+  const int xl = f.left + pad, xr = f.right - pad - w;
+  const int yt = f.top + pad, yb = f.bottom - pad - h;
+  if (xl <= xr && yt <= yb) {
+    for (const auto& [x, y] : {std::pair{xr, yt}, {xl, yt}, {xr, yb}, {xl, yb}}) {
+      const PixelBox box{x, y, w, h};
+      if (!HasData(layer, box, pad / 2)) {
+        f.legend_box = box;
+        return f;
+      }
+    }
+  }
+  f = make(w + pad);
+  f.legend_box = PixelBox{f.right + pad, f.top, w, h};
+  return f;
+}
+
+/// Legend box at f.legend_box (inside or outside the plot area).
 void Legend(Image* image, const Axes& axes, const PlotFrame& f,
             const std::vector<LegendEntry>& entries) {
+  if (f.legend_box.empty()) return;
   const int s = TextScale(axes);
   const int line = kLineHeight * s;
   const int pad = 6 * s;
   const int swatch = 16 * s;
-  int text_w = 0;
-  for (const LegendEntry& e : entries) text_w = std::max(text_w, TextWidthPx(e.label, s));
-  const int w = pad + swatch + pad + text_w + pad;
-  const int h = LegendHeightPx(axes, entries.size());
-  const int x = f.right - pad - w, y = f.top + pad;
-  Fill(image, f, x, y, w, h, kLegendBg);
-  Fill(image, f, x, y, w, 1, kInk);
-  Fill(image, f, x, y + h - 1, w, 1, kInk);
-  Fill(image, f, x, y, 1, h, kInk);
-  Fill(image, f, x + w - 1, y, 1, h, kInk);
+  const auto [x, y, w, h] = f.legend_box;
+  FillRect(image, x, y, w, h, kLegendBg);
+  FillRect(image, x, y, w, 1, kInk);
+  FillRect(image, x, y + h - 1, w, 1, kInk);
+  FillRect(image, x, y, 1, h, kInk);
+  FillRect(image, x + w - 1, y, 1, h, kInk);
   for (std::size_t i = 0; i < entries.size(); ++i) {
     const int ty = y + pad + static_cast<int>(i) * line;
     if (entries[i].square) {
-      Fill(image, f, x + pad + swatch / 4, ty, swatch / 2, 7 * s, entries[i].colour);
+      FillRect(image, x + pad + swatch / 4, ty, swatch / 2, 7 * s, entries[i].colour);
     } else {
-      Fill(image, f, x + pad, ty + 3 * s, swatch, 2 * s, entries[i].colour);
+      FillRect(image, x + pad, ty + 3 * s, swatch, 2 * s, entries[i].colour);
     }
     DrawText(image, x + pad + swatch + pad, ty, entries[i].label, s, kInk);
   }
+}
+
+/// The lighter tint point markers are drawn in: halfway to white.
+Rgba MarkerTint(Rgba c) {
+  return Rgba{0.5f + 0.5f * c.r, 0.5f + 0.5f * c.g, 0.5f + 0.5f * c.b, 1.0f};
 }
 
 /// Type-7 quantile of sorted values: linear interpolation between order statistics at (n−1)·p.
@@ -272,6 +391,102 @@ double Quantile(const std::vector<double>& sorted, double p) {
 }
 
 Extent CategoryRange(std::size_t n) { return Extent{-0.5, std::max<double>(0.5, n - 0.5)}; }
+
+/// The series of a line plot: point series first (under the lines, in MarkerTint), then lines.
+void DrawLines(Image* image, const PlotFrame& f, const std::vector<Series>& series) {
+  for (const bool points : {true, false}) {
+    for (const Series& s : series) {
+      if (s.points != points) continue;
+      bool have_prev = false;
+      double px = 0, py = 0;
+      for (std::size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
+        if (!std::isfinite(s.x[i]) || !Drawable(s.y[i], f.log_y)) {
+          have_prev = false;
+          continue;
+        }
+        const double cx = f.PxX(s.x[i]), cy = f.PxY(s.y[i]);
+        if (s.points) {
+          Fill(image, f, Px(cx) - 2, Px(cy) - 2, 4, 4, MarkerTint(s.colour));
+        } else if (have_prev) {
+          Line(image, f, px, py, cx, cy, s.colour);
+        } else {
+          Fill(image, f, Px(cx), Px(cy), 2, 2, s.colour);  // a lone point stays visible
+        }
+        have_prev = true;
+        px = cx;
+        py = cy;
+      }
+    }
+  }
+}
+
+/// Legend entries of line-plot series, in their order.
+std::vector<LegendEntry> LineLegend(const std::vector<Series>& series) {
+  std::vector<LegendEntry> entries;
+  for (const Series& s : series) {
+    entries.push_back({s.label, s.points ? MarkerTint(s.colour) : s.colour, s.points});
+  }
+  return entries;
+}
+
+/// One Tukey box (statistics b) centred at pixel column cx, half its width wide each side.
+void DrawBox(Image* image, const PlotFrame& f, const BoxStats& b, int cx, int half, Rgba c) {
+  if (b.count == 0) return;
+  const int r1 = Px(f.PxY(b.q1)), r3 = Px(f.PxY(b.q3)), rm = Px(f.PxY(b.median));
+  const int rlo = Px(f.PxY(b.whisker_lo)), rhi = Px(f.PxY(b.whisker_hi));
+  Fill(image, f, cx, rhi, 2, r3 - rhi, c);  // whiskers
+  Fill(image, f, cx, r1, 2, rlo - r1, c);
+  Fill(image, f, cx - half / 2, rhi, half + 2, 2, c);  // caps
+  Fill(image, f, cx - half / 2, rlo - 1, half + 2, 2, c);
+  Fill(image, f, cx - half, r3, 2 * half + 2, r1 - r3 + 1, kWhite);
+  Fill(image, f, cx - half, r3, 2 * half + 2, r1 - r3 + 1, Rgba{c.r, c.g, c.b, 0.3f});
+  Fill(image, f, cx - half, r3, 2 * half + 2, 2, c);  // outline
+  Fill(image, f, cx - half, r1 - 1, 2 * half + 2, 2, c);
+  Fill(image, f, cx - half, r3, 2, r1 - r3 + 1, c);
+  Fill(image, f, cx + half, r3, 2, r1 - r3 + 1, c);
+  Fill(image, f, cx - half, rm - 1, 2 * half + 2, 3, kInk);  // median
+  for (double v : b.outliers) Fill(image, f, cx - 1, Px(f.PxY(v)) - 2, 4, 4, c);
+}
+
+/// Box statistics of the values of a sample drawable on the y axis.
+BoxStats DrawableBoxStats(const std::vector<double>& sample, bool log_y) {
+  std::vector<double> usable;
+  for (double v : sample) {
+    if (Drawable(v, log_y)) usable.push_back(v);
+  }
+  return ComputeBoxStats(usable);
+}
+
+/// The boxes of a grouped box plot: category i spans [i − 0.4, i + 0.4], one box per series.
+void DrawGroupedBoxes(Image* image, const PlotFrame& f, const std::vector<BoxSeries>& series) {
+  const double slot = 0.8 / std::max<std::size_t>(1, series.size());
+  const int half = std::max(3, Px(0.35 * slot * (f.PxX(1) - f.PxX(0))));
+  for (std::size_t j = 0; j < series.size(); ++j) {
+    for (std::size_t i = 0; i < series[j].samples.size(); ++i) {
+      const double x = static_cast<double>(i) - 0.4 + (static_cast<double>(j) + 0.5) * slot;
+      DrawBox(image, f, DrawableBoxStats(series[j].samples[i], f.log_y), Px(f.PxX(x)), half,
+              series[j].colour);
+    }
+  }
+}
+
+/// Grouped bars: for each category one bar per series side by side, from 0 (the bottom of a log
+/// axis) to the value.
+void DrawBars(Image* image, const PlotFrame& f, const std::vector<BarSeries>& series) {
+  const double group = 0.8, bar = series.empty() ? group : group / series.size();
+  const int base = f.log_y ? f.bottom : Px(f.PxY(0.0));
+  for (std::size_t j = 0; j < series.size(); ++j) {
+    for (std::size_t i = 0; i < series[j].values.size(); ++i) {
+      const double v = series[j].values[i];
+      if (!Drawable(v, f.log_y)) continue;
+      const double a = static_cast<double>(i) - group / 2 + static_cast<double>(j) * bar;
+      const int x0 = Px(f.PxX(a)), x1 = Px(f.PxX(a + bar)) - 1;  // 1 px gap between bars
+      const int top = Px(f.PxY(v));
+      Fill(image, f, x0, std::min(top, base), std::max(1, x1 - x0), std::abs(base - top) + 1,
+           series[j].colour);
+    }
+  }
+}
 
 }  // namespace
 
@@ -318,6 +533,38 @@ std::vector<double> NiceTicks(double lo, double hi, int max_ticks) {
   return ticks;
 }
 
+std::vector<std::string> WrapText(const std::string& text, int max_width_px, int scale) {
+  std::vector<std::string> lines;
+  std::string line;
+  std::size_t i = 0;
+  while (i < text.size()) {
+    while (i < text.size() && text[i] == ' ') ++i;
+    std::size_t j = text.find(' ', i);
+    if (j == std::string::npos) j = text.size();
+    std::string word = text.substr(i, j - i);
+    i = j;
+    if (word.empty()) break;
+    if (!line.empty() && TextWidthPx(line + " " + word, scale) <= max_width_px) {
+      line += " " + word;
+      continue;
+    }
+    if (!line.empty()) lines.push_back(line);
+    line.clear();
+    while (TextWidthPx(word, scale) > max_width_px && word.size() > 1) {  // an over-long word
+      std::size_t cut = word.size() - 1;  // the longest prefix that fits, at a UTF-8 boundary
+      while (cut > 1 && (TextWidthPx(word.substr(0, cut), scale) > max_width_px ||
+                         (static_cast<unsigned char>(word[cut]) & 0xC0) == 0x80)) {
+        --cut;
+      }
+      lines.push_back(word.substr(0, cut));
+      word = word.substr(cut);
+    }
+    line = word;
+  }
+  if (!line.empty()) lines.push_back(line);
+  return lines;
+}
+
 double PlotFrame::PxX(double x) const { return left + (x - x_lo) / (x_hi - x_lo) * (right - left); }
 
 double PlotFrame::PxY(double y) const {
@@ -344,39 +591,18 @@ PlotFrame LinePlotFrame(const Axes& axes, const std::vector<Series>& series) {
       }
     }
   }
-  return MakeFrame(axes, PadRange(x, false), PadRange(y, axes.log_y), -1);
+  const Extent xr = PadRange(x, false), yr = PadRange(y, axes.log_y);
+  return PlaceLegend(
+      axes, LineLegend(series), [&](int reserve) { return MakeFrame(axes, xr, yr, -1, reserve); },
+      [&](Image* image, const PlotFrame& f) { DrawLines(image, f, series); });
 }
 
 Image LinePlot(const Axes& axes, const std::vector<Series>& series) {
   const PlotFrame f = LinePlotFrame(axes, series);
   Image image = Background(axes, f, true);
-  for (const Series& s : series) {
-    bool have_prev = false;
-    double px = 0, py = 0;
-    for (std::size_t i = 0; i < s.x.size(); ++i) {
-      if (!std::isfinite(s.x[i]) || !Drawable(s.y[i], axes.log_y)) {
-        have_prev = false;
-        continue;
-      }
-      const double cx = f.PxX(s.x[i]), cy = f.PxY(s.y[i]);
-      if (s.points) {
-        Fill(&image, f, Px(cx) - 2, Px(cy) - 2, 5, 5, s.colour);
-      } else if (have_prev) {
-        Line(&image, f, px, py, cx, cy, s.colour);
-      } else {
-        Fill(&image, f, Px(cx), Px(cy), 2, 2, s.colour);  // a lone point stays visible
-      }
-      have_prev = true;
-      px = cx;
-      py = cy;
-    }
-  }
+  DrawLines(&image, f, series);
   Decorate(&image, axes, f, TickLabels(f.x_ticks, false));
-  if (series.size() >= 2) {
-    std::vector<LegendEntry> entries;
-    for (const Series& s : series) entries.push_back({s.label, s.colour, s.points});
-    Legend(&image, axes, f, entries);
-  }
+  Legend(&image, axes, f, LineLegend(series));
   return image;
 }
 
@@ -431,32 +657,46 @@ Image BoxPlot(const Axes& axes, const std::vector<std::string>& group_labels,
   Image image = Background(axes, f, false);
   const int half = std::max(3, Px(0.25 * (f.PxX(1) - f.PxX(0))));
   for (std::size_t i = 0; i < samples.size(); ++i) {
-    std::vector<double> usable;
-    for (double v : samples[i]) {
-      if (Drawable(v, axes.log_y)) usable.push_back(v);
-    }
-    const BoxStats b = ComputeBoxStats(usable);
-    if (b.count == 0) continue;
-    const Rgba c = colours.empty() ? PaletteColour(0) : colours[i];
-    const int cx = Px(f.PxX(static_cast<double>(i)));
-    const int r1 = Px(f.PxY(b.q1)), r3 = Px(f.PxY(b.q3)), rm = Px(f.PxY(b.median));
-    const int rlo = Px(f.PxY(b.whisker_lo)), rhi = Px(f.PxY(b.whisker_hi));
-    Fill(&image, f, cx, rhi, 2, r3 - rhi, c);  // whiskers
-    Fill(&image, f, cx, r1, 2, rlo - r1, c);
-    Fill(&image, f, cx - half / 2, rhi, half + 2, 2, c);  // caps
-    Fill(&image, f, cx - half / 2, rlo - 1, half + 2, 2, c);
-    Fill(&image, f, cx - half, r3, 2 * half + 2, r1 - r3 + 1, kWhite);
-    Fill(&image, f, cx - half, r3, 2 * half + 2, r1 - r3 + 1, Rgba{c.r, c.g, c.b, 0.3f});
-    Fill(&image, f, cx - half, r3, 2 * half + 2, 2, c);  // outline
-    Fill(&image, f, cx - half, r1 - 1, 2 * half + 2, 2, c);
-    Fill(&image, f, cx - half, r3, 2, r1 - r3 + 1, c);
-    Fill(&image, f, cx + half, r3, 2, r1 - r3 + 1, c);
-    Fill(&image, f, cx - half, rm - 1, 2 * half + 2, 3, kInk);  // median
-    for (double v : b.outliers) {
-      Fill(&image, f, cx - 1, Px(f.PxY(v)) - 2, 4, 4, c);
-    }
+    DrawBox(&image, f, DrawableBoxStats(samples[i], axes.log_y), Px(f.PxX(static_cast<double>(i))),
+            half, colours.empty() ? PaletteColour(0) : colours[i]);
   }
   Decorate(&image, axes, f, group_labels);
+  return image;
+}
+
+PlotFrame GroupedBoxPlotFrame(const Axes& axes, const std::vector<std::string>& categories,
+                              const std::vector<BoxSeries>& series) {
+  Extent y;
+  for (const BoxSeries& s : series) {
+    if (s.samples.size() != categories.size()) {
+      throw std::invalid_argument("box series '" + s.label + "' has " +
+                                  std::to_string(s.samples.size()) + " samples for " +
+                                  std::to_string(categories.size()) + " categories");
+    }
+    for (const std::vector<double>& sample : s.samples) {
+      for (double v : sample) {
+        if (Drawable(v, axes.log_y)) y.Add(v);
+      }
+    }
+  }
+  const int n = static_cast<int>(categories.size());
+  const Extent yr = PadRange(y, axes.log_y);
+  std::vector<LegendEntry> entries;
+  for (const BoxSeries& s : series) entries.push_back({s.label, s.colour, true});
+  return PlaceLegend(
+      axes, entries, [&](int reserve) { return MakeFrame(axes, CategoryRange(n), yr, n, reserve); },
+      [&](Image* image, const PlotFrame& f) { DrawGroupedBoxes(image, f, series); });
+}
+
+Image GroupedBoxPlot(const Axes& axes, const std::vector<std::string>& categories,
+                     const std::vector<BoxSeries>& series) {
+  const PlotFrame f = GroupedBoxPlotFrame(axes, categories, series);
+  Image image = Background(axes, f, false);
+  DrawGroupedBoxes(&image, f, series);
+  Decorate(&image, axes, f, categories);
+  std::vector<LegendEntry> entries;
+  for (const BoxSeries& s : series) entries.push_back({s.label, s.colour, true});
+  Legend(&image, axes, f, entries);
   return image;
 }
 
@@ -484,33 +724,24 @@ PlotFrame BarChartFrame(const Axes& axes, const std::vector<std::string>& catego
     if (legend < 0.5) margin_hi = std::max(margin_hi, legend / (1 - legend));
   }
   const double margin_lo = !axes.log_y && y.lo == 0 ? 0.0 : kMargin;
-  return MakeFrame(axes, CategoryRange(n), PadRange(y, axes.log_y, margin_lo, margin_hi), n);
+  const Extent yr = PadRange(y, axes.log_y, margin_lo, margin_hi);
+  std::vector<LegendEntry> entries;
+  for (const BarSeries& s : series) entries.push_back({s.label, s.colour, true});
+  return PlaceLegend(
+      axes, entries, [&](int reserve) { return MakeFrame(axes, CategoryRange(n), yr, n, reserve); },
+      [&](Image* image, const PlotFrame& f) { DrawBars(image, f, series); });
 }
 
 Image BarChart(const Axes& axes, const std::vector<std::string>& categories,
                const std::vector<BarSeries>& series) {
   const PlotFrame f = BarChartFrame(axes, categories, series);
   Image image = Background(axes, f, false);
-  const double group = 0.8, bar = series.empty() ? group : group / series.size();
-  const int base = axes.log_y ? f.bottom : Px(f.PxY(0.0));
-  for (std::size_t j = 0; j < series.size(); ++j) {
-    for (std::size_t i = 0; i < categories.size(); ++i) {
-      const double v = series[j].values[i];
-      if (!Drawable(v, axes.log_y)) continue;
-      const double a = static_cast<double>(i) - group / 2 + static_cast<double>(j) * bar;
-      const int x0 = Px(f.PxX(a)), x1 = Px(f.PxX(a + bar)) - 1;  // 1 px gap between bars
-      const int top = Px(f.PxY(v));
-      Fill(&image, f, x0, std::min(top, base), std::max(1, x1 - x0), std::abs(base - top) + 1,
-           series[j].colour);
-    }
-  }
-  if (!axes.log_y) Fill(&image, f, f.left, base, f.right - f.left + 1, 1, kInk);
+  DrawBars(&image, f, series);
+  if (!axes.log_y) Fill(&image, f, f.left, Px(f.PxY(0.0)), f.right - f.left + 1, 1, kInk);
   Decorate(&image, axes, f, categories);
-  if (series.size() >= 2) {
-    std::vector<LegendEntry> entries;
-    for (const BarSeries& s : series) entries.push_back({s.label, s.colour, true});
-    Legend(&image, axes, f, entries);
-  }
+  std::vector<LegendEntry> entries;
+  for (const BarSeries& s : series) entries.push_back({s.label, s.colour, true});
+  Legend(&image, axes, f, entries);
   return image;
 }
 
@@ -524,6 +755,12 @@ void WriteBoxPlotPng(const std::string& path, const Axes& axes,
                      const std::vector<std::vector<double>>& samples,
                      const std::vector<Rgba>& colours) {
   WritePng(path, BoxPlot(axes, group_labels, samples, colours));
+}
+
+void WriteGroupedBoxPlotPng(const std::string& path, const Axes& axes,
+                            const std::vector<std::string>& categories,
+                            const std::vector<BoxSeries>& series) {
+  WritePng(path, GroupedBoxPlot(axes, categories, series));
 }
 
 void WriteBarChartPng(const std::string& path, const Axes& axes,

@@ -152,7 +152,8 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
     EXPECT_NE(report.find(f.Find("margin")->AsString()), std::string::npos);
   }
   for (const char* png : {"hand_array_error.png", "hand_array_prediction.png", "elbow_best_fit.png",
-                          "shoulder_ekf_parameters.png", "reaching_loocv.png"}) {
+                          "shoulder_ekf_parameters.png", "reaching_loocv.png",
+                          "tremor_spectrum.png", "shoulder_fit.png"}) {
     EXPECT_TRUE(fs::exists(dir + "/plots/" + png)) << png;
     EXPECT_NE(report.find(std::string("plots/") + png), std::string::npos) << png;
   }

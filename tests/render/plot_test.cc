@@ -340,5 +340,215 @@ TEST(BarChartTest, GroupedBarsFromZero) {
   EXPECT_THROW(BarChart(axes, {"one"}, bars), std::invalid_argument);
 }
 
+// Layout rules of render/plot.h (issue 27 item 4: titles clipped, legends over data).
+
+/// Whether pixel (x, y) lies in box.
+bool Inside(const PixelBox& b, int x, int y) {
+  return x >= b.x && x < b.x + b.w && y >= b.y && y < b.y + b.h;
+}
+
+/// Whether box lies wholly inside a width × height image.
+bool InImage(const PixelBox& b, int width, int height) {
+  return !b.empty() && b.x >= 0 && b.y >= 0 && b.x + b.w <= width && b.y + b.h <= height;
+}
+
+TEST(WrapTextTest, LinesFitAndKeepTheWords) {
+  const std::string title = "Hand array: normalised cross-validation error (paper 000 Tables 1-2)";
+  ASSERT_GT(TextWidthPx(title, 2), 780);  // wider than the 800 px image less its margins
+  const std::vector<std::string> lines = WrapText(title, 780, 2);
+  ASSERT_EQ(lines.size(), 2u);
+  std::string joined;
+  for (const std::string& l : lines) {
+    EXPECT_LE(TextWidthPx(l, 2), 780) << l;
+    joined += (joined.empty() ? "" : " ") + l;
+  }
+  EXPECT_EQ(joined, title);
+  // A word wider than the line is broken between characters.
+  const std::vector<std::string> broken = WrapText(std::string(40, 'w'), 60, 1);
+  ASSERT_GE(broken.size(), 4u);
+  for (const std::string& l : broken) EXPECT_LE(TextWidthPx(l, 1), 60) << l;
+  EXPECT_TRUE(WrapText("", 100, 1).empty());
+}
+
+TEST(PlotLayoutTest, LongTitleIsWrappedInsideTheImageAboveThePlot) {
+  Axes axes;
+  axes.title =
+      "Reaching LOOCV normalised RMS torque error (1 = parametric, 2 = GP, 3 = semiparam.)";
+  axes.y_label = "RMS torque error / max |torque| (dimensionless)";
+  for (const int width : {800, 1000}) {
+    axes.width_px = width;
+    const PlotFrame f = LinePlotFrame(axes, {Diagonal(-1)});
+    EXPECT_TRUE(InImage(f.title_box, axes.width_px, axes.height_px)) << width;
+    EXPECT_GE(f.title_lines.size(), 2u) << width;
+    EXPECT_LT(f.title_box.y + f.title_box.h, f.top) << width;  // the title ends above the plot
+    // The title's glyphs are drawn in its box: ink in its first row band.
+    const Image image = LinePlot(axes, {Diagonal(-1)});
+    int ink = 0;
+    for (int x = f.title_box.x; x < f.title_box.x + f.title_box.w; ++x) {
+      for (int y = f.title_box.y; y < f.title_box.y + f.title_box.h; ++y) {
+        ink += IsColour(image, x, y, Rgba{0.10f, 0.10f, 0.12f, 1}) ? 1 : 0;
+      }
+    }
+    EXPECT_GT(ink, 100) << width;
+  }
+}
+
+TEST(PlotLayoutTest, LegendGoesToAnEmptyCornerNotOverTheData) {
+  // Like hand_array_prediction.png: three joints rising to the top right, measured points and
+  // model lines; the top right corner holds data, the top left does not.
+  Axes axes;
+  axes.width_px = 1000;
+  std::vector<Series> series;
+  for (int j = 0; j < 3; ++j) {
+    Series measured, model;
+    measured.label = "joint " + std::to_string(j) + " measured";
+    model.label = "joint " + std::to_string(j) + " model";
+    measured.points = true;
+    measured.colour = model.colour = PaletteColour(j);
+    for (int i = 0; i <= 500; ++i) {
+      const double t = 0.1 * i;
+      const double y = 10 * j + (t < 35 ? 0 : 30 + 5 * j);
+      measured.x.push_back(t);
+      measured.y.push_back(y + (i % 7 - 3) * 0.5);
+      model.x.push_back(t);
+      model.y.push_back(y);
+    }
+    series.push_back(measured);
+    series.push_back(model);
+  }
+  const PlotFrame f = LinePlotFrame(axes, series);
+  ASSERT_FALSE(f.legend_box.empty());
+  EXPECT_TRUE(InImage(f.legend_box, axes.width_px, axes.height_px));
+  for (const Series& s : series) {
+    for (std::size_t i = 0; i < s.x.size(); ++i) {
+      EXPECT_FALSE(Inside(f.legend_box, Round(f.PxX(s.x[i])), Round(f.PxY(s.y[i]))))
+          << s.label << " point " << i;
+    }
+  }
+  // One series: no legend.
+  EXPECT_TRUE(LinePlotFrame(axes, {series[1]}).legend_box.empty());
+}
+
+TEST(PlotLayoutTest, LegendMovesRightOfThePlotWhenEveryCornerHoldsData) {
+  Axes axes;
+  Series a = Diagonal(-1), b = Diagonal(-1);  // an X through all four corners
+  a.label = "rising";
+  b.label = "falling";
+  b.colour = PaletteColour(1);
+  for (double& y : b.y) y = 10 - y;
+  const PlotFrame f = LinePlotFrame(axes, {a, b});
+  ASSERT_FALSE(f.legend_box.empty());
+  EXPECT_GT(f.legend_box.x, f.right);  // outside the plot area
+  EXPECT_TRUE(InImage(f.legend_box, axes.width_px, axes.height_px));
+  const Image image = LinePlot(axes, {a, b});
+  EXPECT_TRUE(IsColour(image, f.legend_box.x, f.legend_box.y, Rgba{0.10f, 0.10f, 0.12f, 1}));
+}
+
+TEST(PlotLayoutTest, BarLegendDoesNotCoverBars) {
+  Axes axes;
+  const std::vector<std::string> joints = {"wrist_flexion", "mcp_flexion", "pip_flexion"};
+  const std::vector<BarSeries> bars = {{"fesim", {0.4, 0.8, 1.05}, PaletteColour(0)},
+                                       {"paper", {0.6, 0.5, 0.75}, PaletteColour(1)}};
+  const PlotFrame f = BarChartFrame(axes, joints, bars);
+  ASSERT_FALSE(f.legend_box.empty());
+  for (std::size_t j = 0; j < bars.size(); ++j) {
+    for (std::size_t i = 0; i < joints.size(); ++i) {
+      const double x = i - 0.4 + 0.4 * (j + 0.5);  // bar centre
+      for (double v = 0; v <= bars[j].values[i]; v += 0.01) {
+        EXPECT_FALSE(Inside(f.legend_box, Round(f.PxX(x)), Round(f.PxY(v)))) << i << "," << j;
+      }
+    }
+  }
+}
+
+TEST(LinePlotTest, PointMarkersAreDrawnUnderLines) {
+  Axes axes;
+  Series measured = Diagonal(-1), model = Diagonal(-1);
+  measured.label = "measured";
+  measured.points = true;
+  model.label = "model";
+  const PlotFrame f = LinePlotFrame(axes, {model, measured});  // the line comes first in the list
+  const Image image = LinePlot(axes, {model, measured});
+  for (int i = 1; i < 10; ++i) {
+    const int col = Round(f.PxX(i)), row = Round(f.PxY(i));
+    bool line = false;
+    for (int r = row - 1; r <= row + 1; ++r) line = line || IsColour(image, col, r, model.colour);
+    EXPECT_TRUE(line) << "the model line is visible at x = " << i;
+  }
+}
+
+TEST(LinePlotTest, FixedYRangeClipsOutlyingData) {
+  Axes axes;
+  axes.y_min = -1;
+  axes.y_max = 3;
+  Series s;
+  s.label = "ratio";
+  s.x = {0, 1, 2, 3, 4};
+  s.y = {-330, 30, 1.5, 1.0, 1.0};
+  const PlotFrame f = LinePlotFrame(axes, {s});
+  EXPECT_DOUBLE_EQ(f.y_lo, -1);
+  EXPECT_DOUBLE_EQ(f.y_hi, 3);
+  for (double t : f.y_ticks) {
+    EXPECT_GE(t, -1);
+    EXPECT_LE(t, 3);
+  }
+  const Image image = LinePlot(axes, {s});
+  for (int y = 0; y < image.height; ++y) {
+    for (int x = 0; x < image.width; ++x) {
+      if (!IsColour(image, x, y, s.colour)) continue;
+      EXPECT_TRUE(x >= f.left && x <= f.right && y >= f.top && y <= f.bottom) << x << "," << y;
+    }
+  }
+  EXPECT_TRUE(IsColour(image, Round(f.PxX(3.5)), Round(f.PxY(1.0)), s.colour));
+  axes.y_max = kNaN;
+  EXPECT_THROW(LinePlotFrame(axes, {s}), std::invalid_argument);
+  axes.y_max = -2;
+  EXPECT_THROW(LinePlotFrame(axes, {s}), std::invalid_argument);
+}
+
+TEST(GroupedBoxPlotTest, CategoryNamesOnTicksAndOneBoxPerSeries) {
+  Axes axes;
+  axes.width_px = 1000;
+  const std::vector<std::string> joints = {"shoulder_elv_plane", "shoulder_elevation",
+                                           "elbow_flexion"};
+  const std::vector<BoxSeries> methods = {
+      {"parametric",
+       {{0.10, 0.12, 0.13, 0.15}, {0.03, 0.04, 0.05}, {0.1, 0.12, 0.2}},
+       PaletteColour(0)},
+      {"gp", {{0.02, 0.03, 0.04}, {0.01, 0.013, 0.02}, {0.02, 0.03, 0.04}}, PaletteColour(1)}};
+  const PlotFrame f = GroupedBoxPlotFrame(axes, joints, methods);
+  const Image image = GroupedBoxPlot(axes, joints, methods);
+  ASSERT_EQ(f.x_ticks.size(), joints.size());
+  const Rgba ink{0.10f, 0.10f, 0.12f, 1};
+  for (std::size_t i = 0; i < joints.size(); ++i) {
+    // The tick label is the joint's name: the same pixels as the name drawn alone there.
+    const int tw = TextWidthPx(joints[i], 1);
+    const int x0 = Round(f.PxX(static_cast<double>(i))) - tw / 2, y0 = f.bottom + 1 + 6;
+    Image alone = MakeImage(image.width, image.height, Rgba{1, 1, 1, 1});
+    DrawText(&alone, x0, y0, joints[i], 1, ink);
+    int ink_pixels = 0;
+    for (int y = y0; y < y0 + 7; ++y) {
+      for (int x = x0; x < x0 + tw; ++x) {
+        EXPECT_EQ(IsColour(alone, x, y, ink), IsColour(image, x, y, ink)) << joints[i];
+        ink_pixels += IsColour(alone, x, y, ink) ? 1 : 0;
+      }
+    }
+    EXPECT_GT(ink_pixels, 20) << joints[i];
+    // Box j of category i is centred at x = i − 0.4 + 0.4·(j + 0.5), in the series colour.
+    for (std::size_t j = 0; j < methods.size(); ++j) {
+      const BoxStats b = ComputeBoxStats(methods[j].samples[i]);
+      const int col = Round(f.PxX(i - 0.4 + 0.4 * (j + 0.5)));
+      const int row = Round(f.PxY(b.q3));
+      bool hit = false;
+      for (int r = row - 1; r <= row + 1; ++r)
+        hit = hit || IsColour(image, col, r, methods[j].colour);
+      EXPECT_TRUE(hit) << joints[i] << " " << methods[j].label;
+      EXPECT_FALSE(Inside(f.legend_box, col, row));
+    }
+  }
+  EXPECT_FALSE(f.legend_box.empty());
+  EXPECT_THROW(GroupedBoxPlot(axes, {"one"}, methods), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace fesim::render
