@@ -1,7 +1,13 @@
 // passive_stiffness_nonlinear: joint stiffness rising nonlinearly with the angle — the
 // exponential range limits of eq. (14) of papers/000_0a6c0de9fc69df7c.txt (sim/passive_joint.h)
-// larger and broader. Extension at each output joint: passive.limit_scale (K_L × s),
-// passive.sharpness_per_rad κ. Planted on the wrist: K_L × (1 + 20 s), κ = 5/rad.
+// larger and broader. Extension at each output joint: passive.limit_scale (K_L × s, s ≥ 1),
+// passive.sharpness_per_rad κ (≤ the joint's: broader). Planted on the wrist: K_L × (1 + 20 s),
+// κ = 5/rad. Both one-sided: the mechanism only adds passive torque. A fit that weakens or
+// sharpens the person's range limits is soaking up the person's own passive curve (a clean
+// foreign person, BM_DiagnoseClean3x60s: K_L × 0.13, κ 20 → 19/rad at the PIP joint, accepted
+// at a 5.5 % held-out gain), not stiffening.
+#include <algorithm>
+
 #include "diagnosis/mechanisms/library.h"
 
 namespace fesim::diagnosis {
@@ -15,12 +21,13 @@ Candidate PassiveAt(const sim::ModelParams& rig, int j) {
   c.joint = sim::CoordinateNames()[j];
   const auto& pj = rig.coordinates[j].passive;
   const double kl = std::max(pj.limit_stiffness_nm_per_rad, 0.1 * JointTorqueScale(rig, j));
-  c.params.push_back(Sensed(Param("passive.limit_scale", "1", 1.0, 0.0, 100.0, 1.0,
+  c.params.push_back(Sensed(Param("passive.limit_scale", "1", 1.0, 1.0, 100.0, 1.0,
                                   [j, kl](double v, sim::ModelParams* p) {
                                     p->coordinates[j].passive.limit_stiffness_nm_per_rad = v * kl;
                                   })));
   const double kappa = pj.limit_sharpness_per_rad;
-  c.params.push_back(Sensed(Param("passive.sharpness_per_rad", "1/rad", kappa, 2.0, 60.0, kappa,
+  const double sharpest = std::max(kappa, kBroadSharpness);
+  c.params.push_back(Sensed(Param("passive.sharpness_per_rad", "1/rad", kappa, 2.0, sharpest, kappa,
                                   [j](double v, sim::ModelParams* p) {
                                     p->coordinates[j].passive.limit_sharpness_per_rad = v;
                                   })));
@@ -32,7 +39,7 @@ Candidate PassiveAt(const sim::ModelParams& rig, int j) {
   Eigen::VectorXd broad = Starts(c.params);
   broad << 5.0, kBroadSharpness;
   c.probes = {broad, ProbeAt(c.params, 1, 0.7 * kappa)};
-  c.one_sided = {false, false};
+  c.one_sided = {true, true};
   const std::vector<ModelParameter> params = c.params;
   c.start_from_step = [params, kappa](const Eigen::VectorXd& theta) {
     Eigen::VectorXd x(2);

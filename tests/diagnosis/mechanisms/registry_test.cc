@@ -309,6 +309,41 @@ TEST(Mechanisms, CrosstalkAntagonistFractionReachesTheOtherGroupWithItsOwnWeight
   }
 }
 
+TEST(Mechanisms, PassiveStiffeningOnlyStiffensTheJointAtEveryAngleOfItsRange) {
+  // Each range-limit term of sim/passive_joint.h is (K_L/κ) e^{−κ·distance to the limit}, whose
+  // stiffness is K_L e^{−κ·distance}: with K_L × s, s ≥ 1, and κ at most the joint's, the joint is
+  // stiffer than the person's at every angle of its range. Anywhere in the candidate's box; a fit
+  // that weakens the limits (s < 1: a clean foreign person's PIP at s = 0.13) is not stiffening.
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  int checked = 0;
+  for (const auto& c : CandidateLibrary(rig, HandContext())) {
+    if (c.id != "passive_stiffness_nonlinear") continue;
+    ASSERT_EQ(c.params.size(), 2u);
+    const int j = sim::CoordinateIndex(c.joint);
+    const sim::PassiveJointParams off = rig.coordinates[j].passive;
+    const auto stiffness = [](const sim::PassiveJointParams& p, double q) {
+      const double h = 1e-6;
+      return -(sim::PassiveElasticTorque(p, q + h) - sim::PassiveElasticTorque(p, q - h)) / (2 * h);
+    };
+    for (double fs : {0.0, 0.01, 0.3, 1.0}) {
+      for (double fk : {0.0, 0.5, 1.0}) {
+        Eigen::VectorXd x(2);
+        x << c.params[0].lower * std::pow(c.params[0].upper / c.params[0].lower, fs),
+            c.params[1].lower + fk * (c.params[1].upper - c.params[1].lower);
+        const sim::PassiveJointParams p =
+            ApplyModelParameters(rig, c.params, x).coordinates[j].passive;
+        for (int i = 0; i <= 40; ++i) {
+          const double q = off.min_angle_rad + (off.max_angle_rad - off.min_angle_rad) * i / 40.0;
+          EXPECT_GE(stiffness(p, q), stiffness(off, q) - 1e-9)
+              << c.label << " s " << x(0) << " κ " << x(1) << " q " << q;
+        }
+        ++checked;
+      }
+    }
+  }
+  EXPECT_EQ(checked, 3 * 12);  // wrist, MCP, PIP
+}
+
 TEST(Mechanisms, EveryMechanismHasADescriptionAPlantAndAnEvidenceLine) {
   ASSERT_EQ(Mechanisms().size(), 13u);
   OutputSignature s;
