@@ -263,8 +263,14 @@ void WriteDiagnosisReport(const Diagnosis& d, const std::string& inputs, const s
     std::vector<render::Series> series;
   };
   std::vector<Figure> figures;
+  // Joint angles (q.* outputs, rad in the data) are plotted in degrees.
+  const auto to_plot_unit = [](const std::string& output, std::vector<double>* v) {
+    if (output.rfind("q.", 0) != 0) return;
+    for (double& x : *v) x *= 180.0 / 3.14159265358979323846;
+  };
   for (const auto& o : d.heldout.outputs) {
     const std::string joint = o.substr(2);
+    const bool angle = o.rfind("q.", 0) == 0;
     render::Series b, a;
     b.label = "baseline";
     b.colour = render::PaletteColour(7);
@@ -272,11 +278,13 @@ void WriteDiagnosisReport(const Diagnosis& d, const std::string& inputs, const s
     a.colour = render::PaletteColour(0);
     HeldoutResidual(d, d.heldout_baseline, o, &b.x, &b.y);
     HeldoutResidual(d, d.heldout_extended, o, &a.x, &a.y);
+    to_plot_unit(o, &b.y);
+    to_plot_unit(o, &a.y);
     Figure res;
     res.path = dir + "/residuals_" + joint + ".png";
     res.axes.title = "held-out residual y - y_hat, " + o;
     res.axes.x_label = "time (s)";
-    res.axes.y_label = "rad";
+    res.axes.y_label = angle ? "residual (deg)" : "residual";
     res.axes.width_px = 900;
     res.axes.height_px = 300;
     res.series = {b, a};
@@ -292,18 +300,20 @@ void WriteDiagnosisReport(const Diagnosis& d, const std::string& inputs, const s
     spec.axes = res.axes;
     spec.axes.title = "held-out residual periodogram, " + o;
     spec.axes.x_label = "frequency (Hz)";
-    spec.axes.y_label = "rad^2";
+    spec.axes.y_label = angle ? "periodogram (deg^2)" : "periodogram";
     spec.axes.log_y = true;
     spec.series = {sb, sa};
     Figure over;
     over.path = dir + "/prediction_" + joint + ".png";
     over.axes = res.axes;
     over.axes.title = "held-out " + o + ": measured and predicted";
+    over.axes.y_label = angle ? "joint angle (deg)" : "value";
     render::Series meas, before, after;
     std::vector<double> unused_t, unused_y;
     HeldoutSeries(d, d.heldout_baseline, o, &meas.x, &meas.y, &before.y);
     HeldoutSeries(d, d.heldout_extended, o, &unused_t, &unused_y, &after.y);
     before.x = after.x = meas.x;
+    for (auto* v : {&meas.y, &before.y, &after.y}) to_plot_unit(o, v);
     meas.label = "measured";
     meas.colour = render::PaletteColour(7);
     before.label = "calibrated model";
