@@ -297,6 +297,14 @@ struct LegendEntry {
   bool square;
 };
 
+/// One square legend entry per series (bars, boxes), in order.
+template <typename S>
+std::vector<LegendEntry> SquareEntries(const std::vector<S>& series) {
+  std::vector<LegendEntry> entries;
+  for (const S& s : series) entries.push_back({s.label, s.colour, true});
+  return entries;
+}
+
 /// Width of the legend box of entries, pixels.
 int LegendWidthPx(const Axes& axes, const std::vector<LegendEntry>& entries) {
   const int s = TextScale(axes);
@@ -681,8 +689,7 @@ PlotFrame GroupedBoxPlotFrame(const Axes& axes, const std::vector<std::string>& 
   }
   const int n = static_cast<int>(categories.size());
   const Extent yr = PadRange(y, axes.log_y);
-  std::vector<LegendEntry> entries;
-  for (const BoxSeries& s : series) entries.push_back({s.label, s.colour, true});
+  const std::vector<LegendEntry> entries = SquareEntries(series);
   return PlaceLegend(
       axes, entries, [&](int reserve) { return MakeFrame(axes, CategoryRange(n), yr, n, reserve); },
       [&](Image* image, const PlotFrame& f) { DrawGroupedBoxes(image, f, series); });
@@ -694,8 +701,7 @@ Image GroupedBoxPlot(const Axes& axes, const std::vector<std::string>& categorie
   Image image = Background(axes, f, false);
   DrawGroupedBoxes(&image, f, series);
   Decorate(&image, axes, f, categories);
-  std::vector<LegendEntry> entries;
-  for (const BoxSeries& s : series) entries.push_back({s.label, s.colour, true});
+  const std::vector<LegendEntry> entries = SquareEntries(series);
   Legend(&image, axes, f, entries);
   return image;
 }
@@ -725,8 +731,7 @@ PlotFrame BarChartFrame(const Axes& axes, const std::vector<std::string>& catego
   }
   const double margin_lo = !axes.log_y && y.lo == 0 ? 0.0 : kMargin;
   const Extent yr = PadRange(y, axes.log_y, margin_lo, margin_hi);
-  std::vector<LegendEntry> entries;
-  for (const BarSeries& s : series) entries.push_back({s.label, s.colour, true});
+  const std::vector<LegendEntry> entries = SquareEntries(series);
   return PlaceLegend(
       axes, entries, [&](int reserve) { return MakeFrame(axes, CategoryRange(n), yr, n, reserve); },
       [&](Image* image, const PlotFrame& f) { DrawBars(image, f, series); });
@@ -739,8 +744,7 @@ Image BarChart(const Axes& axes, const std::vector<std::string>& categories,
   DrawBars(&image, f, series);
   if (!axes.log_y) Fill(&image, f, f.left, Px(f.PxY(0.0)), f.right - f.left + 1, 1, kInk);
   Decorate(&image, axes, f, categories);
-  std::vector<LegendEntry> entries;
-  for (const BarSeries& s : series) entries.push_back({s.label, s.colour, true});
+  const std::vector<LegendEntry> entries = SquareEntries(series);
   Legend(&image, axes, f, entries);
   return image;
 }
