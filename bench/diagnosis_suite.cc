@@ -78,6 +78,7 @@ struct Case {
   std::vector<fesim::Trial> trials;
   std::string rig;                             // scenario file of the rig
   std::vector<dg::NamedValue> planted_values;  // family suite
+  std::string planted_joint;  // single: the joint a joint-local effect acts at, else empty
   dg::Diagnosis result;
   double wall_s = 0.0;
 };
@@ -87,10 +88,25 @@ bool Named(const Case& c, const std::string& id) {
          c.result.mechanism_ids.end();
 }
 
-/// Right: single — the cause is the planted id; clean — none; outside — no library mechanism at
-/// confidence ≥ 0.5; pair — both ids accepted.
+/// The accepted label ("id" or "id@joint") of the verdict's cause, or the cause itself.
+std::string CauseLabel(const Case& c) {
+  for (std::size_t k = 0; k < c.result.mechanism_ids.size(); ++k) {
+    if (c.result.mechanism_ids[k] == c.result.cause) return c.result.mechanisms[k];
+  }
+  return c.result.cause;
+}
+
+/// Right: single — the cause is the planted id, at the planted joint when the effect is local
+/// to one joint and the cause is named at a joint; clean — none; outside — no library mechanism
+/// at confidence ≥ 0.5; pair — both ids accepted.
 bool Right(const Case& c) {
-  if (c.kind == "single") return c.result.cause == c.planted[0];
+  if (c.kind == "single") {
+    if (c.result.cause != c.planted[0]) return false;
+    const std::string label = CauseLabel(c);
+    const auto at = label.find('@');
+    return c.planted_joint.empty() || at == std::string::npos ||
+           label.substr(at + 1) == c.planted_joint;
+  }
   if (c.kind == "clean") return c.result.cause == "none";
   if (c.kind == "outside") {
     return c.result.cause == "none" || c.result.cause == "unexplained" || c.result.confidence < 0.5;
@@ -180,6 +196,10 @@ void MakeData(const Options& o, double floor, Case* c) {
     c->trials = d.trials;
     c->effect_ratio = d.effect_rms_rad / d.noise_rms_rad;
     c->rig = "scenarios/hand_rig.yaml";
+    if (c->kind == "single") {
+      const int j = fesim::foreign::MakeEffect({c->planted[0], 1.0}, {})->JointIndex();
+      if (j >= 0) c->planted_joint = fesim::foreign::kJointNames[static_cast<std::size_t>(j)];
+    }
     return;
   }
   const bool elbow = !c->planted.empty() && c->planted[0] == "arm_support";
@@ -200,14 +220,22 @@ void MakeData(const Options& o, double floor, Case* c) {
   c->trials = d.trials;
   c->effect_ratio = d.effect_rms_rad / d.noise_rms_rad;
   c->planted_values = d.planted;
+  if (c->kind == "single" && !d.planted.empty()) {  // label "id@joint:parameter"
+    const std::string& label = d.planted[0].name;
+    const auto at = label.find('@'), colon = label.find(':');
+    if (at != std::string::npos && colon != std::string::npos && at < colon) {
+      c->planted_joint = label.substr(at + 1, colon - at - 1);
+    }
+  }
 }
 
 std::string CaseLine(const Case& c) {
   std::string planted;
   for (const auto& p : c.planted) planted += (planted.empty() ? "" : "+") + p;
   if (planted.empty()) planted = "clean";
+  if (!c.planted_joint.empty()) planted += "@" + c.planted_joint;
   std::string named;
-  for (const auto& m : c.result.mechanism_ids) named += (named.empty() ? "" : "+") + m;
+  for (const auto& m : c.result.mechanisms) named += (named.empty() ? "" : "+") + m;
   const double ref = c.result.reference.heldout_nrmse;
   char buf[512];
   std::snprintf(buf, sizeof buf,
@@ -225,6 +253,7 @@ fesim::Json CaseJson(const Case& c) {
   fesim::Json planted = fesim::Json::Array();
   for (const auto& p : c.planted) planted.Push(p);
   j.Set("planted", planted).Set("protocol", c.protocol).Set("effect_ratio", c.effect_ratio);
+  if (!c.planted_joint.empty()) j.Set("planted_joint", c.planted_joint);
   j.Set("right", Right(c)).Set("wall_s", c.wall_s).Set("diagnosis", dg::DiagnosisJson(c.result));
   return j;
 }
@@ -371,7 +400,9 @@ int main(int argc, char** argv) {
           F("%.0f", wall) + " s wall, effect floor " + F("%.2f", floor) +
           " × noise RMS).\n\n## Rates\n\n" + RatesTable(o, finished) + "\n## Planted × named\n\n" +
           ConfusionTable(finished) +
-          "\n## Data sets\n\nright: single — cause = planted; clean — none; outside — no mechanism "
+          "\n## Data sets\n\nright: single — cause = planted, at the planted joint (@) when the "
+          "effect acts "
+          "at one joint; clean — none; outside — no mechanism "
           "at confidence ≥ 0.5; pair — both named. NRMSE on the held-out trial: calibrated model, "
           "black box, extended model.\n\n| seed | kind | planted | effect/noise | cause | named | "
           "confidence | calibrated | black box | extended | wall s | right |\n|---|---|---|---|---|"

@@ -99,6 +99,7 @@ class Delay final : public EffectModel {
 /// trial to trial), the phases are the trial's (seed). Amplitude A assumed, calibrated.
 class Tremor final : public EffectModel {
  public:
+  int JointIndex() const override { return 0; }
   Tremor(double scale, const EffectSetup& setup) : amplitude_nm_(scale * kAmplitudeNm) {
     std::mt19937_64 person_rng(setup.person_seed);
     frequency_hz_ = UniformIn(person_rng, 4.0, 9.0);
@@ -149,6 +150,7 @@ class Crosstalk final : public EffectModel {
 /// polynomial, so r = −∂l_MT/∂q still holds.
 class MomentArmPosture final : public EffectModel {
  public:
+  int JointIndex() const override { return 0; }
   explicit MomentArmPosture(double scale) : kappa_per_rad_(scale * kKappaPerRad) {}
   void ModifyPerson(Person* p) const override {
     for (MuscleParams& m : p->muscles) {
@@ -203,6 +205,7 @@ class UnequalMuscleDynamics final : public EffectModel {
 /// K = 0.3 N·m/rad, β = 4 /rad (assumed).
 class PassiveStiffnessNonlinear final : public EffectModel {
  public:
+  int JointIndex() const override { return 0; }
   explicit PassiveStiffnessNonlinear(double scale) : k_nm_per_rad_(scale * kStiffnessNmPerRad) {}
   void AddJointTorque(const EffectContext& ctx, const double*,
                       Eigen::Vector3d* tau) const override {
@@ -227,6 +230,7 @@ class PassiveStiffnessNonlinear final : public EffectModel {
 /// brings q̇1 to rest. F_s = s·0.06 N·m, F_c = s·0.04 N·m, Δv = 0.05 rad/s (assumed).
 class Stiction final : public EffectModel {
  public:
+  int JointIndex() const override { return 0; }
   explicit Stiction(double scale)
       : static_nm_(scale * kStaticNm), coulomb_nm_(scale * kCoulombNm) {}
   void AddFrictionTorque(const EffectContext& ctx, const Eigen::Matrix3d& m_inv,

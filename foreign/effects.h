@@ -50,6 +50,10 @@ class EffectModel {
   virtual ~EffectModel() = default;
   /// Structural change of the person's parameters, applied once before the trial.
   virtual void ModifyPerson(Person* person) const {}
+  /// The joint a joint-local effect acts at (index into kJointNames), or −1 for an effect on
+  /// several joints or on the stimulation. A diagnosis that names the effect at another joint
+  /// has not found it (bench/diagnosis_suite.cc).
+  virtual int JointIndex() const { return -1; }
   /// Electromechanical transport delay of the stimulation, s, ≥ 0.
   virtual double StimulationDelay_s() const { return 0.0; }
   virtual int NumStates() const { return 0; }

@@ -98,6 +98,44 @@ TEST(ForeignEffects, StructuralEffectsChangeTheirParametersByTheScale) {
   EXPECT_EQ(Make("fatigue")->StimulationDelay_s(), 0.0);
 }
 
+TEST(ForeignEffects, JointLocalEffectsActOnlyAtTheJointTheyName) {
+  // The diagnosis suite counts a cause named at another joint as not found, so the joint an
+  // effect names must be the only one it touches: its torques, its friction and its moment arms.
+  const Person n = NominalPerson();
+  std::vector<std::string> local;
+  for (const std::string& id : EffectIds()) {
+    auto f = Make(id);
+    const int j = f->JointIndex();
+    if (j < 0) continue;
+    local.push_back(id);
+    EffectContext ctx = ContextAtRest(n);
+    ctx.t_s = 10.0;
+    ctx.q_rad = Eigen::Vector3d(0.5, 0.6, 0.7);
+    ctx.qd_rad_s = Eigen::Vector3d(0.4, -0.3, 0.2);
+    std::vector<double> x(static_cast<std::size_t>(f->NumStates()) + 1, 0.0);
+    Eigen::Vector3d tau = Eigen::Vector3d::Zero();
+    f->AddJointTorque(ctx, x.data(), &tau);
+    f->AddFrictionTorque(ctx, Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.5, 0.5, 0.5), &tau);
+    for (int k = 0; k < kNumJoints; ++k) {
+      if (k != j) EXPECT_EQ(tau[k], 0.0) << id << " joint " << k;
+    }
+    Person p = n;
+    f->ModifyPerson(&p);
+    for (int m = 0; m < kNumMuscles; ++m) {
+      for (std::size_t c = 0; c < p.muscles[m].moment_arms.size(); ++c) {
+        if (static_cast<int>(c) == j) continue;
+        EXPECT_EQ(p.muscles[m].moment_arms[c].r1_m_per_rad,
+                  n.muscles[m].moment_arms[c].r1_m_per_rad)
+            << id << " muscle " << m << " crossing " << c;
+      }
+    }
+  }
+  const std::vector<std::string> expected = {"tremor", "moment_arm_posture",
+                                             "passive_stiffness_nonlinear", "stiction"};
+  EXPECT_EQ(local, expected);
+  EXPECT_EQ(Make("spasticity")->JointIndex(), -1);  // a reflex of all flexors
+}
+
 TEST(ForeignEffects, FatigueLosesCapacityWithDriveAndRecoversAtRest) {
   const Person p = NominalPerson();
   auto f = Make("fatigue");
