@@ -438,9 +438,10 @@ std::string ModelYaml(InvDynKind kind, const std::string& name,
                      (kind == InvDynKind::kParametric
                           ? "3-4"
                           : (kind == InvDynKind::kGp ? "5-6" : "7-8 (prior from eq. 3-4)")) +
-                     "\ninput: [q (rad), qd (rad/s), qdd (rad/s^2)] of joints [";
+                     "\ninput: \"[q (rad), qd (rad/s), qdd (rad/s^2)] of joints [";
   for (std::size_t j = 0; j < J; ++j) yaml += (j ? ", " : "") + joints[j];
-  yaml += "]\njoints:\n";
+  // Quoted: a flow sequence followed by more text is not YAML, and the whole file failed to parse.
+  yaml += "]\"\njoints:\n";
   for (std::size_t j = 0; j < J; ++j) {
     const auto& par = model.parametric[j];
     const auto p = par.Params();
