@@ -61,6 +61,22 @@ double ModelYamlValue(const std::string& model_yaml, const std::string& key) {
   }
 }
 
+double ModelYamlAt(const std::string& model_yaml, const std::vector<std::string>& path) {
+  try {
+    YAML::Node n = YAML::Load(model_yaml);
+    for (const auto& key : path) {
+      const YAML::Node& parent = n;  // const: a missing key is not inserted.
+      if (!parent.IsMap()) return std::nan("");
+      const YAML::Node child = parent[key];
+      if (!child) return std::nan("");
+      n.reset(child);  // rebinds n; `n = child` would assign into the parent's node.
+    }
+    return n.IsMap() ? n["value"].as<double>() : n.as<double>();
+  } catch (const YAML::Exception&) {
+    return std::nan("");
+  }
+}
+
 std::vector<double> ModelYamlList(const std::string& model_yaml, const std::string& key) {
   std::vector<double> out;
   try {

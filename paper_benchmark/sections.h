@@ -90,6 +90,9 @@ double ModelYamlValue(const std::string& model_yaml, const std::string& key);
 /// The values of the mapping `key` of an identified model's YAML (`key: {k1: {value: v}, …}`),
 /// in file order; empty when absent.
 std::vector<double> ModelYamlList(const std::string& model_yaml, const std::string& key);
+/// The value at the nested key `path` of an identified model's YAML (`a: {b: {c: {value: v}}}`
+/// for path {a, b, c}), NaN when absent.
+double ModelYamlAt(const std::string& model_yaml, const std::vector<std::string>& path);
 /// A finding: "holds"/"does not hold" and the margin, as JSON and one Markdown line.
 Json Finding(const std::string& claim, bool holds, const std::string& margin);
 std::string FindingLine(const Json& finding);

@@ -46,6 +46,24 @@ TEST(BenchmarkRun, ModelYamlValuesAndListsReadIdentifiedModels) {
   EXPECT_TRUE(ModelYamlList(yaml, "b").empty());
 }
 
+TEST(BenchmarkRun, ModelYamlAtReadsNestedKeys) {
+  const std::string yaml =
+      "joints:\n"
+      "  elbow_flexion:\n"
+      "    parametric:\n"
+      "      theta0: {value: -0.25, unit: rad}\n"
+      "      k_s: 1.5\n"
+      "  shoulder_elevation:\n"
+      "    parametric:\n"
+      "      theta0: {value: 0.5, unit: rad}\n";
+  EXPECT_EQ(ModelYamlAt(yaml, {"joints", "elbow_flexion", "parametric", "theta0"}), -0.25);
+  EXPECT_EQ(ModelYamlAt(yaml, {"joints", "elbow_flexion", "parametric", "k_s"}), 1.5);
+  EXPECT_EQ(ModelYamlAt(yaml, {"joints", "shoulder_elevation", "parametric", "theta0"}), 0.5);
+  EXPECT_TRUE(std::isnan(ModelYamlAt(yaml, {"joints", "wrist", "parametric", "theta0"})));
+  EXPECT_TRUE(std::isnan(ModelYamlAt(yaml, {"joints", "elbow_flexion", "parametric", "k_s", "x"})));
+  EXPECT_TRUE(std::isnan(ModelYamlAt("{not: [yaml", {"joints"})));
+}
+
 TEST(BenchmarkRun, FindingsAreOneMarkdownLineAndOneTableRowEach) {
   const Json f = Finding("Algorithm 2 identifies better", true, "+3.1 points");
   EXPECT_EQ(FindingLine(f), "- Algorithm 2 identifies better: **holds** (+3.1 points).\n");
