@@ -15,6 +15,7 @@
 
 #include "identification/fullmodel/full_model_fit.h"
 #include "identification/metrics.h"
+#include "paper_benchmark/paper_values.h"
 #include "paper_benchmark/sections.h"
 #include "render/plot.h"
 #include "scenarios/scenario.h"
@@ -24,12 +25,22 @@ namespace fesim::paper_benchmark {
 
 namespace fm = identification::fullmodel;
 
-/// [Hand Hammerstein] Tables 1 and 2, mean rows: normalised error (wrist, MCP, PIP) and time per
-/// local optimisation step (s), MATLAB on measured data of eight participants.
-constexpr double kPaperFullModelError[3] = {0.617, 0.500, 0.744};
-constexpr double kPaperFullModelStep_s = 1019.0;
-constexpr double kPaperHammersteinError[3] = {0.499, 0.480, 0.636};
-constexpr double kPaperHammersteinStep_s = 0.178;
+namespace {
+
+/// [Hand Hammerstein] Tables 1 (m = 0, model (12)) and 2 (m = 1, model (16)), "Mean" row
+/// (paper_values.cc): column "Wrist", "MCP", "PIP" or "Time mean" (s, per local optimisation
+/// step; MATLAB on measured data of eight participants).
+std::string_view PaperHandTable(int m) { return m == 0 ? "Table 1" : "Table 2"; }
+constexpr std::string_view kPaperHandJoints[3] = {"Wrist", "MCP", "PIP"};
+const PaperValue* PaperHandError(int m, int j) {
+  return j < 3 ? FindPaperValue(kPaper000, PaperHandTable(m), "Mean", kPaperHandJoints[j])
+               : nullptr;
+}
+const PaperValue& PaperHandStep(int m) {
+  return GetPaperValue(kPaper000, PaperHandTable(m), "Mean", "Time mean");
+}
+
+}  // namespace
 
 Json FoldJson(const FoldFigures& f) {
   Json j = Json::Object();
@@ -168,17 +179,14 @@ HandArrayTables TablesOneTwo(const std::array<HandArrayModel, 2>& models,
     jm.Set("local_step_wall_s", MeanFinite(t.steps[m]));
     t.means.Set(m == 0 ? "full_model" : "hammerstein", jm);
   }
-  md += "\n| paper 000 mean |";
+  md += "\n| paper 000 mean (Tables 1–2) |";
   for (int m = 0; m < 2; ++m) {
     if (!models[m].on) continue;
     for (int j = 0; j < nj; ++j) {
-      md += " " +
-            (j < 3 ? Fixed(m == 0 ? kPaperFullModelError[j] : kPaperHammersteinError[j], 3)
-                   : std::string("–")) +
-            " |";
+      const PaperValue* v = PaperHandError(m, j);
+      md += " " + (v != nullptr ? std::string(v->text) : std::string("–")) + " |";
     }
-    md += " " + Fixed(m == 0 ? kPaperFullModelStep_s : kPaperHammersteinStep_s, m == 0 ? 0 : 3) +
-          " |";
+    md += " " + std::string(PaperHandStep(m).text) + " |";
   }
   md += "\n\n";
   return t;
@@ -408,28 +416,19 @@ std::string Introduction(const HandArrayInputs& in) {
         std::to_string(in.reps - 1) + ", validate on the remaining one, all " +
         std::to_string(in.reps) +
         " rotations, mean. Normalised error ‖y − ŷ‖/‖y − ȳ‖ of the simulated (not one-step) "
-        "joint angles against the held-out measured data.";
+        "joint angles against the held-out measured data. The paper's row: the mean rows of its "
+        "Tables 1–2 (eight measured participants, four data sets each, fit on three).";
   if (in.do_full) {
     md += " Full-model budget: the " + std::to_string(budget.keep) +
           " most influential of the candidate parameters (ranked " +
           (budget.rank_once ? std::string("once per participant on fold 1") : "in every fold") +
           "), " + std::to_string(budget.starts) + " start(s), at most " +
           std::to_string(budget.max_iterations) + " LM iterations, integrator tolerance " +
-          Fixed(budget.integrator_tolerance * 1e4, 1) + "e-4 (paper: 29 parameters, converged).";
+          Fixed(budget.integrator_tolerance * 1e4, 1) +
+          "e-4 (paper: " + PaperText(kPaper000, "§5.1 text", "model (12)", "parameters fitted") +
+          " parameters, converged).";
   }
   return md;
-}
-
-/// results.json "paper": the paper's mean rows.
-Json PaperMeans() {
-  Json paper = Json::Object();
-  paper.Set("full_model_normalised_error",
-            std::vector<double>(kPaperFullModelError, kPaperFullModelError + 3));
-  paper.Set("full_model_local_step_s", kPaperFullModelStep_s);
-  paper.Set("hammerstein_normalised_error",
-            std::vector<double>(kPaperHammersteinError, kPaperHammersteinError + 3));
-  paper.Set("hammerstein_local_step_s", kPaperHammersteinStep_s);
-  return paper;
 }
 
 /// Baseline: the rig's nominal full model (the fit's start point, not fitted) on every held-out
@@ -476,18 +475,20 @@ Json Findings(const HandArrayTables& t, std::string* md) {
   Json findings = Json::Array();
   const double fe = MeanFinite(t.mean_error[0]), he = MeanFinite(t.mean_error[1]);
   const double rel = 100.0 * (fe - he) / fe;
-  Json f = Finding(
-      "Hammerstein (16) error lower than the full-model (12) fit on average "
-      "(paper: 13.2 % lower)",
-      he < fe,
-      "mean normalised error " + Fixed(he, 3) + " vs " + Fixed(fe, 3) + " (" + Fixed(rel, 1) +
-          " % lower)");
+  const std::string_view paper_reduction =
+      GetPaperValue(kPaper000, "§5.2 text", "model (16) vs (12)", "mean error reduction").text;
+  Json f = Finding("Hammerstein (16) error lower than the full-model (12) fit on average (paper: " +
+                       std::string(paper_reduction) + " % lower)",
+                   he < fe,
+                   "mean normalised error " + Fixed(he, 3) + " vs " + Fixed(fe, 3) + " (" +
+                       Fixed(rel, 1) + " % lower)");
   findings.Push(f);
   *md += FindingLine(f);
   const double ratio = MeanFinite(t.steps[0]) / MeanFinite(t.steps[1]);
-  Json g =
-      Finding("Hammerstein local optimisation step orders of magnitude faster (paper: ≈ 5 700×)",
-              ratio > 100.0, "ratio " + Fixed(ratio, 0) + "×");
+  Json g = Finding("Hammerstein local optimisation step orders of magnitude faster (paper: " +
+                       std::string(PaperHandStep(0).text) + " s vs " +
+                       std::string(PaperHandStep(1).text) + " s)",
+                   ratio > 100.0, "ratio " + Fixed(ratio, 0) + "×");
   // Measured wall times: varies from run to run (and with the machine's load), unlike the
   // other findings, which a rerun or another rank count reproduces exactly.
   g.Set("measured_time", true);
@@ -510,8 +511,8 @@ void Plots(const HandArrayInputs& in, const std::array<HandArrayModel, 2>& model
     render::BarSeries b{models[m].name + " (fesim)", t.mean_error[m], render::PaletteColour(2 * m)};
     render::BarSeries pb{models[m].name + " (paper 000)", {}, render::PaletteColour(2 * m + 1)};
     for (int j = 0; j < nj; ++j) {
-      pb.values.push_back(j < 3 ? (m == 0 ? kPaperFullModelError[j] : kPaperHammersteinError[j])
-                                : NAN);
+      const PaperValue* v = PaperHandError(m, j);
+      pb.values.push_back(v != nullptr ? v->Value() : NAN);
     }
     bars.push_back(b);
     bars.push_back(pb);
@@ -753,7 +754,7 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
   }());
   out.json.Set("table", tables.rows);
   out.json.Set("mean", tables.means);
-  out.json.Set("paper", PaperMeans());
+  out.json.Set("paper", PaperJson(kPaper000));
   if (in.do_full) out.json.Set("nominal_full_model_mean", NominalBaseline(in, &md));
   out.json.Set("findings", in.do_full && in.do_ham ? Findings(tables, &md) : Json::Array());
   Plots(in, models, tables, example, &md);

@@ -1,6 +1,6 @@
 // `fesim benchmark --quick` end to end: every section's table in results.json, planted ground
-// truth reported back, the report's figures equal to the JSON's, a killed run resumed from the
-// cache, a rerun that fits nothing, and bad input.
+// truth reported back, the report's figures equal to the JSON's, every paper value quoted, a killed
+// run resumed from the cache, a rerun that fits nothing, and bad input.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -14,6 +14,7 @@
 
 #include "base/json.h"
 #include "base/trial.h"
+#include "paper_benchmark/paper_values.h"
 #include "paper_benchmark/run.h"
 #include "paper_benchmark/sections.h"
 
@@ -150,6 +151,16 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
   }
   for (const auto& f : At(r, "findings").Items()) {
     EXPECT_NE(report.find(f.Find("margin")->AsString()), std::string::npos);
+  }
+  // Every value of the papers' table (paper_values.cc) stands in its paper's section of the
+  // report and in that section's results.json "paper" block.
+  for (const std::string& unquoted : UnquotedPaperValues(report, r)) ADD_FAILURE() << unquoted;
+  // fesim's side of paper 004 Table I, read from the parametric model's YAML.
+  for (const char* joint : {"shoulder_elv_plane", "shoulder_elevation", "elbow_flexion"}) {
+    const Json& c = At(r, std::string("sections/reaching/parametric_coefficients/") + joint);
+    for (const char* key : {"theta0_deg", "k_s_Nm_per_deg", "k_d_Nms_per_deg"}) {
+      EXPECT_TRUE(std::isfinite(c.Find(key)->AsNumber())) << joint << " " << key;
+    }
   }
   for (const char* png : {"hand_array_error.png", "hand_array_prediction.png", "elbow_best_fit.png",
                           "shoulder_ekf_parameters.png", "reaching_loocv.png",
