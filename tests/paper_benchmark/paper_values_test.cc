@@ -26,6 +26,7 @@ TEST(PaperValues, LookupsReturnThePapersNumbers) {
   EXPECT_EQ(GetPaperValue(kPaper002, "Table 2(b)", "Average", "PRMS").Value(), 39.49);
   EXPECT_EQ(GetPaperValue(kPaper002, "Table 3(a)", "TR", "FRN").Value(), 17.76);
   EXPECT_EQ(GetPaperValue(kPaper002, "Table 3(b)", "Staircase", "Staircase").Value(), 84.39);
+  EXPECT_EQ(GetPaperValue(kPaper003, "Table II(b)", "model 2", "J_L velocity").Value(), 6.83);
   EXPECT_EQ(GetPaperValue(kPaper004, "Table I", "SCI elbow flexion", "θ0").Value(), 116.0);
   EXPECT_EQ(GetPaperValue(kPaper004, "Table I", "non-SCI shoulder elevation", "k_d").text, "0.003");
   // A value stated in the prose carries where it stands.
