@@ -186,7 +186,9 @@ MethodResult RunShoulderEkfMethod(const std::vector<Trial>& train, const std::ve
   if (train.empty()) throw std::runtime_error("shoulder-ekf: no training trials");
   std::vector<ShoulderData> data;
   data.reserve(train.size());
-  for (const auto& t : train) data.push_back(ExtractShoulderData(t));
+  for (const auto& t : train) {
+    data.push_back(ExtractShoulderData(t, 10, data.empty() ? 0.0 : data[0].direction));
+  }
   ShoulderEkfConfig config;
   ThetaMaxFromMetadata(train[0], &config.theta_max_ant, &config.theta_max_post);
   ApplyEkfMetadata(train[0], &config);
@@ -218,7 +220,7 @@ MethodResult RunShoulderEkfMethod(const std::vector<Trial>& train, const std::ve
   double ns_per_sample = 0.0;
   for (std::size_t i = 0; i < eval.size(); ++i) {
     if (progress) progress(0.5 + 0.5 * i / eval.size(), "EKF");
-    const ShoulderData d = ExtractShoulderData(eval[i]);
+    const ShoulderData d = ExtractShoulderData(eval[i], 10, data[0].direction);
     const auto t0 = std::chrono::steady_clock::now();
     const ShoulderEkfRun run = RunShoulderEkf(config, d);
     const double wall =
@@ -228,8 +230,8 @@ MethodResult RunShoulderEkfMethod(const std::vector<Trial>& train, const std::ve
     Trial pred;
     pred.metadata["method"] = "shoulder-ekf";
     pred.time = d.time;
-    pred.AddColumn("q." + d.joint, run.theta);
-    pred.AddColumn("qd." + d.joint, run.omega);
+    pred.AddColumn("q." + d.joint, AngleToTrialFrame(d, run.theta));
+    pred.AddColumn("qd." + d.joint, VelocityToTrialFrame(d, run.omega));
     Json m = Json::Object();
     m.Set("J_L_velocity_percent", 100.0 * PerformanceIndexJL(d.omega, run.omega));
     m.Set("J_L_position_percent", 100.0 * PerformanceIndexJL(d.theta, run.theta));

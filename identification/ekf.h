@@ -23,7 +23,8 @@
 // given as rates (variance per second, Q = q Δt) so tuning does not depend on the sample rate;
 // samples with a NaN measurement skip the measurement update.
 //
-// Trial conventions: as shoulder_models.h (a.* or u.* activations, q.<joint>, optional qd.<joint>).
+// Trial conventions: as shoulder_models.h (a.* or u.* activations, q.<joint>, optional qd.<joint>,
+// the model frame θ = s (q − q_rest); the filtered θ, ω are reported back in the trial's frame).
 // Optional metadata: ekf.<tuning field> (e.g. `ekf.r_omega: 1e-4`, `ekf.q_k_ant: 1e-3`, fields and
 // units of ShoulderEkfTuning; `ekf.k_ant` etc. set the initial guess) overrides the defaults, and
 // an unknown ekf.* key is an error; friction_c (rad/s²; else the offline model-2 fit provides c),

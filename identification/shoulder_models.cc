@@ -45,6 +45,16 @@ std::string Pick(const std::vector<std::string>& names, const std::string& key, 
   return index < names.size() ? names[index] : std::string();
 }
 
+double MetadataNumber(const std::string& key, const std::string& value) {
+  try {
+    std::size_t used = 0;
+    const double v = std::stod(value, &used);
+    if (used == value.size() && std::isfinite(v)) return v;
+  } catch (const std::exception&) {
+  }
+  throw std::runtime_error("metadata " + key + ": not a number: " + value);
+}
+
 std::vector<double> LowerBounds(ShoulderModel model) {
   if (model == ShoulderModel::kModel1) return {-kInf, -kInf, 0, 0, 0, 0, 0, 0, 0};
   return {0, 0, 0, 0, 0, 0, 0};
@@ -116,7 +126,7 @@ Eigen::VectorXd EquationErrorStart(ShoulderModel model, double tm_ant, double tm
 
 }  // namespace
 
-ShoulderData ExtractShoulderData(const Trial& trial, std::size_t min_samples) {
+ShoulderData ExtractShoulderData(const Trial& trial, std::size_t min_samples, double direction) {
   ShoulderData d;
   if (trial.size() < min_samples) {
     throw std::runtime_error("shoulder trial: column time has " + std::to_string(trial.size()) +
@@ -164,7 +174,42 @@ ShoulderData ExtractShoulderData(const Trial& trial, std::size_t min_samples) {
       d.omega[k] = (d.theta[hi] - d.theta[lo]) / (d.time[hi] - d.time[lo]);
     }
   }
+  // The model frame of [Spagnol 2013] (header): θ = s (q − q_rest).
+  d.theta_rest = d.theta[0];
+  const auto rest = trial.metadata.find("theta_rest");
+  if (rest != trial.metadata.end()) d.theta_rest = MetadataNumber("theta_rest", rest->second);
+  if (direction != 0.0) {
+    d.direction = direction > 0.0 ? 1.0 : -1.0;
+  } else if (const auto dir = trial.metadata.find("theta_direction"); dir != trial.metadata.end()) {
+    const double s = MetadataNumber("theta_direction", dir->second);
+    if (s != 1.0 && s != -1.0) {
+      throw std::runtime_error("metadata theta_direction: must be 1 or -1, got " + dir->second);
+    }
+    d.direction = s;
+  } else {
+    // The anterior deltoid drives θ negative ([Spagnol 2013] Table I: ã1 < 0).
+    double drive = 0.0;
+    for (std::size_t k = 0; k < d.time.size(); ++k) {
+      drive += (d.sigma_ant[k] - d.sigma_post[k]) * d.omega[k];
+    }
+    d.direction = drive > 0.0 ? -1.0 : 1.0;
+  }
+  for (double& q : d.theta) q = d.direction * (q - d.theta_rest);
+  for (double& w : d.omega) w *= d.direction;
   return d;
+}
+
+std::vector<double> AngleToTrialFrame(const ShoulderData& data, const std::vector<double>& theta) {
+  std::vector<double> q(theta.size());
+  for (std::size_t k = 0; k < theta.size(); ++k) q[k] = data.theta_rest + data.direction * theta[k];
+  return q;
+}
+
+std::vector<double> VelocityToTrialFrame(const ShoulderData& data,
+                                         const std::vector<double>& omega) {
+  std::vector<double> qd(omega.size());
+  for (std::size_t k = 0; k < omega.size(); ++k) qd[k] = data.direction * omega[k];
+  return qd;
 }
 
 Eigen::VectorXd ModelRegressors(ShoulderModel model, double theta_max_ant, double theta_max_post,
@@ -414,7 +459,9 @@ MethodResult RunShoulderModelMethod(ShoulderModel model, const std::vector<Trial
   if (train.empty()) throw std::runtime_error("shoulder model: no training trials");
   std::vector<ShoulderData> data;
   data.reserve(train.size());
-  for (const auto& t : train) data.push_back(ExtractShoulderData(t));
+  for (const auto& t : train) {
+    data.push_back(ExtractShoulderData(t, 10, data.empty() ? 0.0 : data[0].direction));
+  }
   double tm_ant, tm_post;
   ThetaMaxFromMetadata(train[0], &tm_ant, &tm_post);
   const double known_c = KnownFrictionFromMetadata(train[0]);
@@ -430,6 +477,9 @@ MethodResult RunShoulderModelMethod(ShoulderModel model, const std::vector<Trial
           (model == ShoulderModel::kModel1 ? "2" : "3") + "\n";
   yaml += "normalisation: alpha_J = 1 (coefficients are accelerations)\n";
   yaml += "joint: " + data[0].joint + "\n";
+  yaml += "frame: {theta_rest: " + Num(data[0].theta_rest) +
+          ", unit: rad, direction: " + Num(data[0].direction) +
+          "}  # theta = direction (q - theta_rest); anterior deltoid drives theta < 0\n";
   yaml += "fit: output-error Levenberg-Marquardt on angular velocity\n";
   yaml += "parameters:\n";
   const auto names = ParameterNames(model);
@@ -454,13 +504,13 @@ MethodResult RunShoulderModelMethod(ShoulderModel model, const std::vector<Trial
   Json per = Json::Array();
   const auto& eval = test.empty() ? train : test;
   for (const auto& t : eval) {
-    const ShoulderData d = ExtractShoulderData(t);
+    const ShoulderData d = ExtractShoulderData(t, 10, data[0].direction);
     const auto sim = SimulateShoulder(model, fit.p, tm_ant, tm_post, d, true);
     Trial pred;
     pred.metadata["method"] = name;
     pred.time = d.time;
-    pred.AddColumn("q." + d.joint, sim.theta);
-    pred.AddColumn("qd." + d.joint, sim.omega);
+    pred.AddColumn("q." + d.joint, AngleToTrialFrame(d, sim.theta));
+    pred.AddColumn("qd." + d.joint, VelocityToTrialFrame(d, sim.omega));
     result.predictions.push_back(std::move(pred));
     Json m = Json::Object();
     m.Set("J_L_velocity_percent", 100.0 * PerformanceIndexJL(d.omega, sim.omega));

@@ -32,6 +32,14 @@
 //    u.<channel> pulse widths (µs) are used the same way, σ = u / 300 µs (no recruitment curve).
 //  * q.<joint> (rad): the first q.* column unless metadata `joint` names one; optional qd.<joint>
 //    (rad/s), else central differences of q.
+//  * the model's frame is [Spagnol 2013]'s (§II-A, Table I): θ = 0 at the rest position and the
+//    anterior deltoid (adduction) drives θ negative. A trial's joint angle q may be measured from
+//    another zero and with the other sign (fesim's shoulder_elv_plane: rest 14°, adduction
+//    positive), so θ = s (q − q_rest), ω = s q̇ with q_rest = metadata `theta_rest` (rad, in
+//    the trial's frame) else q at the first sample (the trials start at rest), and s = metadata
+//    `theta_direction` (+1 or −1) else −sign Σ (σ_ant − σ_post) q̇ (the sign that makes the
+//    anterior deltoid drive θ negative on this trial). Predictions go back to the trial's frame.
+//    Model 1 (free-signed a) is indifferent to s; model 2's fixed θmax are not.
 //  * optional metadata `friction_c` (rad/s²): known Coulomb friction, then c is not identified.
 #pragma once
 
@@ -83,11 +91,22 @@ struct ShoulderData {
   std::vector<double> theta;       ///< angle, rad.
   std::vector<double> omega;       ///< angular velocity, rad/s.
   std::string joint;               ///< joint name (the q.<joint> suffix).
+  double theta_rest = 0.0;         ///< q at θ = 0, rad, in the trial's frame.
+  double direction = 1.0;          ///< s of θ = s (q − theta_rest), ±1.
 };
 
-/// Reads a trial by the conventions above. Throws std::runtime_error naming the column when a
-/// column is missing, fewer than `min_samples` samples are present or a value is NaN.
-ShoulderData ExtractShoulderData(const Trial& trial, std::size_t min_samples = 10);
+/// Reads a trial by the conventions above into the model's frame; `direction` ±1 replaces the
+/// metadata / inferred s (a test trial takes its training trial's s), 0 leaves it to them.
+/// Throws std::runtime_error naming the column when a column is missing, fewer than
+/// `min_samples` samples are present or a value is NaN, and naming the key when metadata
+/// theta_rest / theta_direction is malformed.
+ShoulderData ExtractShoulderData(const Trial& trial, std::size_t min_samples = 10,
+                                 double direction = 0.0);
+
+/// Back to the trial's frame: q = q_rest + s θ (rad), q̇ = s ω (rad/s).
+std::vector<double> AngleToTrialFrame(const ShoulderData& data, const std::vector<double>& theta);
+std::vector<double> VelocityToTrialFrame(const ShoulderData& data,
+                                         const std::vector<double>& omega);
 
 /// Regressor vector φ with θ̈ = φᵀ p (friction included as its last element, −sign(ω)).
 /// Model 1: p = (a_ant, a_post, k_ant, k_post, r_ant, r_post, k_m, r_m, c).

@@ -1007,25 +1007,40 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
   for (int m = 0; m < nm; ++m) {
     if (methods[m] == "shoulder-ekf") ie = m;
   }
+  // Model 2 "fits" when it predicts better than the mean (J_L < 100 %); a finding that compares
+  // with model 2 holds only then, never because model 2 failed (issue 27).
+  const double jl2 = i2 >= 0 ? MeanFinite(jl[i2]) : NAN;
+  const bool model2_fits = jl2 < 100.0;
+  // Why the fits differ from paper 003's on this rig (issue 27: measured on the quick study, fits
+  // on true activations instead of u / 300 µs: model 1 0.8–3 %, model 2 10–45 %).
+  const std::string cause =
+      "; cause: the models' input is σ = u / 300 µs, without the recruitment curve and "
+      "activation dynamics that paper 003's σ (eEMG through calcium dynamics) contains, and "
+      "fesim's deltoid torque hardly depends on the angle, whereas model 2 makes it "
+      "proportional to θmax − θ";
   if (i1 >= 0 && i2 >= 0) {
     // J_L is a normalised squared error: lower is better.
-    const double a = MeanFinite(jl[i1]), b = MeanFinite(jl[i2]);
+    const double a = MeanFinite(jl[i1]), b = jl2;
+    const bool holds = std::max(a, b) <= 1.5 * std::min(a, b);
     const std::string paper =
         PaperShoulderJl("shoulder-model1") + " % vs " + PaperShoulderJl("shoulder-model2");
     Json f = Finding("models 1 and 2 fit about equally well (paper 003: J_L velocity " + paper +
                          " %; here: within a factor 1.5)",
-                     std::max(a, b) <= 1.5 * std::min(a, b),
+                     holds,
                      "mean J_L velocity model 1 " + Fixed(a, 1) + " %, model 2 " + Fixed(b, 1) +
-                         " % (held-out trial)");
+                         " % (held-out trial)" + (holds ? "" : cause));
     findings.Push(f);
     md += FindingLine(f);
   }
   if (i2 >= 0 && ie >= 0) {
-    const double b = MeanFinite(jl[i2]), e = MeanFinite(jl[ie]);
+    const double b = jl2, e = MeanFinite(jl[ie]);
     Json f = Finding(
         "the online EKF tracks at least as well as the offline model 2 (paper 003: "
-        "slightly better)",
-        e <= b, "mean J_L velocity EKF " + Fixed(e, 1) + " % vs offline " + Fixed(b, 1) + " %");
+        "slightly better; tested only when model 2 fits, J_L < 100 %)",
+        model2_fits && e <= b,
+        "mean J_L velocity EKF " + Fixed(e, 1) + " % (filtered, measurement-updated state) vs " +
+            "offline " + Fixed(b, 1) + " % (simulation)" +
+            (model2_fits ? "" : "; not tested: offline model 2 predicts no better than the mean"));
     findings.Push(f);
     md += FindingLine(f);
   }

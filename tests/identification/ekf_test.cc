@@ -269,6 +269,46 @@ TEST(Ekf, MethodReportsConvergenceAndErrorsAgainstTruthAndOffline) {
       << r.model_yaml;
 }
 
+// Issue 27: the method on a trial in the shoulder_exo rig's frame (q = 45° − θ, adduction
+// positive, its sensor noise) still converges to the planted parameters of its own model.
+TEST(Ekf, MethodConvergesToPlantedParametersOnNoisyRigFrameTrial) {
+  constexpr double kRigRest = 0.785398;                  // rad
+  constexpr double kRigAngleNoise = 0.2 * M_PI / 180.0;  // rad
+  constexpr double kRigVelocityNoise = M_PI / 180.0;     // rad/s
+  constexpr double kNoisyTruthTolPercent = 5.0;
+  const Truth truth;
+  const ShoulderData d = OwnModelData(truth, 120.0, 1e9, 1.0, 0.0, 0.0, kSeed + 5);
+  std::mt19937 rng(kSeed + 6);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  std::vector<double> u_ant, u_post, q, qd;
+  for (std::size_t k = 0; k < d.time.size(); ++k) {
+    u_ant.push_back(kShoulderFullActivationPulseWidthUs * d.sigma_ant[k]);
+    u_post.push_back(kShoulderFullActivationPulseWidthUs * d.sigma_post[k]);
+    q.push_back(kRigRest - d.theta[k] + kRigAngleNoise * n01(rng));
+    qd.push_back(-d.omega[k] + kRigVelocityNoise * n01(rng));
+  }
+  Trial t;
+  t.time = d.time;
+  t.AddColumn("u.delt_ant", u_ant);
+  t.AddColumn("u.delt_post", u_post);
+  t.AddColumn("q.shoulder_elv_plane", q);
+  t.AddColumn("qd.shoulder_elv_plane", qd);
+  t.metadata["friction_c"] = std::to_string(truth.c);
+  t.metadata["ekf.r_omega"] = std::to_string(kRigVelocityNoise * kRigVelocityNoise);
+  t.metadata["true_k_ant"] = std::to_string(truth.k_ant);
+  t.metadata["true_k_post"] = std::to_string(truth.k_post);
+  t.metadata["true_r_m"] = std::to_string(truth.r_m);
+  t.metadata["true_k_m"] = std::to_string(truth.k_m);
+  const auto r = RunShoulderEkfMethod({t}, {}, nullptr);
+  const Json& params = *r.metrics.Find("trials")->Items()[0].Find("parameters");
+  for (const char* name : {"k_ant", "k_post", "r_m", "k_m"}) {
+    const double err = params.Find(name)->Find("error_vs_truth_percent")->AsNumber();
+    EXPECT_LT(std::abs(err), kNoisyTruthTolPercent) << name;
+  }
+  // The filtered angle is reported in the trial's frame.
+  EXPECT_NEAR(r.predictions[0].Column("q.shoulder_elv_plane")[100], q[100], 5.0 * kRigAngleNoise);
+}
+
 TEST(Ekf, ConvergenceTimeIsFirstTimeInsideBandForGood) {
   const std::vector<double> t = {0, 1, 2, 3, 4, 5};
   // final 1.0; ±5 %: 1.04 is inside, 1.2 at t = 2 is outside, so convergence at t = 3.

@@ -97,6 +97,34 @@ TEST(ShoulderModels, StickSlipFrictionNeverReversesVelocity) {
   EXPECT_NEAR(theta, 0.001 * kDt, kExactTol);
 }
 
+/// The shoulder_exo rig's frame: q = kRigRest − θ (adduction positive, rest 45°), its sensor
+/// noise (0.2°, 1°/s) and pulse-width inputs u = 300 µs · σ named as the rig names them.
+constexpr double kRigRest = 0.785398;                  // rad
+constexpr double kRigAngleNoise = 0.2 * M_PI / 180.0;  // rad
+constexpr double kRigVelocityNoise = M_PI / 180.0;     // rad/s
+constexpr double kNoisyRecoveryRelTol = 0.05;  // planted parameters within 5 % from noisy data
+constexpr double kNoisyZeroTol = 0.05;         // planted zeros within 0.05 (their unit)
+constexpr double kNoiseFloorFactor = 1.1;      // held-out J_L within 10 % of the noise floor
+
+Trial RigFrameTrial(const ShoulderData& paper_frame, unsigned noise_seed) {
+  std::mt19937 rng(noise_seed);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  Trial t;
+  t.time = paper_frame.time;
+  std::vector<double> u_ant, u_post, q, qd;
+  for (std::size_t k = 0; k < t.time.size(); ++k) {
+    u_ant.push_back(kShoulderFullActivationPulseWidthUs * paper_frame.sigma_ant[k]);
+    u_post.push_back(kShoulderFullActivationPulseWidthUs * paper_frame.sigma_post[k]);
+    q.push_back(kRigRest - paper_frame.theta[k] + kRigAngleNoise * n01(rng));
+    qd.push_back(-paper_frame.omega[k] + kRigVelocityNoise * n01(rng));
+  }
+  t.AddColumn("u.delt_ant", u_ant);
+  t.AddColumn("u.delt_post", u_post);
+  t.AddColumn("q.shoulder_elv_plane", q);
+  t.AddColumn("qd.shoulder_elv_plane", qd);
+  return t;
+}
+
 TEST(ShoulderModels, PerformanceIndexIsNormalisedSquaredError) {
   const std::vector<double> y = {0.0, 1.0, 2.0, 3.0};
   EXPECT_NEAR(PerformanceIndexJL(y, y), 0.0, kExactTol);
@@ -171,6 +199,84 @@ TEST(ShoulderModels, MethodPredictsHeldOutTrialBySimulation) {
   EXPECT_NE(r.model_yaml.find("k_ant: {value: 1.9"), std::string::npos) << r.model_yaml;
 }
 
+// Issue 27: fesim's rig measures the angle from another zero and with the other sign than
+// [Spagnol 2013] (adduction positive). Model 2's fixed θmax then pointed each muscle the wrong way,
+// and the fit stayed at K_ant = K_post = 0 (a flat prediction, J_L ≈ 100 %).
+TEST(ShoulderModels, Model2RecoversPlantedParametersFromNoisyRigFrameTrials) {
+  ShoulderModel2Params truth;
+  truth.k_ant = 1.9;
+  truth.k_post = 2.33;
+  truth.k_m = 6.56;
+  truth.r_m = 1.3;
+  truth.c = 0.1;
+  const Eigen::VectorXd p = ToVector(truth);
+  const ShoulderData train_paper =
+      Simulated(ShoulderModel::kModel2, p, truth.theta_max_ant, truth.theta_max_post, kSeed + 7);
+  const ShoulderData test_paper =
+      Simulated(ShoulderModel::kModel2, p, truth.theta_max_ant, truth.theta_max_post, kSeed + 8);
+  const Trial train = RigFrameTrial(train_paper, kSeed + 9);
+  const Trial test = RigFrameTrial(test_paper, kSeed + 10);
+
+  const ShoulderData d = ExtractShoulderData(train);
+  EXPECT_EQ(d.direction, -1.0);  // inferred: the anterior deltoid drives q up
+  EXPECT_NEAR(d.theta_rest, kRigRest, 4.0 * kRigAngleNoise);
+  const auto fit = FitShoulderModel(ShoulderModel::kModel2, {d}, truth.theta_max_ant,
+                                    truth.theta_max_post, -1.0);
+  const auto names = ParameterNames(ShoulderModel::kModel2);
+  for (int i = 0; i < p.size(); ++i) {
+    const double tol = p(i) == 0.0 ? kNoisyZeroTol : kNoisyRecoveryRelTol * p(i);
+    EXPECT_NEAR(fit.p(i), p(i), tol) << names[i];
+  }
+  // Held out: J_L of the simulated velocity near the noise floor J_L(measured, noiseless).
+  const auto r = RunShoulderModelMethod(ShoulderModel::kModel2, {train}, {test}, nullptr);
+  ASSERT_EQ(r.predictions.size(), 1u);
+  const auto& qd = test.Column("qd.shoulder_elv_plane");
+  std::vector<double> qd_true;
+  for (double w : test_paper.omega) qd_true.push_back(-w);
+  const double floor = PerformanceIndexJL(qd, qd_true);
+  EXPECT_LT(PerformanceIndexJL(qd, r.predictions[0].Column("qd.shoulder_elv_plane")),
+            kNoiseFloorFactor * floor);
+  // Predictions are in the trial's frame: the angle starts at the measured rest.
+  EXPECT_NEAR(r.predictions[0].Column("q.shoulder_elv_plane")[0],
+              test.Column("q.shoulder_elv_plane")[0], kExactTol);
+  EXPECT_NE(r.model_yaml.find("direction: -1"), std::string::npos) << r.model_yaml;
+}
+
+TEST(ShoulderModels, FrameFromMetadataAndTransformedBack) {
+  Trial t;
+  for (int i = 0; i < 20; ++i) t.time.push_back(0.01 * i);
+  t.AddColumn("u.delt_ant", std::vector<double>(20, 150.0));
+  t.AddColumn("u.delt_post", std::vector<double>(20, 0.0));
+  std::vector<double> q(20);
+  for (int i = 0; i < 20; ++i) q[i] = 1.0 + 0.5 * t.time[i];  // anterior drives q up
+  t.AddColumn("q.sh", q);
+  const auto inferred = ExtractShoulderData(t);
+  EXPECT_EQ(inferred.direction, -1.0);
+  EXPECT_NEAR(inferred.theta_rest, 1.0, kExactTol);
+  EXPECT_NEAR(inferred.theta[10], -0.05, 1e-12);
+  EXPECT_NEAR(inferred.omega[10], -0.5, 1e-9);
+  const auto back = AngleToTrialFrame(inferred, inferred.theta);
+  const auto back_w = VelocityToTrialFrame(inferred, inferred.omega);
+  EXPECT_NEAR(back[10], q[10], kExactTol);
+  EXPECT_NEAR(back_w[10], 0.5, 1e-9);
+  EXPECT_EQ(ExtractShoulderData(t, 10, 1.0).direction, 1.0);  // the caller's s wins
+  t.metadata["theta_rest"] = "0.25";
+  t.metadata["theta_direction"] = "1";
+  const auto given = ExtractShoulderData(t);
+  EXPECT_EQ(given.direction, 1.0);
+  EXPECT_NEAR(given.theta[0], 0.75, kExactTol);
+  t.metadata["theta_direction"] = "2";
+  try {
+    ExtractShoulderData(t);
+    FAIL() << "theta_direction 2 accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("theta_direction"), std::string::npos) << e.what();
+  }
+  t.metadata["theta_direction"] = "-1";
+  t.metadata["theta_rest"] = "abc";
+  EXPECT_THROW(ExtractShoulderData(t), std::runtime_error);
+}
+
 TEST(ShoulderModels, BadInputNamesTheColumn) {
   Trial t;
   for (int i = 0; i < 20; ++i) t.time.push_back(0.01 * i);
@@ -202,6 +308,7 @@ TEST(ShoulderModels, ExtractionPicksAnteriorAndPosteriorByName) {
   std::vector<double> q(20);
   for (int i = 0; i < 20; ++i) q[i] = 0.5 * t.time[i];
   t.AddColumn("q.sh", q);
+  t.metadata["theta_direction"] = "1";  // keep the trial's sign
   const auto d = ExtractShoulderData(t);
   EXPECT_NEAR(d.sigma_ant[3], 1.0, kExactTol);
   EXPECT_NEAR(d.sigma_post[3], 0.5, kExactTol);

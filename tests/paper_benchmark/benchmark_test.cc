@@ -131,6 +131,16 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
                 .AsNumber(),
             kOmegaMedianTolPercent);
 
+  // Shoulder (issue 27): offline model 2 predicts the held-out velocity better than its mean.
+  int model2_rows = 0;
+  for (const auto& row : At(r, "sections/shoulder/fits").Items()) {
+    if (row.Find("method")->AsString() != "shoulder-model2") continue;
+    ++model2_rows;
+    EXPECT_LT(row.Find("J_L_velocity_percent")->AsNumber(), 100.0)
+        << row.Find("participant")->AsString();
+  }
+  EXPECT_EQ(model2_rows, 2);
+
   // 5. The report's figures are the JSON's.
   const std::string report = ReadFile(dir + "/report.md");
   const Json& mean = At(r, "sections/hand_array/mean");
