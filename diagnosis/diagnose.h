@@ -112,6 +112,9 @@ struct CandidateResult {
   double heldout_gain = NAN;   ///< relative to the calibrated model.
   double heldout_z = NAN;      ///< Diebold–Mariano statistic of that gain.
   double heldout_p_adjusted = 1.0;  ///< its Bonferroni-adjusted one-sided p.
+  /// Its own part of that gain: the fitted model with the candidate switched off against the
+  /// fitted model, over the calibrated model's NRMSE (extension.h; NaN: not measured).
+  double heldout_own_gain = NAN;
   bool accepted = false;
   /// Second round (on top of the mechanism(s) accepted before it): S of its score test at the
   /// extended model (NaN: not tested there) and its held-out gain over that model (NaN: not

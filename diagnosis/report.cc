@@ -69,11 +69,11 @@ std::string CandidateLogLine(const CandidateResult& c) {
   for (const auto& p : c.parameters) params += " " + p.name + "=" + std::to_string(p.value);
   char line[320];
   std::snprintf(line, sizeof line,
-                "%-40s S %9.1f dof %d padj %.2g infl %.1f fitted %d lr_padj %.2g gain %.4f z %.1f "
-                "| on top: S %.1f gain %.4f",
+                "%-40s S %9.1f dof %d padj %.2g infl %.1f fitted %d lr_padj %.2g gain %.4f own "
+                "%.4f z %.1f | on top: S %.1f gain %.4f",
                 c.label.c_str(), c.score_statistic, c.dof, c.p_adjusted, c.variance_inflation,
-                c.fitted ? 1 : 0, c.lr_p_adjusted, c.heldout_gain, c.heldout_z, c.score_on_accepted,
-                c.heldout_gain_on_accepted);
+                c.fitted ? 1 : 0, c.lr_p_adjusted, c.heldout_gain, c.heldout_own_gain, c.heldout_z,
+                c.score_on_accepted, c.heldout_gain_on_accepted);
   return line + params;
 }
 
@@ -119,6 +119,8 @@ Json DiagnosisJson(const Diagnosis& d) {
     e.Set("variance_inflation", c.variance_inflation);
     e.Set("heldout_gain", c.fitted ? Json(c.heldout_gain) : Json());
     e.Set("heldout_z", c.fitted ? Json(c.heldout_z) : Json());
+    e.Set("heldout_own_gain",
+          std::isfinite(c.heldout_own_gain) ? Json(c.heldout_own_gain) : Json());
     e.Set("lr_p_adjusted", c.fitted ? Json(c.lr_p_adjusted) : Json());
     e.Set("shape_contradiction", c.shape.empty() ? Json() : Json(c.shape));
     e.Set("accepted", c.accepted).Set("decision", c.decision).Set("evidence", c.evidence);
@@ -223,13 +225,15 @@ std::string DiagnosisMarkdown(const Diagnosis& d, const std::string& inputs) {
   md +=
       "\n## Candidates\n\nRobust score test (noise_model.h: the residual's coloured noise "
       "along the candidate's directions) with its Bonferroni-adjusted p; for fitted candidates the "
-      "held-out gain on the calibrated model, its Diebold–Mariano z and the decision.\n\n"
-      "| candidate | joint | χ² | dof | p (adj.) | held-out gain | z | on top | accepted | "
-      "decision | evidence |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+      "held-out gain on the calibrated model, its own part (the fitted model with the candidate "
+      "switched off against the fitted model), its Diebold–Mariano z and the decision.\n\n"
+      "| candidate | joint | χ² | dof | p (adj.) | held-out gain | own | z | on top | accepted | "
+      "decision | evidence |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& c : d.candidates) {
     md += "| " + c.label + " | " + c.joint + " | " + F("%.1f", c.score_statistic) + " | " +
           std::to_string(c.dof) + " | " + F("%.2g", c.p_adjusted) + " | " +
           (c.fitted ? F("%.4f", c.heldout_gain) : std::string("")) + " | " +
+          Cell(c.heldout_own_gain, "%.4f") + " | " +
           (c.fitted ? Cell(c.heldout_z, "%.1f") : std::string("")) + " | " +
           Cell(c.heldout_gain_on_accepted, "%.4f") + " | " + (c.accepted ? "yes" : "") + " | " +
           c.decision + " | " + c.evidence + " |\n";

@@ -155,7 +155,9 @@ void MakeVerdict(const std::vector<Candidate>& library, const ExtensionOutcome& 
   // else); not fitted there: all of it.
   // Alternatives: other ids whose fit passed its training test (a fit that explains nothing on
   // the training data is no explanation), less what they lose on top of the accepted mechanisms
-  // — nothing left when their score test there is no longer significant.
+  // — nothing left when their score test there is no longer significant — and at most their own
+  // part of the gain (CandidateResult::heldout_own_gain: what the person's refit gained is no
+  // explanation by the mechanism).
   const int m = ApplicableCount(library);
   double g_alt = 0.0;
   std::string alternative;
@@ -171,6 +173,7 @@ void MakeVerdict(const std::vector<Candidate>& library, const ExtensionOutcome& 
       continue;
     }
     double g = cr.heldout_gain;
+    if (std::isfinite(cr.heldout_own_gain)) g = std::min(g, cr.heldout_own_gain);
     if (std::isfinite(cr.heldout_gain_on_accepted) &&
         std::isfinite(extension.on_top_reference[c])) {
       g -= std::max(0.0, cr.heldout_gain_on_accepted) * extension.on_top_reference[c] /

@@ -29,6 +29,7 @@ Diagnosis Example() {
   c.score = 300;
   c.fitted = true;
   c.heldout_gain = 0.5;
+  c.heldout_own_gain = 0.45;
   c.accepted = true;
   c.evidence = "peak at 6 Hz";
   CandidateResult n;
@@ -82,11 +83,12 @@ TEST(Report, CandidateLogLineCarriesTheTestFitAndParameterFigures) {
   c.fitted = true;
   c.lr_p_adjusted = 1e-9;
   c.heldout_gain = 0.3227;
+  c.heldout_own_gain = 0.3301;
   c.parameters = {{"tremor.amplitude_nm", "N*m", 0.123268, 0.002}};
   const std::string line = CandidateLogLine(c);
   EXPECT_EQ(line.rfind("tremor@wrist_flexion ", 0), 0u) << line;
-  EXPECT_NE(line.find("S   15543.3 dof 2 padj 0 infl 1.0 fitted 1 lr_padj 1e-09 gain 0.3227 z nan "
-                      "| on top: S nan"),
+  EXPECT_NE(line.find("S   15543.3 dof 2 padj 0 infl 1.0 fitted 1 lr_padj 1e-09 gain 0.3227 own "
+                      "0.3301 z nan | on top: S nan"),
             std::string::npos)
       << line;
   EXPECT_NE(line.find(" tremor.amplitude_nm=0.123268"), std::string::npos) << line;
@@ -112,7 +114,9 @@ TEST(Report, JsonHasTheProductKeysPerCandidateTestsAndTheCalibratedPerson) {
   }
   EXPECT_EQ(c0.Find("joint")->AsString(), "wrist_flexion");
   EXPECT_TRUE(c0.Find("accepted")->AsBool());
+  EXPECT_EQ(c0.Find("heldout_own_gain")->AsNumber(), 0.45);
   EXPECT_TRUE(j.Find("candidates")->Items()[1].Find("heldout_gain")->IsNull());  // not fitted
+  EXPECT_TRUE(j.Find("candidates")->Items()[1].Find("heldout_own_gain")->IsNull());
   // The person: values with units and intervals, and what was not calibrated says so.
   const Json& k = *j.Find("person")->Find("k.wrist_flexion");
   EXPECT_EQ(k.Find("value")->AsNumber(), 1.1);
