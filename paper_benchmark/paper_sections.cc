@@ -59,15 +59,37 @@ Trial AgonistFirst(const Trial& t) {
   const auto& a = t.Column(us[0]);
   const auto& b = t.Column(us[1]);
   const auto& y = t.Column(qs[0]);
-  double md = 0.0, my = 0.0;
-  for (std::size_t i = 0; i < y.size(); ++i) {
-    md += a[i] - b[i];
-    my += y[i];
+  const std::size_t n = y.size();
+  if (n == 0) return t;
+  // Both signals through the same moving average of about 1 s (at most a quarter of the record):
+  // the order is the sign of the low-frequency gain. Unfiltered, the zero-lag correlation over
+  // paper 001's 0.2–4 Hz multisine takes either sign, because the wrist lags by more than 90°
+  // above its resonance (issue 27: +43 on one quick-study trial, −242 after the average).
+  const double dt = n > 1 ? (t.time.back() - t.time.front()) / static_cast<double>(n - 1) : 0.0;
+  std::size_t w = dt > 0.0 ? static_cast<std::size_t>(std::lround(1.0 / dt)) : 1;
+  w = std::max<std::size_t>(1, std::min(w, n / 4));
+  std::vector<double> d(n), yf(n);
+  double sd = 0.0, sy = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    sd += a[i] - b[i];
+    sy += std::isfinite(y[i]) ? y[i] : 0.0;
+    if (i >= w) {
+      sd -= a[i - w] - b[i - w];
+      sy -= std::isfinite(y[i - w]) ? y[i - w] : 0.0;
+    }
+    d[i] = sd;
+    yf[i] = sy;
   }
-  md /= y.size();
-  my /= y.size();
+  double md = 0.0, my = 0.0;
+  for (std::size_t i = w - 1; i < n; ++i) {
+    md += d[i];
+    my += yf[i];
+  }
+  const double count = static_cast<double>(n - w + 1);
+  md /= count;
+  my /= count;
   double c = 0.0;
-  for (std::size_t i = 0; i < y.size(); ++i) c += (a[i] - b[i] - md) * (y[i] - my);
+  for (std::size_t i = w - 1; i < n; ++i) c += (d[i] - md) * (yf[i] - my);
   if (c >= 0.0) return t;
   Trial r;
   r.metadata = t.metadata;

@@ -80,6 +80,30 @@ TEST(PaperSections, AgonistFirstPutsThePositivelyCorrelatedChannelFirst) {
   EXPECT_EQ(AgonistFirst(three).names, three.names);
 }
 
+// Issue 27: over paper 001's 0.2–4 Hz multisine the wrist lags by more than 90° above its
+// resonance, so the zero-lag correlation of the input with the angle can be negative although the
+// agonist drives the angle positive at low frequency; the order must follow the low-frequency gain.
+TEST(PaperSections, AgonistFirstFollowsTheLowFrequencyGainNotTheLaggedResponse) {
+  const double kPi = 3.14159265358979;
+  std::vector<double> time, fcr, ecr, q;
+  for (int k = 0; k < 3000; ++k) {  // 30 s at 100 Hz
+    const double s = 0.01 * k;
+    const double u = 20.0 * std::sin(2 * kPi * 0.2 * s) + 40.0 * std::sin(2 * kPi * 3.0 * s);
+    time.push_back(s);
+    fcr.push_back(60.0 + std::max(u, 0.0));
+    ecr.push_back(60.0 + std::max(-u, 0.0));
+    // In phase at 0.2 Hz, 170° behind at 3 Hz (above the resonance).
+    q.push_back(0.002 * 20.0 * std::sin(2 * kPi * 0.2 * s) +
+                0.002 * 40.0 * std::sin(2 * kPi * 3.0 * s - 170.0 * kPi / 180.0));
+  }
+  double raw = 0.0;
+  for (std::size_t i = 0; i < q.size(); ++i) raw += (fcr[i] - ecr[i]) * q[i];
+  ASSERT_LT(raw, 0.0);  // the unfiltered correlation points the wrong way
+  const Trial in = Record(time, {{"u.ecr", ecr}, {"u.fcr", fcr}, {"q.wrist_flexion", q}});
+  EXPECT_EQ(AgonistFirst(in).names,
+            (std::vector<std::string>{"u.fcr", "u.ecr", "q.wrist_flexion"}));
+}
+
 TEST(PaperSections, ElbowJobsCoverEveryFitOnceInMethodMajorOrder) {
   const std::vector<ElbowJob> jobs = ElbowJobs(2, 3, 4, 2);
   // Per method, participant and protocol: one cross-validation fit (r = −1) and one per trial.
