@@ -59,15 +59,37 @@ Trial AgonistFirst(const Trial& t) {
   const auto& a = t.Column(us[0]);
   const auto& b = t.Column(us[1]);
   const auto& y = t.Column(qs[0]);
-  double md = 0.0, my = 0.0;
-  for (std::size_t i = 0; i < y.size(); ++i) {
-    md += a[i] - b[i];
-    my += y[i];
+  const std::size_t n = y.size();
+  if (n == 0) return t;
+  // Both signals through the same moving average of about 1 s (at most a quarter of the record):
+  // the order is the sign of the low-frequency gain. Unfiltered, the zero-lag correlation over
+  // paper 001's 0.2–4 Hz multisine takes either sign, because the wrist lags by more than 90°
+  // above its resonance (issue 27: +43 on one quick-study trial, −242 after the average).
+  const double dt = n > 1 ? (t.time.back() - t.time.front()) / static_cast<double>(n - 1) : 0.0;
+  std::size_t w = dt > 0.0 ? static_cast<std::size_t>(std::lround(1.0 / dt)) : 1;
+  w = std::max<std::size_t>(1, std::min(w, n / 4));
+  std::vector<double> d(n), yf(n);
+  double sd = 0.0, sy = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    sd += a[i] - b[i];
+    sy += std::isfinite(y[i]) ? y[i] : 0.0;
+    if (i >= w) {
+      sd -= a[i - w] - b[i - w];
+      sy -= std::isfinite(y[i - w]) ? y[i - w] : 0.0;
+    }
+    d[i] = sd;
+    yf[i] = sy;
   }
-  md /= y.size();
-  my /= y.size();
+  double md = 0.0, my = 0.0;
+  for (std::size_t i = w - 1; i < n; ++i) {
+    md += d[i];
+    my += yf[i];
+  }
+  const double count = static_cast<double>(n - w + 1);
+  md /= count;
+  my /= count;
   double c = 0.0;
-  for (std::size_t i = 0; i < y.size(); ++i) c += (a[i] - b[i] - md) * (y[i] - my);
+  for (std::size_t i = w - 1; i < n; ++i) c += (d[i] - md) * (yf[i] - my);
   if (c >= 0.0) return t;
   Trial r;
   r.metadata = t.metadata;
@@ -478,7 +500,9 @@ std::string PaperSweepCell(int l, int n) {
 }
 
 /// The order sweep (Table 5): mean V / CV Best Fit per (l_P, n_P), the paper's in brackets where
-/// it has the cell; *min_v gets the lowest mean, *any false when no participant swept.
+/// it has the cell; *min_v gets the lowest mean inside the paper's grid (l_P, n_P ∈ 4–12: its
+/// Tables 1–5 and the "all > 50 %" of its §4.3 cover no other orders), *any false when no
+/// participant swept a cell of that grid.
 Json OrderSweepTable(const std::vector<TremorParticipant>& per, double* min_v, bool* any,
                      std::string* md) {
   std::set<int> ls, ns;
@@ -495,6 +519,7 @@ Json OrderSweepTable(const std::vector<TremorParticipant>& per, double* min_v, b
   *md += "\n";
   Json sweep = Json::Array();
   *min_v = INFINITY;
+  *any = false;
   for (int l : ls) {
     *md += "| " + std::to_string(l) + " |";
     for (int n : ns) {
@@ -510,13 +535,15 @@ Json OrderSweepTable(const std::vector<TremorParticipant>& per, double* min_v, b
       e.Set("validation_best_fit_percent", MeanFinite(v));
       e.Set("cross_validation_best_fit_percent", MeanFinite(cv));
       sweep.Push(e);
-      *min_v = std::min({*min_v, MeanFinite(v), MeanFinite(cv)});
+      if (l >= 4 && l <= 12 && n >= 4 && n <= 12) {
+        *min_v = std::min({*min_v, MeanFinite(v), MeanFinite(cv)});
+        *any = true;
+      }
       *md += " " + Fixed(MeanFinite(v), 1) + " / " + Fixed(MeanFinite(cv), 1) +
              PaperSweepCell(l, n) + " |";
     }
     *md += "\n";
   }
-  *any = !ls.empty();
   return sweep;
 }
 
@@ -739,8 +766,9 @@ Json ReachingTableOne(const std::string& model_yaml, const std::vector<std::stri
   constexpr double kRadPerDeg = M_PI / 180.0;
   *md +=
       "Parametric model coefficients (paper 004 Table I; fesim: invdyn-parametric fitted on "
-      "every reach of the default virtual participant, arm unsupported, angles as fesim defines "
-      "its coordinates; paper: one subject without and one with spinal cord injury (SCI) on a "
+      "every reach of the default virtual participant on the scenario's arm support, angles as "
+      "fesim defines its coordinates; paper: one subject without and one with spinal cord injury "
+      "(SCI) on a "
       "mobile arm support):\n\n| joint | θ0 deg | paper non-SCI | paper SCI | k_s N·m/deg | "
       "paper non-SCI | paper SCI | k_d N·m·s/deg | paper non-SCI | paper SCI |\n"
       "|---|---|---|---|---|---|---|---|---|---|\n";
@@ -883,8 +911,10 @@ SectionResult RunTremorWrist(const BenchmarkSection& section, SectionContext* ct
     const PaperValue& bound =
         GetPaperValue(kPaper001, "§4.3 text", "Tables 1-5", "lower bound of V and CV");
     const std::string b = std::string(bound.text);
-    Json f = Finding("every order reaches Best Fit > " + b + " % (paper: all > " + b + " %)",
-                     min_v > bound.Value(), "lowest mean V/CV Best Fit " + Fixed(min_v, 1) + " %");
+    Json f =
+        Finding("every order of the paper's grid (l_P, n_P in 4–12) reaches Best Fit > " + b +
+                    " % (paper: all > " + b + " %)",
+                min_v > bound.Value(), "lowest mean V/CV Best Fit there " + Fixed(min_v, 1) + " %");
     findings.Push(f);
     md += "\n" + FindingLine(f);
   }

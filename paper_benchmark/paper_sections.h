@@ -23,7 +23,9 @@ std::string OutputColumn(const Trial& prediction);
 
 /// The trial with its two u.* columns ordered agonist first, as tremor-arx expects ([Copur 2016]
 /// eq. 5: the agonist drives the output positive): the channel whose pulse-width difference
-/// correlates positively with the output goes first. Other trials are returned unchanged.
+/// correlates positively with the output, both through a moving average of about 1 s (at most a
+/// quarter of the record), goes first — the sign of the low-frequency gain, which a zero-lag
+/// correlation misses where the joint lags by more than 90°. Other trials are returned unchanged.
 Trial AgonistFirst(const Trial& t);
 
 /// One fit of the elbow section ([Le 2010] Tables 1–3): method m, participant p, protocol a;

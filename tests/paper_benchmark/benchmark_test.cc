@@ -97,7 +97,7 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
   // 2. The rerun resumes: cached trials are not simulated again.
   ASSERT_EQ(RunFesim(args, err), 0) << ReadFile(err);
   const Json r = Results(dir);
-  const int total_trials = 39;  // 2×(2+2) hand + 2×4×2 elbow + 2×3 tremor + 2×2 shoulder + 5
+  const int total_trials = 49;  // 2×(2+2) hand + 2×4×2 elbow + 2×3 tremor + 2×2 shoulder + 15
   EXPECT_LT(At(r, "trials_simulated").AsNumber(), total_trials);
   EXPECT_EQ(At(r, "mode").AsString(), "quick");
 
@@ -124,6 +124,12 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
     const double a = p.Find("amplitude_identified_rad")->AsNumber();
     const double a0 = p.Find("amplitude_planted_rad")->AsNumber();
     EXPECT_NEAR(a, a0, kTremorAmplitudeTolPercent / 100.0 * a0);
+  }
+  // Tremor (issue 27): with the channels in paper 001's order (agonist first), the held-out
+  // trial's Best Fit clears the paper's 50 % bound (paper 001 §4.3) for every participant.
+  for (const auto& p : At(r, "sections/tremor_wrist/tremor").Items()) {
+    EXPECT_GT(p.Find("heldout_best_fit_percent")->AsNumber(), 50.0)
+        << p.Find("participant")->AsString();
   }
   EXPECT_LT(At(r,
                "sections/hand_array/truth/parameter_errors/"

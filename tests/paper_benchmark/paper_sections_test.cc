@@ -9,6 +9,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "scenarios/scenario.h"
+#include "scenarios/study.h"
+
 namespace fesim::paper_benchmark {
 namespace {
 
@@ -78,6 +81,54 @@ TEST(PaperSections, AgonistFirstPutsThePositivelyCorrelatedChannelFirst) {
   // Not two inputs and one output: unchanged.
   const Trial three = Record(time, {{"u.x", a}, {"u.y", b}, {"u.z", a}, {"q.w", q}});
   EXPECT_EQ(AgonistFirst(three).names, three.names);
+}
+
+// Issue 27: over paper 001's 0.2–4 Hz multisine the wrist lags by more than 90° above its
+// resonance, so the zero-lag correlation of the input with the angle can be negative although the
+// agonist drives the angle positive at low frequency; the order must follow the low-frequency gain.
+TEST(PaperSections, AgonistFirstFollowsTheLowFrequencyGainNotTheLaggedResponse) {
+  const double kPi = 3.14159265358979;
+  std::vector<double> time, fcr, ecr, q;
+  for (int k = 0; k < 3000; ++k) {  // 30 s at 100 Hz
+    const double s = 0.01 * k;
+    const double u = 20.0 * std::sin(2 * kPi * 0.2 * s) + 40.0 * std::sin(2 * kPi * 3.0 * s);
+    time.push_back(s);
+    fcr.push_back(60.0 + std::max(u, 0.0));
+    ecr.push_back(60.0 + std::max(-u, 0.0));
+    // In phase at 0.2 Hz, 170° behind at 3 Hz (above the resonance).
+    q.push_back(0.002 * 20.0 * std::sin(2 * kPi * 0.2 * s) +
+                0.002 * 40.0 * std::sin(2 * kPi * 3.0 * s - 170.0 * kPi / 180.0));
+  }
+  double raw = 0.0;
+  for (std::size_t i = 0; i < q.size(); ++i) raw += (fcr[i] - ecr[i]) * q[i];
+  ASSERT_LT(raw, 0.0);  // the unfiltered correlation points the wrong way
+  const Trial in = Record(time, {{"u.ecr", ecr}, {"u.fcr", fcr}, {"q.wrist_flexion", q}});
+  EXPECT_EQ(AgonistFirst(in).names,
+            (std::vector<std::string>{"u.fcr", "u.ecr", "q.wrist_flexion"}));
+}
+
+// Issue 27: the benchmark's scenarios follow the papers' protocols where the papers give a number.
+TEST(PaperProtocols, ReachingScenariosRepeatEachPathThreeTimesOnAnArmSupport) {
+  // Paper 004 §II.A: each home–target path three times; a mobile arm support at the forearm and
+  // the end of the humerus.
+  for (const char* file : {"bench_reaching.yaml", "bench_reaching_quick.yaml"}) {
+    const Scenario sc = LoadScenario(std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/" + file);
+    ASSERT_TRUE(sc.reaching.has_value()) << file;
+    EXPECT_EQ(sc.reaching->repetitions, 3) << file;
+    EXPECT_FALSE(sc.model.bands.empty()) << file;
+    EXPECT_FALSE(sc.model.weight_compensation.empty()) << file;
+  }
+}
+
+TEST(PaperProtocols, TremorStudyTrialsLastThreeMinutes) {
+  // Paper 001 §4.1: trials "lasting for approximately 3 minutes"; multisine 0.2–4 Hz.
+  const Study st =
+      LoadStudy(std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/bench_tremor.yaml", 1);
+  ASSERT_FALSE(st.items.empty());
+  for (const auto& item : st.items) EXPECT_DOUBLE_EQ(item.scenario.trial.duration_s, 180.0);
+  EXPECT_NE(st.source_text.find("name: multisine"), std::string::npos);
+  EXPECT_EQ(st.source_text.find("f_min_hz"), std::string::npos);  // the 0.2–4 Hz default band
+  EXPECT_EQ(st.source_text.find("f_max_hz"), std::string::npos);
 }
 
 TEST(PaperSections, ElbowJobsCoverEveryFitOnceInMethodMajorOrder) {
