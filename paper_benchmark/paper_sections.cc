@@ -911,10 +911,25 @@ SectionResult RunTremorWrist(const BenchmarkSection& section, SectionContext* ct
     const PaperValue& bound =
         GetPaperValue(kPaper001, "§4.3 text", "Tables 1-5", "lower bound of V and CV");
     const std::string b = std::string(bound.text);
-    Json f =
-        Finding("every order of the paper's grid (l_P, n_P in 4–12) reaches Best Fit > " + b +
-                    " % (paper: all > " + b + " %)",
-                min_v > bound.Value(), "lowest mean V/CV Best Fit there " + Fixed(min_v, 1) + " %");
+    // When it fails: Best Fit is taken against the measured angle, whose sensor noise the paper's
+    // potentiometer did not have; the held-out prediction against the noise-free truth shows
+    // what that noise costs.
+    std::vector<double> measured_bf, truth_bf;
+    for (const auto& r : per) {
+      measured_bf.push_back(r.test_bf);
+      truth_bf.push_back(r.truth_bf);
+    }
+    const bool holds = min_v > bound.Value();
+    Json f = Finding(
+        "every order of the paper's grid (l_P, n_P in 4–12) reaches Best Fit > " + b +
+            " % (paper: all > " + b + " %)",
+        holds,
+        "lowest mean V/CV Best Fit there " + Fixed(min_v, 1) + " %" +
+            (holds ? ""
+                   : "; cause: Best Fit is against the measured angle, whose tracker noise is "
+                     "of the order of the FES response (the held-out prediction scores " +
+                         Fixed(MeanFinite(measured_bf), 1) + " % against it and " +
+                         Fixed(MeanFinite(truth_bf), 1) + " % against the noise-free truth)"));
     findings.Push(f);
     md += "\n" + FindingLine(f);
   }
@@ -1165,10 +1180,24 @@ SectionResult RunReaching(const BenchmarkSection& section, SectionContext* ctx) 
   for (int m = 1; m < nm; ++m) {
     if (med_sum[m] < med_sum[best]) best = m;
   }
-  Json f =
-      Finding("the semiparametric GP has the lowest LOOCV error (paper 004, sparse data)",
-              methods[best] == "invdyn-semiparametric",
-              "mean of the joints' medians: best " + methods[best] + " " + Fixed(med_sum[best], 3));
+  int semi = -1;
+  for (int m = 0; m < nm; ++m) {
+    if (methods[m] == "invdyn-semiparametric") semi = m;
+  }
+  const bool holds = best == semi;
+  // When it fails, the cause is the data, not the method: paper 004 §III draws the sparse-data
+  // claim from its SCI subject (12 reaches in a small workspace, test paths unlike the training
+  // paths), which the virtual cohort does not model; on the quick study the ranking follows the
+  // sampling rate (semiparametric best at 10 Hz, plain GP at 5 Hz: docs/papers.md).
+  Json f = Finding(
+      "the semiparametric GP has the lowest LOOCV error (paper 004, sparse data)", holds,
+      "mean of the joints' medians: best " + methods[best] + " " + Fixed(med_sum[best], 3) +
+          (holds || semi < 0
+               ? ""
+               : ", invdyn-semiparametric " + Fixed(med_sum[semi], 3) +
+                     "; cause: the paper's sparse data are its SCI subject's 12 reaches with test "
+                     "paths unlike the training ones, which this cohort does not model; here "
+                     "every path is reached three times and the ranking follows the data density"));
   findings.Push(f);
   md += FindingLine(f) + "\n";
   out.json.Set("findings", findings);
