@@ -147,8 +147,10 @@ TEST(HandArray, TablesAverageFoldsPerParticipantThenParticipants) {
             std::string::npos)
       << t.markdown;
   EXPECT_NE(t.markdown.find("| **mean** | **0.555** | **0.556** | **3.0** |"), std::string::npos);
-  EXPECT_NE(t.markdown.find("| paper 000 mean | 0.617 | 0.500 | 1019 | 0.499 | 0.480 | 0.178 |"),
-            std::string::npos);
+  EXPECT_NE(
+      t.markdown.find("| paper 000 mean (Tables 1–2) | 0.617 | 0.500 | 1019 | 0.499 | 0.480 | "
+                      "0.178 |"),
+      std::string::npos);
 }
 
 TEST(HandArray, TablesLeaveOutAModelThatIsNotFitted) {
