@@ -38,9 +38,14 @@ std::vector<double> Column(const Trial& trial, const std::string& name) {
   return c;
 }
 
-std::string Pick(const std::vector<std::string>& names, const std::string& key, std::size_t index) {
+/// The column named for one deltoid part: containing `word` ("anterior") or ending in `suffix`
+/// ("_ant", as the rig's channel u.delt_ant); else names[index].
+std::string Pick(const std::vector<std::string>& names, const std::string& word,
+                 const std::string& suffix, std::size_t index) {
   for (const auto& n : names) {
-    if (n.find(key) != std::string::npos) return n;
+    const bool ends = n.size() >= suffix.size() &&
+                      n.compare(n.size() - suffix.size(), suffix.size(), suffix) == 0;
+    if (n.find(word) != std::string::npos || ends) return n;
   }
   return index < names.size() ? names[index] : std::string();
 }
@@ -142,8 +147,8 @@ ShoulderData ExtractShoulderData(const Trial& trial, std::size_t min_samples, do
         "shoulder trial: column a.<anterior>/a.<posterior> (or u.<channel>) missing: two "
         "activation columns needed");
   }
-  std::string ant = Pick(names, "anterior", 0);
-  std::string post = Pick(names, "posterior", 1);
+  std::string ant = Pick(names, "anterior", "_ant", 0);
+  std::string post = Pick(names, "posterior", "_post", 1);
   if (ant == post) post = names[ant == names[0] ? 1 : 0];
   d.sigma_ant = Column(trial, ant);
   d.sigma_post = Column(trial, post);

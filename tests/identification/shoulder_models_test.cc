@@ -316,5 +316,21 @@ TEST(ShoulderModels, ExtractionPicksAnteriorAndPosteriorByName) {
   EXPECT_EQ(d.joint, "sh");
 }
 
+TEST(ShoulderModels, ExtractionPicksTheRigsDeltoidChannelsAmongOtherChannels) {
+  // Raw `fesim simulate` output of the shoulder rig: every channel of the model, the deltoid's
+  // named u.delt_ant / u.delt_post, the forearm's u.ext / u.flex undriven and first.
+  Trial t;
+  for (int i = 0; i < 20; ++i) t.time.push_back(0.01 * i);
+  t.AddColumn("u.ext", std::vector<double>(20, 0.0));
+  t.AddColumn("u.flex", std::vector<double>(20, 0.0));
+  t.AddColumn("u.delt_ant", std::vector<double>(20, 300.0));
+  t.AddColumn("u.delt_post", std::vector<double>(20, 150.0));
+  t.AddColumn("q.sh", std::vector<double>(20, 0.1));
+  t.metadata["theta_direction"] = "1";
+  const auto d = ExtractShoulderData(t);
+  EXPECT_NEAR(d.sigma_ant[3], 1.0, kExactTol);
+  EXPECT_NEAR(d.sigma_post[3], 0.5, kExactTol);
+}
+
 }  // namespace
 }  // namespace fesim::identification
