@@ -64,7 +64,7 @@ Trial AgonistFirst(const Trial& t) {
   // Both signals through the same moving average of about 1 s (at most a quarter of the record):
   // the order is the sign of the low-frequency gain. Unfiltered, the zero-lag correlation over
   // paper 001's 0.2–4 Hz multisine takes either sign, because the wrist lags by more than 90°
-  // above its resonance (issue 27: +43 on one quick-study trial, −242 after the average).
+  // above its resonance (+43 on one quick-study trial, −242 after the average).
   const double dt = n > 1 ? (t.time.back() - t.time.front()) / static_cast<double>(n - 1) : 0.0;
   std::size_t w = dt > 0.0 ? static_cast<std::size_t>(std::lround(1.0 / dt)) : 1;
   w = std::max<std::size_t>(1, std::min(w, n / 4));
@@ -1053,10 +1053,10 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
     if (methods[m] == "shoulder-ekf") ie = m;
   }
   // Model 2 "fits" when it predicts better than the mean (J_L < 100 %); a finding that compares
-  // with model 2 holds only then, never because model 2 failed (issue 27).
+  // with model 2 holds only then, never because model 2 failed.
   const double jl2 = i2 >= 0 ? MeanFinite(jl[i2]) : NAN;
   const bool model2_fits = jl2 < 100.0;
-  // Why the fits differ from paper 003's on this rig (issue 27: measured on the quick study, fits
+  // Why the fits differ from paper 003's on this rig (measured on the quick study, fits
   // on true activations instead of u / 300 µs: model 1 0.8–3 %, model 2 10–45 %).
   const std::string cause =
       "; cause: the models' input is σ = u / 300 µs, without the recruitment curve and "

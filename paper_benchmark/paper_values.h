@@ -1,4 +1,4 @@
-// Every value of the papers that `fesim benchmark`'s report quotes, in one table (issue 27): the
+// Every value of the papers that `fesim benchmark`'s report quotes, in one table: the
 // paper's file, its table (or text section), row, column, the number as printed and its unit.
 // The sections look values up here; report.md prints each value's text as the paper prints it and
 // results.json gives each section a "paper" block of its paper's entries.

@@ -269,7 +269,7 @@ TEST(Ekf, MethodReportsConvergenceAndErrorsAgainstTruthAndOffline) {
       << r.model_yaml;
 }
 
-// Issue 27: the method on a trial in the shoulder_exo rig's frame (q = 45° − θ, adduction
+// The method on a trial in the shoulder_exo rig's frame (q = 45° − θ, adduction
 // positive, its sensor noise) still converges to the planted parameters of its own model.
 TEST(Ekf, MethodConvergesToPlantedParametersOnNoisyRigFrameTrial) {
   constexpr double kRigRest = 0.785398;                  // rad

@@ -199,7 +199,7 @@ TEST(ShoulderModels, MethodPredictsHeldOutTrialBySimulation) {
   EXPECT_NE(r.model_yaml.find("k_ant: {value: 1.9"), std::string::npos) << r.model_yaml;
 }
 
-// Issue 27: fesim's rig measures the angle from another zero and with the other sign than
+// fesim's rig measures the angle from another zero and with the other sign than
 // [Spagnol 2013] (adduction positive). Model 2's fixed θmax then pointed each muscle the wrong way,
 // and the fit stayed at K_ant = K_post = 0 (a flat prediction, J_L ≈ 100 %).
 TEST(ShoulderModels, Model2RecoversPlantedParametersFromNoisyRigFrameTrials) {

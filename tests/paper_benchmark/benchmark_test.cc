@@ -125,7 +125,7 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
     const double a0 = p.Find("amplitude_planted_rad")->AsNumber();
     EXPECT_NEAR(a, a0, kTremorAmplitudeTolPercent / 100.0 * a0);
   }
-  // Tremor (issue 27): with the channels in paper 001's order (agonist first), the held-out
+  // Tremor: with the channels in paper 001's order (agonist first), the held-out
   // trial's Best Fit clears the paper's 50 % bound (paper 001 §4.3) for every participant.
   for (const auto& p : At(r, "sections/tremor_wrist/tremor").Items()) {
     EXPECT_GT(p.Find("heldout_best_fit_percent")->AsNumber(), 50.0)
@@ -137,7 +137,7 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
                 .AsNumber(),
             kOmegaMedianTolPercent);
 
-  // Shoulder (issue 27): offline model 2 predicts the held-out velocity better than its mean.
+  // Shoulder: offline model 2 predicts the held-out velocity better than its mean.
   int model2_rows = 0;
   for (const auto& row : At(r, "sections/shoulder/fits").Items()) {
     if (row.Find("method")->AsString() != "shoulder-model2") continue;

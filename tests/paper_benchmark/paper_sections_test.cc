@@ -83,7 +83,7 @@ TEST(PaperSections, AgonistFirstPutsThePositivelyCorrelatedChannelFirst) {
   EXPECT_EQ(AgonistFirst(three).names, three.names);
 }
 
-// Issue 27: over paper 001's 0.2–4 Hz multisine the wrist lags by more than 90° above its
+// Over paper 001's 0.2–4 Hz multisine the wrist lags by more than 90° above its
 // resonance, so the zero-lag correlation of the input with the angle can be negative although the
 // agonist drives the angle positive at low frequency; the order must follow the low-frequency gain.
 TEST(PaperSections, AgonistFirstFollowsTheLowFrequencyGainNotTheLaggedResponse) {
@@ -107,7 +107,7 @@ TEST(PaperSections, AgonistFirstFollowsTheLowFrequencyGainNotTheLaggedResponse) 
             (std::vector<std::string>{"u.fcr", "u.ecr", "q.wrist_flexion"}));
 }
 
-// Issue 27: the benchmark's scenarios follow the papers' protocols where the papers give a number.
+// The benchmark's scenarios follow the papers' protocols where the papers give a number.
 TEST(PaperProtocols, ReachingScenariosRepeatEachPathThreeTimesOnAnArmSupport) {
   // Paper 004 §II.A: each home–target path three times; a mobile arm support at the forearm and
   // the end of the humerus.
