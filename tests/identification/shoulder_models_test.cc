@@ -133,7 +133,8 @@ TEST(ShoulderModels, PerformanceIndexIsNormalisedSquaredError) {
   EXPECT_NEAR(PerformanceIndexJL(y, {0.0, 1.0, 2.0, 4.0}), 0.2, kExactTol);
 }
 
-TEST(ShoulderModels, Model2FitRecoversPlantedParameters) {
+/// The planted model-2 person of the recovery tests (r_ant = r_post = 0).
+ShoulderModel2Params PlantedModel2() {
   ShoulderModel2Params truth;
   truth.k_ant = 1.9;
   truth.k_post = 2.33;
@@ -142,6 +143,11 @@ TEST(ShoulderModels, Model2FitRecoversPlantedParameters) {
   truth.k_m = 6.56;
   truth.r_m = 1.3;
   truth.c = 0.1;
+  return truth;
+}
+
+TEST(ShoulderModels, Model2FitRecoversPlantedParameters) {
+  const ShoulderModel2Params truth = PlantedModel2();
   const Eigen::VectorXd p = ToVector(truth);
   std::vector<ShoulderData> trials = {
       Simulated(ShoulderModel::kModel2, p, truth.theta_max_ant, truth.theta_max_post, kSeed)};
@@ -203,12 +209,7 @@ TEST(ShoulderModels, MethodPredictsHeldOutTrialBySimulation) {
 // [Spagnol 2013] (adduction positive). Model 2's fixed θmax then pointed each muscle the wrong way,
 // and the fit stayed at K_ant = K_post = 0 (a flat prediction, J_L ≈ 100 %).
 TEST(ShoulderModels, Model2RecoversPlantedParametersFromNoisyRigFrameTrials) {
-  ShoulderModel2Params truth;
-  truth.k_ant = 1.9;
-  truth.k_post = 2.33;
-  truth.k_m = 6.56;
-  truth.r_m = 1.3;
-  truth.c = 0.1;
+  const ShoulderModel2Params truth = PlantedModel2();
   const Eigen::VectorXd p = ToVector(truth);
   const ShoulderData train_paper =
       Simulated(ShoulderModel::kModel2, p, truth.theta_max_ant, truth.theta_max_post, kSeed + 7);
