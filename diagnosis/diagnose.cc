@@ -88,16 +88,8 @@ std::vector<CandidateResult> TestResults(const std::vector<Candidate>& library,
       out.push_back(cr);
       continue;
     }
-    const ScoreTest& t = screen.tests[c];
-    if (t.dof > 0) {
-      cr.score_statistic = t.statistic;
-      cr.dof = t.dof;
-      cr.p_value = ChiSquareSurvival(t.statistic, t.dof);
-      cr.p_adjusted = AdjustedChiSquareP(t.statistic, t.dof, m);
-      cr.score = std::max(0.0, -std::log10(std::max(cr.p_adjusted, 1e-300)));
-      cr.variance_inflation = t.variance_inflation;
-    }
-    cr.decision = t.dof > 0 ? "score test not significant" : "no direction kept (one-sided)";
+    cr.evidence = "; ";  // SetScoreTest writes the test part before it
+    SetScoreTest(screen.tests[c], m, &cr);
     // The signature of the output it acts on, else of the output with the largest residual.
     std::size_t s = 0;
     for (std::size_t k = 0; k < signatures.size(); ++k) {
@@ -106,10 +98,7 @@ std::vector<CandidateResult> TestResults(const std::vector<Candidate>& library,
         s = k;
       }
     }
-    cr.evidence = Fmt("robust score chi2 %.1f (dof %.0f, p_adj %.2g", cr.score_statistic, cr.dof,
-                      cr.p_adjusted) +
-                  Fmt(", noise variance x%.1f of white); ", cr.variance_inflation) +
-                  signatures[s].output + ": " + FindMechanism(cr.id).evidence(signatures[s]);
+    cr.evidence += signatures[s].output + ": " + FindMechanism(cr.id).evidence(signatures[s]);
     out.push_back(cr);
   }
   return out;

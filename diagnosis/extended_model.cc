@@ -673,4 +673,25 @@ std::string ParameterAtRangeBound(const std::vector<ModelParameter>& params,
   return "";
 }
 
+std::string WithinNormalVariation(const std::vector<ModelParameter>& params,
+                                  const Eigen::VectorXd& x, Eigen::Index offset) {
+  if (offset < 0 || offset + static_cast<Eigen::Index>(params.size()) > x.size()) {
+    throw std::invalid_argument("WithinNormalVariation: offset out of range");
+  }
+  std::string first;
+  for (std::size_t k = 0; k < params.size(); ++k) {
+    const ModelParameter& p = params[k];
+    if (!std::isfinite(p.normal_half_width)) continue;
+    const double v = x(offset + static_cast<Eigen::Index>(k));
+    if (std::abs(v - p.start) > p.normal_half_width) return "";
+    if (first.empty()) {
+      char buf[256];
+      std::snprintf(buf, sizeof buf, "%s = %.3g within its normal variation %.3g ± %.3g",
+                    p.name.c_str(), v, p.start, p.normal_half_width);
+      first = buf;
+    }
+  }
+  return first;
+}
+
 }  // namespace fesim::diagnosis

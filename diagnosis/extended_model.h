@@ -48,6 +48,10 @@ struct ModelParameter {
   /// start (false: a tremor's phase and frequency). A mechanism whose fit ends at a plausible-
   /// range bound other than its "off" start is not accepted (extension.h).
   bool range_is_plausible = true;
+  /// Half-width of a normal person's variation of this mechanism parameter around its "off"
+  /// start, in its unit: a candidate whose parameters with a band all end inside it describes a
+  /// normal person, not the mechanism, and is not accepted (WithinNormalVariation). NaN: no band.
+  double normal_half_width = NAN;
   /// 1σ width of a Gaussian prior around `start`, in the parameter's unit, > 0; NaN: no prior.
   /// Used when FitOptions::prior_sigma > 0.
   double prior_width = NAN;
@@ -81,6 +85,12 @@ std::string CollapsedParameter(const std::vector<ModelParameter>& params, const 
 /// The name of the first of `params` (values from x(offset)) with range_is_plausible that sits
 /// within 1e-3 of its range at a bound that is not its start, or "" when none does.
 std::string ParameterAtRangeBound(const std::vector<ModelParameter>& params,
+                                  const Eigen::VectorXd& x, Eigen::Index offset);
+
+/// "name = v within its normal variation ±w" of the first of `params` (values from x(offset))
+/// with a normal_half_width when every such parameter ends within start ± normal_half_width;
+/// "" when one ends beyond its band or none has a band.
+std::string WithinNormalVariation(const std::vector<ModelParameter>& params,
                                   const Eigen::VectorXd& x, Eigen::Index offset);
 
 /// The data one fit or evaluation sees: trials simulated from t = 0, and per trial the samples

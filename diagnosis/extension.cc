@@ -67,6 +67,7 @@ struct Judgement {
   double own_gain = NAN;
   std::string collapsed;
   std::string at_bound;  ///< a parameter at a bound of its plausible range ("": none).
+  std::string normal;    ///< WithinNormalVariation's text ("": beyond it, or no band).
   /// Mechanism::shape_contradiction on the residual of the model it extends ("": none).
   std::string shape;
   bool passes = false;
@@ -157,10 +158,21 @@ class Extender {
   /// `limit` of them.
   std::vector<int> StrongestPerId(std::vector<int> cands, const ScreenStage& tests,
                                   int limit) const;
-  /// Makes `control` (the person alone refitted from candidate c's profile-start fit) the
+  /// Makes `control` (the person alone refitted from where candidate c's fit ended) the
   /// control when it beats it on training Σr² and on held-out NRMSE (extension.h, Control).
-  void AdoptBetterControl(const Fitted& control, int c);
+  /// `route` says how that person was reached, for baseline_note.
+  void AdoptBetterControl(const Fitted& control, int c, const std::string& route);
+  /// The fit of `fits` whose person, with its candidate switched off, predicts the held-out
+  /// trial best, when that beats the control by min_heldout_gain: the person alone is refitted
+  /// from there and offered to AdoptBetterControl (extension.h, Control).
+  void AdoptRemovedPerson(const std::vector<Fitted>& fits);
   void ScreenRound(const ScreenStage& screen);
+  /// The score tests repeated at an adopted control (AdoptBetterControl): the first screen's
+  /// tests were at the calibration; every candidate's figures restart from these.
+  ScreenStage RescreenAtControl();
+  /// `point`'s training predictions and residual Jacobian at its params and x (cached under
+  /// `key` + "point").
+  void CompletePoint(std::vector<std::string> key, ModelPoint* point);
   bool OnTopRound();
   void BackwardStep();
   void FinalRefit();
@@ -179,6 +191,7 @@ class Extender {
   std::set<std::string> dropped_;
   std::map<int, double> accept_p_, accept_gain_;
   std::string baseline_note_;  ///< ExtensionOutcome::baseline_note.
+  std::string adoptions_;      ///< the controls adopted (AdoptBetterControl), in words.
   std::vector<double> on_top_reference_;
   /// End point of a fit run here: its residual and predictions, and its Jacobian's columns with
   /// the parameter (index into ParamsOf) of each.
@@ -247,6 +260,7 @@ Judgement Extender::Judge(const Fitted& f, const Fitted& ref, int c, Eigen::Inde
   const int p = static_cast<int>(lib_[c].params.size());
   j.collapsed = CollapsedParameter(lib_[c].params, f.stage.fit.x, offset);
   j.at_bound = ParameterAtRangeBound(lib_[c].params, f.stage.fit.x, offset);
+  j.normal = WithinNormalVariation(lib_[c].params, f.stage.fit.x, offset);
   const Eigen::VectorXd& r0 = ref.stage.train_residual;
   const Eigen::VectorXd& r1 = f.stage.train_residual;
   if (r1.size() == r0.size()) {
@@ -269,8 +283,8 @@ Judgement Extender::Judge(const Fitted& f, const Fitted& ref, int c, Eigen::Inde
     j.shape = mechanism.shape_contradiction(UnstackResiduals(ctx_.data.train, r0));
   }
   const double alpha = ctx_.settings.alpha;
-  j.passes = j.collapsed.empty() && j.at_bound.empty() && j.shape.empty() && j.lr_p_adj < alpha &&
-             j.gain > ctx_.settings.min_heldout_gain &&
+  j.passes = j.collapsed.empty() && j.at_bound.empty() && j.normal.empty() && j.shape.empty() &&
+             j.lr_p_adj < alpha && j.gain > ctx_.settings.min_heldout_gain &&
              !(j.own_gain <= ctx_.settings.min_heldout_gain) &&
              (j.z_p_adj < alpha || j.gain > ctx_.settings.clear_heldout_gain);
   return j;
@@ -561,6 +575,8 @@ void Extender::Record(int c, const Fitted& f, const Judgement& j) {
     cr.decision = j.at_bound +
                   " ended at a bound of its plausible range: the fit stands in for a "
                   "misfit of the model, not for the mechanism";
+  } else if (!j.normal.empty()) {
+    cr.decision = j.normal + ": a normal person's variation, not the mechanism";
   } else if (!j.shape.empty()) {
     cr.decision = j.shape;
   } else if (!(j.lr_p_adj < ctx_.settings.alpha)) {
@@ -689,21 +705,40 @@ std::vector<int> Extender::StrongestPerId(std::vector<int> cands, const ScreenSt
   return out;
 }
 
-void Extender::AdoptBetterControl(const Fitted& control, int c) {
+void Extender::AdoptBetterControl(const Fitted& control, int c, const std::string& route) {
   if (!control.stage.heldout_ok ||
       !(control.stage.train_residual.squaredNorm() < base_.stage.train_residual.squaredNorm()) ||
       !(control.heldout_nrmse < base_.heldout_nrmse)) {
     return;
   }
+  const std::string found = "the person refitted alone from where " + lib_[c].label + "'s " +
+                            route + Fmt(" ended (%.3f)", control.heldout_nrmse);
+  adoptions_ += adoptions_.empty()
+                    ? Fmt("the person calibration stopped in a poorer minimum (held-out NRMSE "
+                          "%.3f) than ",
+                          base_.heldout_nrmse) +
+                          found
+                    : ", and that person in a poorer one than " + found;
   baseline_note_ =
-      Fmt("the person calibration stopped in a poorer minimum (held-out NRMSE %.3f) than the "
-          "person refitted alone from where ",
-          base_.heldout_nrmse) +
-      lib_[c].label +
-      Fmt("'s profile-start fit ended (%.3f); that person is the calibrated model the candidates "
-          "are judged against",
-          control.heldout_nrmse);
+      adoptions_ + "; that person is the calibrated model the candidates are judged against";
   base_ = control;
+}
+
+void Extender::AdoptRemovedPerson(const std::vector<Fitted>& fits) {
+  const Fitted* best = nullptr;
+  for (const Fitted& f : fits) {
+    if (std::isfinite(f.heldout_nrmse_without_last) &&
+        f.heldout_nrmse_without_last <
+            (1.0 - ctx_.settings.min_heldout_gain) * base_.heldout_nrmse &&
+        (best == nullptr || f.heldout_nrmse_without_last < best->heldout_nrmse_without_last)) {
+      best = &f;
+    }
+  }
+  if (best == nullptr) return;
+  Fitted control;
+  control.stage = FitStageOf({}, best->stage.fit.x.head(ns_), ctx_.settings.screen_iterations, 0.0);
+  Complete(&control);
+  AdoptBetterControl(control, best->cands.back(), "fit with it switched off");
 }
 
 void Extender::ScreenRound(const ScreenStage& screen) {
@@ -774,9 +809,10 @@ void Extender::ScreenRound(const ScreenStage& screen) {
       if (!Member(item_json, "control").IsNull()) {
         FromJson(Member(item_json, "control"), &controls[k].stage);
         Complete(&controls[k]);
-        AdoptBetterControl(controls[k], batch[k]);
+        AdoptBetterControl(controls[k], batch[k], "profile-start fit");
       }
     }
+    AdoptRemovedPerson(fits);
     for (std::size_t k = 0; k < batch.size(); ++k) {
       const int c = batch[k];
       Fitted& f = fits[k];
@@ -814,6 +850,48 @@ void Extender::ScreenRound(const ScreenStage& screen) {
   }
 }
 
+void Extender::CompletePoint(std::vector<std::string> key, ModelPoint* point) {
+  key.emplace_back("point");
+  const Json j = ctx_.cache.GetJson(key, [&] {
+    int sims = 0;
+    const std::vector<Trial> pred =
+        Predict(ctx_.rig, point->params, point->x, ctx_.data.train, ctx_.fit);
+    sims += static_cast<int>(ctx_.data.train.trials.size());
+    const Eigen::MatrixXd jac = ResidualJacobian(ctx_.rig, point->params, point->x, point->residual,
+                                                 ctx_.data.train, ctx_.fit, &sims);
+    *ctx_.simulations += sims;
+    Json r = Json::Object();
+    r.Set("train_predictions", diagnosis::ToJson(pred)).Set("jacobian", diagnosis::ToJson(jac));
+    return r;
+  });
+  diagnosis::FromJson(Member(j, "train_predictions"), &point->train_predictions);
+  diagnosis::FromJson(Member(j, "jacobian"), &point->jacobian);
+}
+
+ScreenStage Extender::RescreenAtControl() {
+  ModelPoint point;
+  point.params = person_;
+  point.x = base_.stage.fit.x;
+  point.residual = base_.stage.train_residual;
+  const std::vector<std::string> key = {"rescreen", VectorKey("x", point.x)};
+  CompletePoint(key, &point);
+  ctx_.Report(0.6, "score tests at the adopted control");
+  std::vector<std::string> test_key = key;
+  test_key.emplace_back("score_tests");
+  std::map<int, Eigen::MatrixXd> directions;
+  const ScreenStage tests = Screen(ctx_, lib_, point, {}, test_key, nullptr, &directions);
+  {
+    const std::lock_guard<std::mutex> lock(directions_mutex_);
+    for (auto& [c, d] : directions) directions_[c] = std::move(d);
+  }
+  const int m = ApplicableCount(lib_);
+  for (std::size_t c = 0; c < lib_.size(); ++c) {
+    if (lib_[c].applicable) SetScoreTest(tests.tests[c], m, &(*results_)[c]);
+  }
+  round1_.clear();
+  return tests;
+}
+
 bool Extender::OnTopRound() {
   std::set<std::string> ids;
   std::vector<std::string> key = {"on_top"};
@@ -830,24 +908,7 @@ bool Extender::OnTopRound() {
   point.params = ParamsOf(accepted_);
   point.x = current_.stage.fit.x;
   point.residual = current_.stage.train_residual;
-  {
-    std::vector<std::string> point_key = key;
-    point_key.emplace_back("point");
-    const Json j = ctx_.cache.GetJson(point_key, [&] {
-      int sims = 0;
-      const std::vector<Trial> pred =
-          Predict(ctx_.rig, point.params, point.x, ctx_.data.train, ctx_.fit);
-      sims += static_cast<int>(ctx_.data.train.trials.size());
-      const Eigen::MatrixXd jac = ResidualJacobian(ctx_.rig, point.params, point.x, point.residual,
-                                                   ctx_.data.train, ctx_.fit, &sims);
-      *ctx_.simulations += sims;
-      Json r = Json::Object();
-      r.Set("train_predictions", diagnosis::ToJson(pred)).Set("jacobian", diagnosis::ToJson(jac));
-      return r;
-    });
-    diagnosis::FromJson(Member(j, "train_predictions"), &point.train_predictions);
-    diagnosis::FromJson(Member(j, "jacobian"), &point.jacobian);
-  }
+  CompletePoint(key, &point);
   // The first screen's directions, for every applicable candidate (probed only when these tests
   // are computed and the first screen came from the resume cache).
   const DirectionsProvider first_screen = [this]() -> const std::map<int, Eigen::MatrixXd>& {
@@ -1055,6 +1116,12 @@ ExtensionOutcome Extender::Run(const ScreenStage& screen,
     out.baseline_refit = true;
   }
   ScreenRound(screen);
+  if (accepted_.empty() && !baseline_note_.empty()) {
+    // A better person than the calibration's was adopted as the control: the tests that chose
+    // the fitted candidates were at the calibration's residual, so they are run again at the
+    // control's, once (extension.h, Control).
+    ScreenRound(RescreenAtControl());
+  }
   if (!baseline_note_.empty()) {
     out.baseline_refit = true;
     out.baseline_note = baseline_note_;

@@ -12,7 +12,14 @@
 // training Σr² and on held-out NRMSE it becomes the control every candidate of that batch and
 // after is judged against (baseline_note says so). A person refitted to a lower training Σr² but
 // a worse held-out NRMSE (a clean foreign person: 0.142 against the calibration's 0.118) would
-// otherwise credit the candidate with the calibration's better prediction.
+// otherwise credit the candidate with the calibration's better prediction. Every candidate fit
+// frees the person too: when a fit of a batch, its candidate switched off (the ablation of
+// Judgement::own_gain), predicts the held-out trial better than the control by more than
+// min_heldout_gain, the person alone is refitted from there and offered the same way (foreign
+// moment_arm_posture 1006: the calibration's held-out NRMSE 0.517, the person from the
+// stiction fit 0.359). When the first screen adopts a control and no candidate passes, the score
+// tests are run again at the control and the screen is repeated once (RescreenAtControl): the
+// tests that chose which candidates to fit were at the calibration's residual.
 //
 // Screening. The candidates whose robust score test passes (p_adj < alpha), the best-scoring
 // joint per id, up to max_screened, are fitted in batches of max_fitted while none passes: their

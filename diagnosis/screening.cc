@@ -1,7 +1,9 @@
 #include "diagnosis/screening.h"
 
 #include <algorithm>
+#include <cmath>
 
+#include "diagnosis/mechanisms/library.h"
 #include "diagnosis/signatures.h"
 
 namespace fesim::diagnosis {
@@ -42,6 +44,31 @@ int ApplicableCount(const std::vector<Candidate>& library) {
 double AdjustedChiSquareP(double s, int dof, int m) {
   if (dof < 1) return 1.0;
   return std::min(1.0, m * ChiSquareSurvival(s, dof));
+}
+
+void SetScoreTest(const ScoreTest& t, int m, CandidateResult* cr) {
+  CandidateResult fresh;
+  fresh.id = cr->id;
+  fresh.joint = cr->joint;
+  fresh.label = cr->label;
+  fresh.control = cr->control;
+  fresh.applicable = cr->applicable;
+  fresh.not_applicable_reason = cr->not_applicable_reason;
+  if (t.dof > 0) {
+    fresh.score_statistic = t.statistic;
+    fresh.dof = t.dof;
+    fresh.p_value = ChiSquareSurvival(t.statistic, t.dof);
+    fresh.p_adjusted = AdjustedChiSquareP(t.statistic, t.dof, m);
+    fresh.score = std::max(0.0, -std::log10(std::max(fresh.p_adjusted, 1e-300)));
+    fresh.variance_inflation = t.variance_inflation;
+  }
+  fresh.decision = t.dof > 0 ? "score test not significant" : "no direction kept (one-sided)";
+  const std::size_t split = cr->evidence.find("; ");
+  fresh.evidence = Fmt("robust score chi2 %.1f (dof %.0f, p_adj %.2g", fresh.score_statistic,
+                       fresh.dof, fresh.p_adjusted) +
+                   Fmt(", noise variance x%.1f of white)", fresh.variance_inflation) +
+                   (split == std::string::npos ? std::string() : cr->evidence.substr(split));
+  *cr = std::move(fresh);
 }
 
 std::map<int, Eigen::MatrixXd> ProbeDirections(

@@ -77,4 +77,10 @@ int ApplicableCount(const std::vector<Candidate>& library);
 /// min(1, M · P(χ²_dof > s)); 1 when dof is 0.
 double AdjustedChiSquareP(double s, int dof, int m);
 
+/// Resets `cr` to test `t` alone (no fit figures): statistic, dof, p, p adjusted over the `m`
+/// applicable candidates, score and variance inflation; decision "score test not significant" (or
+/// "no direction kept" at dof 0); the evidence line's test part is rewritten and its signature
+/// part (after the first "; ") kept.
+void SetScoreTest(const ScoreTest& t, int m, CandidateResult* cr);
+
 }  // namespace fesim::diagnosis

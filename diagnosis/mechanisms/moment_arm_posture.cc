@@ -1,15 +1,25 @@
 // moment_arm_posture: moment arms that change with posture. Extension at each output joint:
 // momentarm.posture_ratio ρ — every crossing of the joint gets d̃ += ρ d in eq. (10) of
 // papers/000_0a6c0de9fc69df7c.txt (constant arms become Landsmeer arms), l_MT at the rest posture
-// kept. Planted on the wrist: ρ = 2 s. Near q = 0 the Landsmeer shape is g(q) ≈ −q/12
-// (tendons/landsmeer.h), so r ≈ d (1 − ρ q / 12): the range ρ ∈ [−12, 12] is a relative slope of
-// the moment arm of up to 1/rad (an arm that doubles or vanishes 1 rad from q = 0). At ±6 (½/rad)
-// a foreign person's wrist arms at a relative slope of 0.6/rad (foreign/effects.cc) ended at the
-// bound (docs/diagnosis.md, Validation).
+// kept. Near q = 0 the Landsmeer shape is g(q) ≈ −q/12 (tendons/landsmeer.h), so
+// r ≈ d (1 − ρ q / 12): the range ρ ∈ [−12, 12] is a relative slope of the moment arm of up to
+// 1/rad (an arm that doubles or vanishes 1 rad from q = 0). At ±6 (½/rad) a foreign person's
+// wrist arms at a relative slope of 0.6/rad (foreign/effects.cc) ended at the bound
+// (docs/diagnosis.md, Validation).
+//
+// Normal variation: |ρ| ≤ 3, a relative slope up to ¼/rad — an arm that changes by a quarter over
+// the wrist's ±1 rad, the ±25 % spread of moment arms between persons (docs/diagnosis.md,
+// Validation: the in-family persons' spread); a clean foreign person, whose wrist arms change
+// by ≈ 0.15/rad (foreign/person.cc), fits at ρ = −1.6 … −2.6, a planted one (0.6/rad more) at
+// −4.4. A fit inside the band is a normal person (ModelParameter::normal_half_width). Planted
+// beyond it: ρ = 4 s on the wrist.
 #include "diagnosis/mechanisms/library.h"
 #include "tendons/tendon_network.h"
 
 namespace fesim::diagnosis {
+namespace {
+constexpr double kNormalRatio = 3.0;  ///< |ρ| of a normal person (see above).
+}  // namespace
 
 Mechanism MomentArmPostureMechanism() {
   Mechanism m;
@@ -21,7 +31,7 @@ Mechanism MomentArmPostureMechanism() {
     for (int j : OutputJoints(ctx)) {
       Candidate c;
       c.joint = sim::CoordinateNames()[j];
-      c.params.push_back(
+      ModelParameter rho =
           Sensed(Param("momentarm.posture_ratio", "1", 0.0, -12.0, 12.0, 1.0,
                        [j, rest](double v, sim::ModelParams* p) {
                          for (auto& muscle : p->muscles) {
@@ -38,7 +48,9 @@ Mechanism MomentArmPostureMechanism() {
                                  before - tendons::MusculotendonLength(muscle.path, rest);
                            }
                          }
-                       })));
+                       }));
+      rho.normal_half_width = kNormalRatio;
+      c.params.push_back(rho);
       c.probes = {ProbeAt(c.params, 0, 0.5)};
       c.one_sided = {false};
       out.push_back(c);
@@ -47,7 +59,7 @@ Mechanism MomentArmPostureMechanism() {
   };
   m.plant = [](const PlantContext& ctx, sim::ModelParams* truth, sim::SensorSuite*,
                std::vector<NamedValue>* planted) {
-    PlantViaCandidate("moment_arm_posture", "momentarm.posture_ratio", 2.0 * ctx.scale, ctx.library,
+    PlantViaCandidate("moment_arm_posture", "momentarm.posture_ratio", 4.0 * ctx.scale, ctx.library,
                       truth, planted);
   };
   m.evidence = PostureEvidence;

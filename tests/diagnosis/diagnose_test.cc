@@ -130,13 +130,38 @@ TEST(DiagnoseForeign, APoorCalibrationMinimumIsReplacedNotCreditedToACandidate) 
   EXPECT_LT(d.baseline_heldout_nrmse, d.reference.heldout_nrmse) << Explain(d);
 }
 
+TEST(DiagnoseForeign, APersonFoundByACandidateFitBecomesTheControlAndTheTestsRunAgain) {
+  // Suite data set 1006 (three 60 s trials, wrist moment arms planted posture dependent at
+  // 4.8 × the noise): the calibration predicts the held-out trial at NRMSE 0.52 and the score test
+  // of moment_arm_posture@wrist is insignificant there (p_adj 0.36). The passive_asymmetry@mcp
+  // fit, the control switched off, leaves a person at 0.36: refitted alone it becomes the
+  // control, the tests are run again at it and the posture-dependent wrist arms are named
+  // (extension.h, Control).
+  foreign::DatasetSpec spec;
+  spec.person_seed = spec.seed = 1006;
+  spec.floor = 1.0;
+  spec.effects = {{"moment_arm_posture", 1.0}};
+  const foreign::Dataset data = foreign::MakeDataset(spec);
+  const Diagnosis d = Diagnose(HandRig().model, data.trials, {}, TwoThreads());
+  const bool noted = std::any_of(d.notes.begin(), d.notes.end(), [](const std::string& n) {
+    return n.find("switched off") != std::string::npos;
+  });
+  EXPECT_TRUE(noted) << Explain(d);
+  EXPECT_LT(d.baseline_heldout_nrmse, 0.45) << Explain(d);
+  EXPECT_EQ(d.cause, "moment_arm_posture") << Explain(d);
+  ASSERT_FALSE(d.mechanisms.empty());
+  EXPECT_EQ(d.mechanisms[0], "moment_arm_posture@wrist_flexion") << Explain(d);
+}
+
 TEST(DiagnoseForeign, ACandidateIsCreditedOnlyWithItsOwnPartOfTheGain) {
   // Suite data set 1011 (three 60 s trials, a flexor spasticity the library's spasticity does not
   // reach): candidate fits that free the person gained 12–14 % on held-out data while their
   // mechanism stayed near "off" (a wrist tremor of 0.6 mN·m; an Ω ratio of 1.19 whose removal
   // costs nothing), and unequal_muscle_dynamics was named. Switched off after the fit, such a
   // candidate leaves the fitted model as good: its own part of the gain is below 2 % and it is
-  // neither accepted nor an alternative (docs/diagnosis.md, "Extension").
+  // neither accepted nor an alternative (docs/diagnosis.md, "Extension"); the person it reached,
+  // the candidate switched off, becomes the control when it predicts better than the calibration
+  // (then no candidate keeps that gain at all).
   foreign::DatasetSpec spec;
   spec.person_seed = spec.seed = 1011;
   spec.effects = {{"spasticity", 1.0}};
@@ -155,7 +180,10 @@ TEST(DiagnoseForeign, ACandidateIsCreditedOnlyWithItsOwnPartOfTheGain) {
       EXPECT_GT(c.heldout_gain, 0.02) << c.label;
     }
   }
-  EXPECT_GE(credited_to_the_person, 1) << Explain(d);
+  const bool adopted = std::any_of(d.notes.begin(), d.notes.end(), [](const std::string& n) {
+    return n.find("switched off") != std::string::npos;
+  });
+  EXPECT_TRUE(adopted || credited_to_the_person >= 1) << Explain(d);
 }
 
 TEST(DiagnoseFamily, ACleanWidePersonIsNone) {

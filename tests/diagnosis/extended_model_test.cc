@@ -436,6 +436,33 @@ TEST(ExtendedModel, CollapsedParameterIsTheOneAtItsCollapseBound) {
   EXPECT_THROW(CollapsedParameter(params, x, 2), std::invalid_argument);
 }
 
+TEST(ExtendedModel, AFitInsideEveryNormalBandIsANormalPerson) {
+  ModelParameter ratio = Stiffness(1.0), free = Stiffness(1.0), other = Stiffness(1.0);
+  ratio.name = "ratio";
+  ratio.start = 0.0;
+  ratio.lower = -12.0;
+  ratio.upper = 12.0;
+  ratio.normal_half_width = 3.0;
+  other = ratio;
+  other.name = "other";
+  other.normal_half_width = 1.0;
+  free.name = "free";  // no band: never decides
+  Eigen::VectorXd x(3);
+  x << 7.0, -2.5, 11.0;  // a person value first, then ratio and free from offset 1
+  EXPECT_EQ(WithinNormalVariation({ratio, free}, x, 1),
+            "ratio = -2.5 within its normal variation 0 ± 3");
+  x(1) = -3.5;  // beyond the band: the mechanism
+  EXPECT_EQ(WithinNormalVariation({ratio, free}, x, 1), "");
+  x(1) = 2.0;
+  EXPECT_EQ(WithinNormalVariation({free, free}, x, 1), "");  // no band at all
+  // Two banded parameters: one beyond its band is enough to be the mechanism.
+  x(2) = 1.5;
+  EXPECT_EQ(WithinNormalVariation({ratio, other}, x, 1), "");
+  x(2) = -0.5;
+  EXPECT_NE(WithinNormalVariation({ratio, other}, x, 1), "");
+  EXPECT_THROW(WithinNormalVariation({ratio, other}, x, 2), std::invalid_argument);
+}
+
 TEST(ExtendedModel, NrmseIsZeroForAPerfectPredictionAndSkipsUnusedSamples) {
   const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
   DataView v = ViewOf(StepTrial(rig));
