@@ -53,6 +53,7 @@
 //                 removal from the rest period)
 //     truth_rate_hz
 //   integrator: {method: cvodes|cvodes-adams|simbody-rkm, tolerance: 1e-12–1e-2}
+//               (defaults: cvodes, sim::TaskTolerances::kTrialGeneration = 3e-4)
 #pragma once
 
 #include <optional>

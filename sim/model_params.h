@@ -17,6 +17,7 @@
 #include "sim/arm_support.h"
 #include "sim/mechanisms.h"
 #include "sim/passive_joint.h"
+#include "sim/task_tolerances.h"
 #include "tendons/tendon_network.h"
 
 namespace fesim::sim {
@@ -157,7 +158,9 @@ struct IntegratorParams {
   /// damping, for conservative checks); kSimbodyRkMerson: Simbody's explicit RK cross-check.
   enum class Method { kCvodes, kCvodesAdams, kSimbodyRkMerson };
   Method method = Method::kCvodes;
-  double tolerance = 1e-6;  ///< relative and absolute accuracy, > 0.
+  /// Relative and absolute accuracy, > 0. Default: trial generation's (TaskTolerances, ≤ 0.01°
+  /// RMS on the work–precision trial).
+  double tolerance = TaskTolerances::kTrialGeneration;
   /// CVODES methods: the absolute tolerance of the generalized speeds u is tolerance / t_c
   /// (rad/s) with t_c this time scale, so that a speed error held over t_c moves q by the
   /// tolerance — Simbody's weighting of u errors by a characteristic time (its integrators'

@@ -1,0 +1,58 @@
+// The integration tolerance each task runs at by default, chosen by the accuracy the task needs
+// (issue 26, item 2). One table: the commands read their defaults from it — `fesim simulate`, the
+// studies' virtual cohorts and the Python module through IntegratorParams::tolerance, `fesim
+// benchmark`'s full-model fits through FullModelBudget, `fesim diagnose` through
+// DiagnoseSettings::DefaultFitOptions, `fesim identify --method full-model` and the library fits
+// through FullModelFitOptions / diagnosis::FitOptions. A scenario's `integrator: {tolerance}`, a
+// study's `integrator_tolerance` or a method option still overrides it.
+//
+// "tolerance" is CVODES' relative and absolute accuracy (IntegratorParams::tolerance). Accuracy
+// measured as
+//   (W) RMS (max) over the ten coordinates × 6001 samples of the work–precision trial — the
+//       default model, 60 s, all six channels at levels changing every 2 s — against a run at
+//       1e-10 (bench/mujoco_work_precision.cc; docs/performance.md "Work–precision against
+//       MuJoCo", 2026-11-27);
+//   (H) largest |q − q(1e-9)| of a 60 s hand-rig trial simulated as a fit simulates it, clean /
+//       with a 5.35 Hz wrist tremor (bench/diagnosis_bench.cc BM_SimulateLike60s;
+//       docs/performance.md "`fesim diagnose` wall time").
+//
+//   task                    tolerance  accuracy it needs            accuracy measured
+//   trial generation        3e-4       ≤ 0.01° RMS (W)              (W) 0.0063° RMS, max 0.073°
+//   study full-model fits   1e-4       cost and stop at 0.3° noise  (W) 0.0031°, max 0.032°;
+//                                                                   (H) 0.0044° / 0.018°
+//   diagnosis fits          1e-4       kept (suites comparable)     as study full-model fits
+//   library fits            1e-6       kept (tested figures)        (W) 0.000053°, max 0.0008°;
+//   ground-truth differences 1e-6      kept (negligible error)      (H) 0.00014° / 0.00063°
+#pragma once
+
+namespace fesim::sim {
+
+/// Default CVODES tolerance per task (see the table above).
+struct TaskTolerances {
+  /// Trial generation: `fesim simulate`, the virtual cohorts of `fesim benchmark`, the Python
+  /// module's simulate (IntegratorParams' default). Needs ≤ 0.01° RMS on the work–precision
+  /// trial; 3e-4 is the cheapest tolerance of the sweep that meets it: 0.0063° RMS, max 0.073°,
+  /// 163× real time against 76× at 1e-6.
+  static constexpr double kTrialGeneration = 3e-4;
+  /// The full-model fits of `fesim benchmark` (FullModelBudget, scenarios/default_study.yaml):
+  /// residuals at 1e-4 — 0.0031° RMS (max 0.032°) on the work–precision trial, ≤ 77 µrad
+  /// (0.0044°) on a 60 s hand-rig trial — against the study's 0.3° tracker noise; the
+  /// sensitivity Jacobians at FullModelFitOptions::jacobian_tolerance_factor × this.
+  static constexpr double kStudyFullModelFit = 1e-4;
+  /// `fesim diagnose`'s calibration and extension fits (DiagnoseSettings::DefaultFitOptions):
+  /// 1e-4, ≤ 77 µrad (0.0044°) on a clean 60 s hand-rig trial, ≤ 316 µrad (0.018°) with a wrist
+  /// tremor, against a hand tracker's 0.01 rad noise. Not moved, so that the diagnosis suites'
+  /// results stay comparable.
+  static constexpr double kDiagnosis = 1e-4;
+  /// A fit given no integrator budget: `fesim identify --method full-model` (option
+  /// fullmodel.integrator_tolerance) and the defaults of FullModelFitOptions and
+  /// diagnosis::FitOptions. 1e-6, 0.000053° RMS (max 0.0008°) on the work–precision trial; kept
+  /// (its fits' figures are tested), not chosen by accuracy.
+  static constexpr double kLibraryFit = 1e-6;
+  /// The benchmark's ground-truth figures computed as the difference of two simulations (a
+  /// tremor's amplitude, an assumption switch's effect): 1e-6, so that the integration error
+  /// (0.000053° RMS) is negligible against the differences they report. Kept.
+  static constexpr double kGroundTruth = 1e-6;
+};
+
+}  // namespace fesim::sim
