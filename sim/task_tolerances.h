@@ -14,10 +14,17 @@
 //       MuJoCo", 2026-11-27);
 //   (H) largest |q − q(1e-9)| of a 60 s hand-rig trial simulated as a fit simulates it, clean /
 //       with a 5.35 Hz wrist tremor (bench/diagnosis_bench.cc BM_SimulateLike60s;
-//       docs/performance.md "`fesim diagnose` wall time").
+//       docs/performance.md "`fesim diagnose` wall time");
+//   (S) RMS of q over each truth trial of a `--quick` study against the same study at 1e-9
+//       (docs/performance.md "Default tolerances by task"): T the tremor wrist
+//       (bench_tremor_quick.yaml, 6 trials), F the shoulder exoskeleton with Coulomb friction
+//       (bench_shoulder_quick.yaml, 4 trials).
 //
 //   task                    tolerance  accuracy it needs            accuracy measured
 //   trial generation        3e-4       ≤ 0.01° RMS (W)              (W) 0.0063° RMS, max 0.073°
+//     … with a tremor       1e-4       ≤ 0.01° RMS (S)              (T) ≤ 0.0045° (3e-4: 0.014°)
+//     … with friction       1e-6       ≤ 0.01° RMS (S)              (F) ≤ 0.0009° (1e-5: 0.012°,
+//                                                                   3e-4: 0.33°)
 //   study full-model fits   1e-4       cost and stop at 0.3° noise  (W) 0.0031°, max 0.032°;
 //                                                                   (H) 0.0044° / 0.018°
 //   diagnosis fits          1e-4       kept (suites comparable)     as study full-model fits
@@ -30,10 +37,21 @@ namespace fesim::sim {
 /// Default CVODES tolerance per task (see the table above).
 struct TaskTolerances {
   /// Trial generation: `fesim simulate`, the virtual cohorts of `fesim benchmark`, the Python
-  /// module's simulate (IntegratorParams' default). Needs ≤ 0.01° RMS on the work–precision
-  /// trial; 3e-4 is the cheapest tolerance of the sweep that meets it: 0.0063° RMS, max 0.073°,
-  /// 163× real time against 76× at 1e-6.
+  /// module's simulate — every integration whose IntegratorParams leave the tolerance unset
+  /// (TrialGenerationTolerance picks one of these three by the rig). Needs ≤ 0.01° RMS; on the
+  /// work–precision trial 3e-4 is the cheapest tolerance of the sweep that meets it: 0.0063° RMS,
+  /// max 0.073°, 163× real time against 76× at 1e-6.
   static constexpr double kTrialGeneration = 3e-4;
+  /// … on a rig with a tremor (a lightly damped oscillation, step-limited by its speeds' error):
+  /// the tremor wrist's trials came 0.008–0.014° RMS from 1e-9 at 3e-4, 0.0035–0.0045° at 1e-4.
+  static constexpr double kTrialGenerationTremor = 1e-4;
+  /// … on a rig with Coulomb or static friction on a free coordinate: stick and slip turn on the
+  /// sign of small speeds, and a looser integration moves the switching times. The shoulder
+  /// exoskeleton's trials came 0.10–0.33° RMS (max 2.5°) from 1e-9 at 3e-4, up to 0.012° at
+  /// 1e-5, 0.0005–0.0009° at 1e-6 — for no less CPU time at 3e-4 (the stick–slip switches
+  /// dominate the steps). At 3e-4 `fesim benchmark --quick`'s shoulder finding "models 1 and 2
+  /// fit about equally well" turned from "does not hold" to "holds".
+  static constexpr double kTrialGenerationFriction = 1e-6;
   /// The full-model fits of `fesim benchmark` (FullModelBudget, scenarios/default_study.yaml):
   /// residuals at 1e-4 — 0.0031° RMS (max 0.032°) on the work–precision trial, ≤ 77 µrad
   /// (0.0044°) on a 60 s hand-rig trial — against the study's 0.3° tracker noise; the
