@@ -54,7 +54,7 @@
 //     truth_rate_hz
 //   integrator: {method: cvodes|cvodes-adams|simbody-rkm, tolerance: 1e-12–1e-2}
 //               (defaults: cvodes, and the rig's trial-generation tolerance,
-//               sim::TrialGenerationTolerance: 3e-4, 1e-4 with a tremor, 1e-6 with friction)
+//               sim::TrialGenerationTolerance: 3e-4; 1e-6 with a tremor or friction)
 #pragma once
 
 #include <optional>

@@ -74,9 +74,10 @@ struct TaskTolerances {
   /// diagnosis::FitOptions. 1e-6, 0.000053° RMS (max 0.0008°) on the work–precision trial; kept
   /// (its fits' figures are tested), not chosen by accuracy.
   static constexpr double kLibraryFit = 1e-6;
-  /// The benchmark's ground-truth figures computed as the difference of two simulations (a
-  /// tremor's amplitude, an assumption switch's effect): 1e-6, so that the integration error
-  /// (0.000053° RMS) is negligible against the differences they report. Kept.
+  /// Ground-truth figures computed as the difference of two simulations — the benchmark's tremor
+  /// amplitude and assumption effects, the diagnosis suites' planted data and effect sizes
+  /// (diagnosis/planted.cc, when the rig states no tolerance): 1e-6, so that the integration
+  /// error (0.000053° RMS) is negligible against the differences they report. Kept.
   static constexpr double kGroundTruth = 1e-6;
 };
 
