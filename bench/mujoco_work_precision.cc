@@ -15,9 +15,10 @@
 // Neither includes reading the scenario YAML or writing files. Real-time factor = 60 s / CPU s.
 // A plain executable (not Google Benchmark): one run writes one table with both engines.
 //
-//   mujoco_work_precision [--out DIR] [--repeats N]
+//   mujoco_work_precision [--out DIR] [--repeats N] [--fesim-only]
 // prints the table (Markdown) and writes DIR/work_precision.{csv,md,png}
-// (default DIR out/mujoco_work_precision, N 3).
+// (default DIR out/mujoco_work_precision, N 3). --fesim-only: the fesim rows and reference only
+// (≈ 1 minute instead of ≈ 6; the check of sim::TaskTolerances::kTrialGeneration).
 #include <mujoco/mujoco.h>
 
 #include <algorithm>
@@ -66,6 +67,7 @@ constexpr double kTargetsDeg[] = {0.01, 0.1};
 struct Args {
   std::string out = "out/mujoco_work_precision";
   int repeats = 3;
+  bool fesim_only = false;  // skip MuJoCo's reference and rows
 };
 
 Args ParseArgs(int argc, char** argv) {
@@ -77,9 +79,12 @@ Args ParseArgs(int argc, char** argv) {
     } else if (k == "--repeats" && i + 1 < argc) {
       a.repeats = std::stoi(argv[++i]);
       if (a.repeats < 1) throw std::invalid_argument("--repeats must be ≥ 1");
+    } else if (k == "--fesim-only") {
+      a.fesim_only = true;
     } else {
-      throw std::invalid_argument("unknown argument " + k +
-                                  " (usage: mujoco_work_precision [--out DIR] [--repeats N])");
+      throw std::invalid_argument(
+          "unknown argument " + k +
+          " (usage: mujoco_work_precision [--out DIR] [--repeats N] [--fesim-only])");
     }
   }
   return a;
@@ -436,24 +441,32 @@ std::string ModelNotes(const fesim::Scenario& sc, const Run& fesim_ref, const Ru
   return md;
 }
 
-std::vector<Point> MeasureAll(const fesim::Scenario& sc, int repeats, Run* fesim_ref,
-                              Run* mujoco_ref) {
+std::vector<Point> MeasureAll(const fesim::Scenario& sc, int repeats, bool fesim_only,
+                              Run* fesim_ref, Run* mujoco_ref) {
   *fesim_ref = RunFesim(sc, kFesimReferenceTolerance);
   if (!fesim_ref->ok) throw std::runtime_error("fesim reference failed: " + fesim_ref->note);
   std::fprintf(stderr, "fesim reference (tol %g): %.3f s CPU\n", kFesimReferenceTolerance,
                fesim_ref->cpu_s);
-  *mujoco_ref = RunMujoco(sc, MjcfIntegrator::kRk4, kMujocoReferenceStepS);
-  if (!mujoco_ref->ok) throw std::runtime_error("MuJoCo reference failed: " + mujoco_ref->note);
-  std::fprintf(stderr, "MuJoCo reference (RK4, %g ms): %.3f s CPU\n", kMujocoReferenceStepS * 1e3,
-               mujoco_ref->cpu_s);
+  if (!fesim_only) {
+    *mujoco_ref = RunMujoco(sc, MjcfIntegrator::kRk4, kMujocoReferenceStepS);
+    if (!mujoco_ref->ok) throw std::runtime_error("MuJoCo reference failed: " + mujoco_ref->note);
+    std::fprintf(stderr, "MuJoCo reference (RK4, %g ms): %.3f s CPU\n", kMujocoReferenceStepS * 1e3,
+                 mujoco_ref->cpu_s);
+  }
   std::vector<Setting> settings;
   for (double tol : kFesimTolerances) {
-    settings.push_back({MakePoint("fesim", "CVODES BDF", "tol " + Fmt("%.0e", tol), tol),
+    // The shipped default of trial generation (sim/task_tolerances.h) is marked in the table.
+    const bool shipped = tol == fesim::sim::TaskTolerances::kTrialGeneration;
+    settings.push_back({MakePoint("fesim", "CVODES BDF",
+                                  "tol " + Fmt("%.0e", tol) + (shipped ? " (default)" : ""), tol),
                         [&sc, tol] { return RunFesim(sc, tol); },
                         &fesim_ref->q,
                         {}});
   }
-  for (MjcfIntegrator integrator : kMujocoIntegrators) {
+  for (MjcfIntegrator integrator :
+       fesim_only ? std::vector<MjcfIntegrator>{}
+                  : std::vector<MjcfIntegrator>(std::begin(kMujocoIntegrators),
+                                                std::end(kMujocoIntegrators))) {
     for (double h : kMujocoStepsS) {
       settings.push_back({MakePoint("MuJoCo", fesim::sim::MjcfIntegratorName(integrator),
                                     "h " + Fmt("%g", h * 1e3) + " ms", h),
@@ -484,28 +497,37 @@ int main(int argc, char** argv) {
     const fesim::Scenario sc = BenchmarkScenario();
     Run fesim_ref, mujoco_ref;
     const double load_start = LoadAverage();
-    const std::vector<Point> points = MeasureAll(sc, args.repeats, &fesim_ref, &mujoco_ref);
-    // The reference's own error: RK4 at twice its step against it.
-    const Run check = RunMujoco(sc, MjcfIntegrator::kRk4, 2 * kMujocoReferenceStepS);
-    const Error ref_check = Compare(check.q, mujoco_ref.q);
+    const std::vector<Point> points =
+        MeasureAll(sc, args.repeats, args.fesim_only, &fesim_ref, &mujoco_ref);
     const Run fesim_check = RunFesim(sc, 10 * kFesimReferenceTolerance);
     const Error fesim_ref_check = Compare(fesim_check.q, fesim_ref.q);
 
     std::string md = "Work–precision, default model, 60 s trial (" + std::to_string(args.repeats) +
-                     " repeats, median CPU time; MuJoCo " + std::string(mj_versionString()) +
+                     " repeats, median CPU time; " +
+                     (args.fesim_only ? std::string("fesim only")
+                                      : "MuJoCo " + std::string(mj_versionString())) +
                      ")\n\n" + MarkdownTable(points) + "\n" + Summary(points);
     md += "- references: fesim tol " + Fmt("%.0e", kFesimReferenceTolerance) + " (" +
           Fmt("%.2f", fesim_ref.cpu_s) + " s; tol " + Fmt("%.0e", 10 * kFesimReferenceTolerance) +
-          " is " + Fmt("%.1e", fesim_ref_check.rms_deg) + "° RMS from it), MuJoCo RK4 h " +
-          Fmt("%g", kMujocoReferenceStepS * 1e3) + " ms (" + Fmt("%.2f", mujoco_ref.cpu_s) +
-          " s; RK4 at twice the step is " + Fmt("%.1e", ref_check.rms_deg) + "° RMS from it)\n";
-    md += "- model build, included in every CPU time above: fesim " +
-          Fmt("%.1f", fesim_ref.build_cpu_s * 1e3) + " ms (UpperLimbModel), MuJoCo " +
-          Fmt("%.1f", mujoco_ref.build_cpu_s * 1e3) +
-          " ms (ActivationTrack, WriteMjcf, mj_loadXML, mj_makeData), in the reference runs\n";
+          " is " + Fmt("%.1e", fesim_ref_check.rms_deg) + "° RMS from it)";
+    if (!args.fesim_only) {
+      // The reference's own error: RK4 at twice its step against it.
+      const Run check = RunMujoco(sc, MjcfIntegrator::kRk4, 2 * kMujocoReferenceStepS);
+      const Error ref_check = Compare(check.q, mujoco_ref.q);
+      md += ", MuJoCo RK4 h " + Fmt("%g", kMujocoReferenceStepS * 1e3) + " ms (" +
+            Fmt("%.2f", mujoco_ref.cpu_s) + " s; RK4 at twice the step is " +
+            Fmt("%.1e", ref_check.rms_deg) + "° RMS from it)";
+    }
+    md += "\n- model build, included in every CPU time above: fesim " +
+          Fmt("%.1f", fesim_ref.build_cpu_s * 1e3) + " ms (UpperLimbModel)";
+    if (!args.fesim_only) {
+      md += ", MuJoCo " + Fmt("%.1f", mujoco_ref.build_cpu_s * 1e3) +
+            " ms (ActivationTrack, WriteMjcf, mj_loadXML, mj_makeData)";
+    }
+    md += ", in the reference runs\n";
     md += "- machine load (1-minute average, 2 cores): " + Fmt("%.1f", load_start) +
           " at the start, " + Fmt("%.1f", LoadAverage()) + " at the end\n";
-    md += ModelNotes(sc, fesim_ref, mujoco_ref);
+    if (!args.fesim_only) md += ModelNotes(sc, fesim_ref, mujoco_ref);
     std::cout << md;
     std::filesystem::create_directories(args.out);
     fesim::WriteFileAtomic(args.out + "/work_precision.md", md);

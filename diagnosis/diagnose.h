@@ -59,11 +59,11 @@ struct DiagnoseSettings {
   std::string model = "full";
   static FitOptions DefaultFitOptions() {
     FitOptions f;
-    // CVODES tolerance 1e-4: far below the 0.01 rad of a hand tracker's noise, and the
-    // calibration of a foreign person reached a lower cost in half the time of 1e-5 (an integration
-    // error much above it, speed_time_scale_s = 0.1 s, stopped LM at 7× the cost; docs/diagnosis.md
-    // "Speed").
-    f.tolerance = 1e-4;
+    // CVODES tolerance 1e-4 (sim::TaskTolerances::kDiagnosis): far below the 0.01 rad of a hand
+    // tracker's noise, and the calibration of a foreign person reached a lower cost in half the
+    // time of 1e-5 (an integration error much above it, speed_time_scale_s = 0.1 s, stopped LM at
+    // 7× the cost; docs/diagnosis.md "Speed").
+    f.tolerance = sim::TaskTolerances::kDiagnosis;
     // Speeds held to the angles' absolute tolerance (speed_time_scale_s = 0): stiction's fitted
     // frictions need accurate speeds (docs/performance.md, "`fesim diagnose` wall time").
     f.relative_tolerance = 1e-3;

@@ -173,7 +173,8 @@ struct FitOptions {
   /// step (× |x| it was 0.05 Hz, 20 rad of phase over a 60 s trial: ExtendedModel.
   /// FrequencyStepStaysSmall…).
   double fd_step = 1e-2;
-  double tolerance = 1e-6;          ///< CVODES relative/absolute accuracy.
+  /// CVODES relative/absolute accuracy (`fesim diagnose`: sim::TaskTolerances::kDiagnosis).
+  double tolerance = sim::TaskTolerances::kLibraryFit;
   double speed_time_scale_s = 0.0;  ///< sim::IntegratorParams::speed_time_scale_s, s, ≥ 0.
   /// Internal integrator steps per simulated second at most (sim::IntegratorParams::max_steps =
   /// this × the trial's duration; 0: no limit). A simulation that needs more fails (LM rejects

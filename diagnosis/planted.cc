@@ -166,6 +166,11 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
   long effect_n = 0;
   for (int t = 0; t < spec.trials; ++t) {
     sim::TrialRequest req = rig.trial;
+    // The planted effect's size is the difference of two simulations (with − without): ground
+    // truth's tolerance when the rig states none, as before trial generation's default was
+    // chosen by accuracy, so that the planted suites' results stay comparable
+    // (sim/task_tolerances.h).
+    if (!req.integrator.tolerance) req.integrator.tolerance = sim::TaskTolerances::kGroundTruth;
     req.name = "planted_" + std::to_string(t);
     req.sensors = sensors;
     req.seed = sim::DeriveSeed(spec.seed, 100 + t);

@@ -648,7 +648,7 @@ void AssumptionsOnTruth(const HandArrayInputs& in, int na, Json* truth, std::str
   // dev[s][p]: filled by index, so the means do not depend on which item finished first.
   std::vector<std::vector<double>> dev(switches.size(),
                                        std::vector<double>(static_cast<std::size_t>(na), NAN));
-  const double tol = 1e-6;
+  const double tol = sim::TaskTolerances::kGroundTruth;
   ctx->loop->Run("assumption participant", static_cast<std::size_t>(na), [&](std::size_t pi) {
     const int p = static_cast<int>(pi);
     const sim::ModelParams& m = st.items[in.Index(p, 0, 0)].scenario.model;

@@ -478,8 +478,9 @@ TremorParticipant FitTremorParticipant(const BenchmarkSection& section, SectionC
                  [&] {
                    sim::ModelParams quiet = m;
                    quiet.mechanisms.tremor.enabled = false;
-                   const Trial with = identification::fullmodel::SimulateLike(m, tr0, 1e-6);
-                   const Trial without = identification::fullmodel::SimulateLike(quiet, tr0, 1e-6);
+                   const double tol = sim::TaskTolerances::kGroundTruth;
+                   const Trial with = identification::fullmodel::SimulateLike(m, tr0, tol);
+                   const Trial without = identification::fullmodel::SimulateLike(quiet, tr0, tol);
                    double ss = 0.0;
                    const auto& a = with.Column(col);
                    const auto& b = without.Column(col);

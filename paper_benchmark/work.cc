@@ -294,9 +294,14 @@ StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
   StudyTrials out;
   out.study = LoadStudy(study_path, seed);
   const Study& st = out.study;
-  const std::string key =
-      Fnv1a64Hex(st.source_text + "\n--\n" + ReadFile(st.scenario_path) + "\n--\n" +
-                 std::to_string(seed) + "\n" + FESIM_VERSION + "\nsensor-view-1");
+  // The trial-generation tolerances a scenario that states none is simulated at are part of the
+  // key: a change of the defaults (sim::TaskTolerances) must not reuse trials of the old ones.
+  const std::string key = Fnv1a64Hex(
+      st.source_text + "\n--\n" + ReadFile(st.scenario_path) + "\n--\n" + std::to_string(seed) +
+      "\n" + FESIM_VERSION + "\nsensor-view-1\ndefault-tolerances " +
+      std::to_string(sim::TaskTolerances::kTrialGeneration) + " " +
+      std::to_string(sim::TaskTolerances::kTrialGenerationTremor) + " " +
+      std::to_string(sim::TaskTolerances::kTrialGenerationFriction));
   const std::string dir = cache_dir + "/" + st.name + "_" + key;
   const std::size_t n = st.items.size();
   out.measured.resize(n);

@@ -32,6 +32,8 @@
 #include <string>
 #include <vector>
 
+#include "sim/task_tolerances.h"
+
 namespace fesim {
 
 struct BenchmarkSection {
@@ -45,7 +47,7 @@ struct FullModelBudget {
   int keep = 8;
   int starts = 1;
   int max_iterations = 4;
-  double integrator_tolerance = 1e-4;
+  double integrator_tolerance = sim::TaskTolerances::kStudyFullModelFit;
   double fd_relative_step = 1e-2;
   bool broyden = true;  ///< secant Jacobian updates (FullModelFitOptions::broyden).
   bool rank_once = true;

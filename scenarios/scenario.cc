@@ -684,7 +684,7 @@ static Scenario ParseScenarioText(const std::string& text, const std::string& pa
                                 ? sim::IntegratorParams::Method::kCvodesAdams
                                 : sim::IntegratorParams::Method::kSimbodyRkMerson;
     }
-    in.Number("tolerance", 1e-12, 1e-2, &t.integrator.tolerance);
+    if (in.Has("tolerance")) t.integrator.tolerance = in.Number("tolerance", 1e-12, 1e-2);
   }
   try {
     sim::BuildElectrodeMatrix(m);

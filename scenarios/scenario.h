@@ -53,6 +53,8 @@
 //                 removal from the rest period)
 //     truth_rate_hz
 //   integrator: {method: cvodes|cvodes-adams|simbody-rkm, tolerance: 1e-12–1e-2}
+//               (defaults: cvodes, and the rig's trial-generation tolerance,
+//               sim::TrialGenerationTolerance: 3e-4; 1e-6 with a tremor or friction)
 #pragma once
 
 #include <optional>

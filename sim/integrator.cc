@@ -559,6 +559,13 @@ int SensitivityRhs(int ns, sunrealtype t, N_Vector y, N_Vector ydot, N_Vector* y
   return 0;
 }
 
+/// `params` with its tolerance set: trial generation's for `model` when unset
+/// (TrialGenerationTolerance).
+IntegratorParams WithTolerance(IntegratorParams params, const ModelParams& model) {
+  if (!params.tolerance) params.tolerance = TrialGenerationTolerance(model);
+  return params;
+}
+
 /// CVODES' absolute tolerance per component: params.tolerance (scaled like the relative one,
 /// see CvodesContext::tolerance_scale), divided by params.speed_time_scale_s for the
 /// generalized speeds u when that is > 0 (IntegratorParams).
@@ -566,7 +573,7 @@ std::vector<double> AbsoluteTolerances(const CvodesContext& ctx, const Integrato
   if (!(params.speed_time_scale_s >= 0.0) || !std::isfinite(params.speed_time_scale_s)) {
     throw std::invalid_argument("integrator: speed_time_scale_s must be finite and >= 0");
   }
-  const double tol = params.tolerance * ctx.tolerance_scale;
+  const double tol = *params.tolerance * ctx.tolerance_scale;
   const int nq = ctx.state->getNQ(), nu = ctx.state->getNU();
   std::vector<double> abs_tol(ctx.y_index.size(), tol);
   if (params.speed_time_scale_s > 0.0) {
@@ -750,14 +757,15 @@ void Drive(const UpperLimbModel& model, const StimulationSchedule& schedule,
 
 }  // namespace
 
-IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorParams& params,
+IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorParams& integrator,
                                 const StimulationSchedule& schedule,
                                 const std::vector<double>& report_times, SimTK::State* state,
                                 const Observer& observer, SimTK::Stage observe_stage) {
+  const IntegratorParams params = WithTolerance(integrator, model.params());
   IntegrationStats stats;
   if (params.method != IntegratorParams::Method::kSimbodyRkMerson) {
     CvodesContext ctx(&model, state, HasPrescribed(model.params()));
-    Cvodes cv(static_cast<int>(ctx.y_index.size()), params.tolerance * ctx.tolerance_scale,
+    Cvodes cv(static_cast<int>(ctx.y_index.size()), *params.tolerance * ctx.tolerance_scale,
               AbsoluteTolerances(ctx, params),
               params.method == IntegratorParams::Method::kCvodesAdams, &ctx);
     cv.SetStepBudget(params.max_steps);
@@ -803,7 +811,7 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
         if (integ) stats.steps += integ->getNumStepsTaken();
         state->setTime(t);
         integ = std::make_unique<SimTK::RungeKuttaMersonIntegrator>(model.system());
-        integ->setAccuracy(params.tolerance);
+        integ->setAccuracy(*params.tolerance);
         integ->setReturnEveryInternalStep(false);
         try {
           integ->initialize(*state);
@@ -817,10 +825,11 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
 }
 
 IntegrationStats IntegrateTrialSensitivities(
-    const UpperLimbModel& model, const IntegratorParams& params,
+    const UpperLimbModel& model, const IntegratorParams& integrator,
     const StimulationSchedule& schedule, const std::vector<double>& report_times,
     const std::vector<ParameterPerturbation>& parameters, SimTK::State* state,
     const SensitivityObserver& observer, int state_jacobian_every) {
+  const IntegratorParams params = WithTolerance(integrator, model.params());
   if (params.method == IntegratorParams::Method::kSimbodyRkMerson) {
     throw std::invalid_argument("sensitivities need a CVODES integrator method");
   }
@@ -908,7 +917,7 @@ IntegrationStats IntegrateTrialSensitivities(
   d.jac_reuse = state_jacobian_every;
 
   IntegrationStats stats;
-  Cvodes cv(d.n, params.tolerance * ctx.tolerance_scale, AbsoluteTolerances(ctx, params),
+  Cvodes cv(d.n, *params.tolerance * ctx.tolerance_scale, AbsoluteTolerances(ctx, params),
             params.method == IntegratorParams::Method::kCvodesAdams, &ctx);
   cv.SetStepBudget(params.max_steps);
   const int np = static_cast<int>(parameters.size());

@@ -41,6 +41,17 @@ int SegmentIndex(const std::string& name) {
   return -1;
 }
 
+double TrialGenerationTolerance(const ModelParams& model) {
+  for (const CoordinateParams& c : model.coordinates) {
+    if (c.mode == CoordinateMode::kFree &&
+        (c.passive.coulomb_friction_nm > 0.0 || c.passive.static_friction_nm > 0.0)) {
+      return TaskTolerances::kTrialGenerationFriction;
+    }
+  }
+  if (model.mechanisms.tremor.enabled) return TaskTolerances::kTrialGenerationTremor;
+  return TaskTolerances::kTrialGeneration;
+}
+
 muscles::ArrayMatrix BuildElectrodeMatrix(const ModelParams& model) {
   const int nm = static_cast<int>(model.muscles.size());
   const int nc = static_cast<int>(model.channels.size());

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,7 @@
 #include "sim/arm_support.h"
 #include "sim/mechanisms.h"
 #include "sim/passive_joint.h"
+#include "sim/task_tolerances.h"
 #include "tendons/tendon_network.h"
 
 namespace fesim::sim {
@@ -157,7 +159,9 @@ struct IntegratorParams {
   /// damping, for conservative checks); kSimbodyRkMerson: Simbody's explicit RK cross-check.
   enum class Method { kCvodes, kCvodesAdams, kSimbodyRkMerson };
   Method method = Method::kCvodes;
-  double tolerance = 1e-6;  ///< relative and absolute accuracy, > 0.
+  /// Relative and absolute accuracy, > 0. Unset (the default): the tolerance trial generation
+  /// needs on the integrated rig, TrialGenerationTolerance(model) (sim/task_tolerances.h).
+  std::optional<double> tolerance;
   /// CVODES methods: the absolute tolerance of the generalized speeds u is tolerance / t_c
   /// (rad/s) with t_c this time scale, so that a speed error held over t_c moves q by the
   /// tolerance — Simbody's weighting of u errors by a characteristic time (its integrators'
@@ -187,6 +191,12 @@ struct ModelParams {
   std::vector<WeightCompensationParams> weight_compensation;
   MechanismParams mechanisms;  ///< optional mechanisms, all off by default.
 };
+
+/// Trial generation's integration tolerance on `model` (sim/task_tolerances.h), the one an
+/// IntegratorParams without a tolerance integrates at: TaskTolerances::kTrialGenerationFriction
+/// when a free coordinate has Coulomb or static friction, else kTrialGenerationTremor when the
+/// tremor is on, else kTrialGeneration.
+double TrialGenerationTolerance(const ModelParams& model);
 
 /// The electrode matrix A (muscles × channels) implied by the array geometry and explicit
 /// channel weights. Throws std::invalid_argument naming an unknown muscle or pad.

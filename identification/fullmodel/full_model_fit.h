@@ -105,13 +105,15 @@ struct FullModelFitOptions {
   /// With fit_names given, false skips the sensitivity ranking (FullModelFit::ranking empty):
   /// callers that ranked once (e.g. `fesim benchmark`, per participant) save its simulations.
   bool rank = true;
-  int starts = 2;                      ///< multi-start local optimisations, ≥ 1.
-  unsigned seed = 1;                   ///< start points.
-  double start_spread = 0.3;           ///< log half-width of the random starts (see header), ≥ 0.
-  int max_iterations = 30;             ///< LM accepted steps per local optimisation.
-  double relative_tolerance = 1e-6;    ///< LM stops when the cost falls by less than this fraction.
-  double fd_relative_step = 1e-3;      ///< forward-difference step relative to max(|θ|, 1e-3).
-  double integrator_tolerance = 1e-6;  ///< CVODES relative/absolute accuracy of every simulation.
+  int starts = 2;                    ///< multi-start local optimisations, ≥ 1.
+  unsigned seed = 1;                 ///< start points.
+  double start_spread = 0.3;         ///< log half-width of the random starts (see header), ≥ 0.
+  int max_iterations = 30;           ///< LM accepted steps per local optimisation.
+  double relative_tolerance = 1e-6;  ///< LM stops when the cost falls by less than this fraction.
+  double fd_relative_step = 1e-3;    ///< forward-difference step relative to max(|θ|, 1e-3).
+  /// CVODES relative/absolute accuracy of every simulation (`fesim benchmark`'s budget:
+  /// sim::TaskTolerances::kStudyFullModelFit).
+  double integrator_tolerance = sim::TaskTolerances::kLibraryFit;
   int threads = 0;  ///< worker threads for simulations; 0 = hardware concurrency.
   /// Secant (Broyden) Jacobian updates between finite-difference Jacobians (LmOptions::broyden):
   /// a finite-difference Jacobian at the start, after 3 rejected secant steps and to confirm a
