@@ -163,7 +163,7 @@ class Extender {
   /// `route` says how that person was reached, for baseline_note.
   void AdoptBetterControl(const Fitted& control, int c, const std::string& route);
   /// The fit of `fits` whose person, with its candidate switched off, predicts the held-out
-  /// trial best, when that beats the control by min_heldout_gain: the person alone is refitted
+  /// trial best, when that beats the control by clear_heldout_gain: the person alone is refitted
   /// from there and offered to AdoptBetterControl (extension.h, Control).
   void AdoptRemovedPerson(const std::vector<Fitted>& fits);
   void ScreenRound(const ScreenStage& screen);
@@ -729,7 +729,7 @@ void Extender::AdoptRemovedPerson(const std::vector<Fitted>& fits) {
   for (const Fitted& f : fits) {
     if (std::isfinite(f.heldout_nrmse_without_last) &&
         f.heldout_nrmse_without_last <
-            (1.0 - ctx_.settings.min_heldout_gain) * base_.heldout_nrmse &&
+            (1.0 - ctx_.settings.clear_heldout_gain) * base_.heldout_nrmse &&
         (best == nullptr || f.heldout_nrmse_without_last < best->heldout_nrmse_without_last)) {
       best = &f;
     }
