@@ -19,9 +19,10 @@
 // moment_arm_posture 1006: the calibration's held-out NRMSE 0.517, the person from the
 // passive_asymmetry@mcp fit 0.359). A person fitted beside a candidate can take part of a real
 // effect: adopted at 4.4 % better, such persons left foreign potentiation (1002) and
-// force_length_velocity (1007) too little gain to be named. When the first screen adopts a control and no candidate passes, the score
-// tests are run again at the control and the screen is repeated once (RescreenAtControl): the
-// tests that chose which candidates to fit were at the calibration's residual.
+// force_length_velocity (1007) too little gain to be named. When the first screen adopts a
+// control and no candidate passes, the score tests are run again at the control and the screen
+// is repeated once (RescreenAtControl): the tests that chose which candidates to fit were at the
+// calibration's residual.
 //
 // Screening. The candidates whose robust score test passes (p_adj < alpha), the best-scoring
 // joint per id, up to max_screened, are fitted in batches of max_fitted while none passes: their
