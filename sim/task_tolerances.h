@@ -1,5 +1,5 @@
 // The integration tolerance each task runs at by default, chosen by the accuracy the task needs
-// (issue 26, item 2). One table: the commands read their defaults from it — `fesim simulate`, the
+// (docs/performance.md "Default tolerances by task"). One table: the commands read their defaults from it — `fesim simulate`, the
 // studies' virtual cohorts and the Python module through IntegratorParams::tolerance, `fesim
 // benchmark`'s full-model fits through FullModelBudget, `fesim diagnose` through
 // DiagnoseSettings::DefaultFitOptions, `fesim identify --method full-model` and the library fits
