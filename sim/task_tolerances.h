@@ -1,10 +1,11 @@
 // The integration tolerance each task runs at by default, chosen by the accuracy the task needs
-// (docs/performance.md "Default tolerances by task"). One table: the commands read their defaults from it — `fesim simulate`, the
-// studies' virtual cohorts and the Python module through IntegratorParams::tolerance, `fesim
-// benchmark`'s full-model fits through FullModelBudget, `fesim diagnose` through
-// DiagnoseSettings::DefaultFitOptions, `fesim identify --method full-model` and the library fits
-// through FullModelFitOptions / diagnosis::FitOptions. A scenario's `integrator: {tolerance}`, a
-// study's `integrator_tolerance` or a method option still overrides it.
+// (docs/performance.md "Default tolerances by task"). One table: the commands read their
+// defaults from it — `fesim simulate`, the studies' virtual cohorts and the Python module through
+// IntegratorParams::tolerance, `fesim benchmark`'s full-model fits through FullModelBudget,
+// `fesim diagnose` through DiagnoseSettings::DefaultFitOptions, `fesim identify --method
+// full-model` and the library fits through FullModelFitOptions / diagnosis::FitOptions. A
+// scenario's `integrator: {tolerance}`, a study's `integrator_tolerance` or a method option
+// still overrides it.
 //
 // "tolerance" is CVODES' relative and absolute accuracy (IntegratorParams::tolerance). Accuracy
 // measured as
