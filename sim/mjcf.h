@@ -1,5 +1,5 @@
 // fesim's upper-limb model written as a MuJoCo (2.2) MJCF model, for the work-precision
-// comparison of docs/performance.md "Work–precision against MuJoCo" (the benchmark of that section). Pure functions of
+// comparison of docs/performance.md "Work–precision against MuJoCo". Pure functions of
 // ModelParams: no MuJoCo header is needed to write the text; bench/ and tests/ load it.
 //
 // What carries over exactly (same numbers as sim/upper_limb_model.cc builds into Simbody):
