@@ -1,5 +1,6 @@
 #include "identification/shoulder_models.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -444,6 +445,19 @@ void ThetaMaxFromMetadata(const Trial& trial, double* theta_max_ant, double* the
   };
   get("theta_max_ant", theta_max_ant);
   get("theta_max_post", theta_max_post);
+}
+
+void ThetaMaxFromJointRange(double q_min, double q_max, const ShoulderData& data,
+                            double* theta_max_ant, double* theta_max_post) {
+  if (!(q_min < data.theta_rest && data.theta_rest < q_max)) {
+    throw std::invalid_argument("shoulder model 2: rest angle " + Num(data.theta_rest) +
+                                " rad outside the joint range (" + Num(q_min) + ", " + Num(q_max) +
+                                ") rad");
+  }
+  const double a = data.direction * (q_min - data.theta_rest);
+  const double b = data.direction * (q_max - data.theta_rest);
+  *theta_max_ant = std::min(a, b);
+  *theta_max_post = std::max(a, b);
 }
 
 double KnownFrictionFromMetadata(const Trial& trial) {

@@ -18,7 +18,10 @@
 //  * The numeric values of θmax were lost in the text extraction of [Spagnol 2013] ("6 5π", "3 π");
 //    we read them as |θmax_ant| = 5π/16 and |θmax_post| = π/3 with signs chosen so that the
 //    anterior deltoid drives θ negative, as ã1 < 0 in [Spagnol 2013] Table I. They are trial
-//    metadata `theta_max_ant` / `theta_max_post` (rad) when present.
+//    metadata `theta_max_ant` / `theta_max_post` (rad) when present. The paper calls them "the
+//    maximum reachable angles" — of its rig: on another rig whose arm travels beyond them the
+//    torque K σ (θmax − θ) turns around and the fit fails, so `fesim benchmark` sets them to the
+//    ends of the rig's joint range (ThetaMaxFromJointRange).
 //  * Simulation is forward Euler at the sample times (as the EKF discretisation, eq. 7–10), with a
 //    Karnopp-style stick rule for the Coulomb friction: the velocity stops at zero instead of
 //    reversing, and stays at zero while |drive| ≤ c. The paper's friction model is sign(ω) only.
@@ -180,6 +183,16 @@ MethodEntry ShoulderModel2Method();
 
 /// θmax from trial metadata (theta_max_ant / theta_max_post, rad), else the defaults above.
 void ThetaMaxFromMetadata(const Trial& trial, double* theta_max_ant, double* theta_max_post);
+
+/// Model 2's θmax on a given rig. [Spagnol 2013] eq. 3 defines θmax,1 and θmax,2 as "the maximum
+/// reachable angles": a property of the paper's exoskeleton and subject, not a constant. On
+/// another rig they are the ends q_min < q_max (rad, the trial's frame) of its joint range, taken
+/// into the model's frame θ = s (q − q_rest) of `data`: the anterior deltoid's θmax is the end
+/// with θ < 0, the posterior's the end with θ > 0 (rad). Throws std::invalid_argument unless
+/// q_min < data.theta_rest < q_max.
+void ThetaMaxFromJointRange(double q_min, double q_max, const ShoulderData& data,
+                            double* theta_max_ant, double* theta_max_post);
+
 /// Known friction from metadata friction_c (rad/s²), or −1 when absent.
 double KnownFrictionFromMetadata(const Trial& trial);
 

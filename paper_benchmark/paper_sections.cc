@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <complex>
+#include <cstdio>
 #include <map>
 #include <mutex>
 #include <set>
@@ -14,11 +15,13 @@
 
 #include "identification/fullmodel/full_model_fit.h"
 #include "identification/metrics.h"
+#include "identification/shoulder_models.h"
 #include "identification/spectrum.h"
 #include "paper_benchmark/paper_values.h"
 #include "paper_benchmark/sections.h"
 #include "render/plot.h"
 #include "scenarios/scenario.h"
+#include "scenarios/study.h"
 #include "sim/reaching.h"
 
 namespace fesim::paper_benchmark {
@@ -826,6 +829,30 @@ std::string PaperShoulderJl(const std::string& method) {
   return "–";
 }
 
+/// The fit options of one shoulder participant: model 2's θmax (theta_max_ant, theta_max_post,
+/// rad, the model's frame) at the ends of the rig's joint range for the trial's joint
+/// (identification::ThetaMaxFromJointRange; [Spagnol 2013] eq. 3's "maximum reachable angles"),
+/// added to the section's options. Paper 003's own values (≈ ±1 rad from rest) lie inside the
+/// range fesim's arm travels on this protocol.
+std::map<std::string, std::string> ShoulderFitOptions(const BenchmarkSection& section,
+                                                      const StudyItem& item, const Trial& train) {
+  std::map<std::string, std::string> options = section.options;
+  const identification::ShoulderData d = identification::ExtractShoulderData(train);
+  const auto& names = sim::CoordinateNames();
+  const auto it = std::find(names.begin(), names.end(), d.joint);
+  if (it == names.end()) return options;  // not a model coordinate: the paper's θmax
+  const auto& passive = item.scenario.model.coordinates[it - names.begin()].passive;
+  double ant = 0.0, post = 0.0;
+  identification::ThetaMaxFromJointRange(passive.min_angle_rad, passive.max_angle_rad, d, &ant,
+                                         &post);
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.17g", ant);
+  options.emplace("theta_max_ant", buf);
+  std::snprintf(buf, sizeof buf, "%.17g", post);
+  options.emplace("theta_max_post", buf);
+  return options;
+}
+
 }  // namespace
 
 SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx) {
@@ -965,7 +992,8 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
     const int p = static_cast<int>(i) / nm, m = static_cast<int>(i) % nm;
     const std::vector<Trial> train = {data.measured[L.Index(p, 0, 0)]};
     const std::vector<Trial> test = {data.measured[L.Index(p, 0, 1)]};
-    fits[p][m] = ctx->fits->Run(methods[m], train, test, section.options);
+    const auto options = ShoulderFitOptions(section, data.study.items[L.Index(p, 0, 0)], train[0]);
+    fits[p][m] = ctx->fits->Run(methods[m], train, test, options);
     ctx->progress->Done(kShoulderFitWeight, "shoulder: models 1, 2 and EKF");
   });
   SectionResult out;
