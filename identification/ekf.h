@@ -153,11 +153,13 @@ double MeanFrom(const std::vector<double>& time, const std::vector<double>& valu
 /// the key when it is unknown, not a number or negative.
 void ApplyEkfMetadata(const Trial& trial, ShoulderEkfConfig* config);
 
-/// `fesim identify --method shoulder-ekf`: offline model-2 fit of `train` (reference and c),
-/// then the filter on each trial of `test` (or `train`). Predictions are the filtered θ, ω
-/// (q.<joint>, qd.<joint>) and the parameter tracks (param.k_ant, param.k_post, param.r_m,
-/// param.k_m); metrics give J_L, per-parameter convergence time (±5 % band), mean after
-/// convergence and % error against the offline fit and against metadata true_* values.
+/// `fesim identify --method shoulder-ekf`: offline fit of `train` with the filter's model (model 2,
+/// R_ant = R_post = 0) for c, then the filter on each trial of `test` (or `train`). Predictions
+/// are the filtered θ, ω (q.<joint>, qd.<joint>) and the parameter tracks (param.k_ant,
+/// param.k_post, param.r_m, param.k_m); metrics give J_L, per-parameter convergence time (±5 %
+/// band), mean after convergence and % error against the offline fit of the same trial with the
+/// same model and c ([Spagnol 2013] Table IV: "using the same data set"; `offline_same_trial`)
+/// and against metadata true_* values.
 MethodResult RunShoulderEkfMethod(const std::vector<Trial>& train, const std::vector<Trial>& test,
                                   const ProgressFn& progress);
 /// Registry entry for `fesim identify --method shoulder-ekf`.

@@ -153,14 +153,15 @@ double PerformanceIndexJL(const std::vector<double>& y, const std::vector<double
 /// Result of an offline fit.
 struct ShoulderFit {
   ShoulderModel model = ShoulderModel::kModel2;
-  Eigen::VectorXd p;            ///< identified p (ModelRegressors order).
-  Eigen::VectorXd ci95;         ///< 95 % half-widths from the Gauss–Newton covariance.
-  double theta_max_ant = 0.0;   ///< rad
-  double theta_max_post = 0.0;  ///< rad
-  bool friction_known = false;  ///< c was given (metadata friction_c), not fitted.
-  double cost = 0.0;            ///< Σ J_L(ω) over trials at the optimum.
-  int iterations = 0;           ///< Levenberg–Marquardt iterations.
-  bool converged = false;       ///< false when the iteration limit stopped the fit.
+  Eigen::VectorXd p;                     ///< identified p (ModelRegressors order).
+  Eigen::VectorXd ci95;                  ///< 95 % half-widths from the Gauss–Newton covariance.
+  double theta_max_ant = 0.0;            ///< rad
+  double theta_max_post = 0.0;           ///< rad
+  bool friction_known = false;           ///< c was given (metadata friction_c), not fitted.
+  bool zero_activation_damping = false;  ///< model 2 with R̃_ant = R̃_post = 0 held fixed.
+  double cost = 0.0;                     ///< Σ J_L(ω) over trials at the optimum.
+  int iterations = 0;                    ///< Levenberg–Marquardt iterations.
+  bool converged = false;                ///< false when the iteration limit stopped the fit.
   /// "relative_cost_decrease_below_tolerance", "step_below_tolerance", "iteration_limit", or
   /// "no_decrease_at_damping_limit" (converged after ≥ 1 accepted step; not converged when no
   /// step from the start point lowered the cost, so the start is never returned as a fit).
@@ -169,9 +170,12 @@ struct ShoulderFit {
 
 /// Offline nonlinear least squares on angular velocity ([Spagnol 2013] §III-A). `initial`
 /// (optional, may be empty) replaces the equation-error start. `known_c` < 0 means "fit c".
+/// `zero_activation_damping` (model 2 only) holds R̃_ant = R̃_post = 0: the simplified model 2
+/// that [Spagnol 2013] §III-C arrives at (Table II(a): both zero) and §IV's EKF (eq. 4) tracks.
 ShoulderFit FitShoulderModel(ShoulderModel model, const std::vector<ShoulderData>& trials,
                              double theta_max_ant, double theta_max_post, double known_c,
-                             const Eigen::VectorXd& initial = Eigen::VectorXd());
+                             const Eigen::VectorXd& initial = Eigen::VectorXd(),
+                             bool zero_activation_damping = false);
 
 /// `fesim identify` entries: shoulder-model1 and shoulder-model2.
 MethodResult RunShoulderModelMethod(ShoulderModel model, const std::vector<Trial>& train,

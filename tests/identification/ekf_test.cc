@@ -309,6 +309,46 @@ TEST(Ekf, MethodConvergesToPlantedParametersOnNoisyRigFrameTrial) {
   EXPECT_NEAR(r.predictions[0].Column("q.shoulder_elv_plane")[100], q[100], 5.0 * kRigAngleNoise);
 }
 
+/// A trial of the EKF's own model (eq. 9–10) with activations a.* and known friction.
+Trial OwnModelTrial(const Truth& truth, double noise_theta, double noise_omega, unsigned seed) {
+  const ShoulderData d = OwnModelData(truth, 120.0, 1e9, 1.0, noise_theta, noise_omega, seed);
+  Trial t;
+  t.time = d.time;
+  t.AddColumn("a.deltoid_anterior", d.sigma_ant);
+  t.AddColumn("a.deltoid_posterior", d.sigma_post);
+  t.AddColumn("q.shoulder_horizontal", d.theta);
+  t.AddColumn("qd.shoulder_horizontal", d.omega);
+  t.metadata["friction_c"] = std::to_string(truth.c);
+  t.metadata["theta_direction"] = "1";
+  t.metadata["ekf.r_omega"] = std::to_string(noise_omega * noise_omega);
+  return t;
+}
+
+// [Spagnol 2013] Table IV compares the online estimate with the offline fit of the same data set
+// and model. Trained on one person and run on another, the filter is compared with the offline
+// fit of the trial it ran on (model 2 with R_ant = R_post = 0, as eq. 4), not of the training
+// trial: on constant-parameter data of that model the two agree within a few %.
+TEST(Ekf, ErrorVsOfflineIsAgainstTheOfflineFitOfTheSameTrialAndModel) {
+  constexpr double kNoiseTheta = 1e-3, kNoiseOmega = 1e-2;  // rad, rad/s
+  constexpr double kAgreementPercent = 5.0;
+  const Truth trained;
+  Truth other = trained;
+  other.k_ant = 3.0;  // +58 % against the training person
+  other.k_post = 1.5;
+  const Trial train = OwnModelTrial(trained, kNoiseTheta, kNoiseOmega, kSeed + 11);
+  const Trial test = OwnModelTrial(other, kNoiseTheta, kNoiseOmega, kSeed + 12);
+  const auto r = RunShoulderEkfMethod({train}, {test}, nullptr);
+  const Json& params = *r.metrics.Find("trials")->Items()[0].Find("parameters");
+  const std::vector<std::pair<const char*, double>> planted = {
+      {"k_ant", other.k_ant}, {"k_post", other.k_post}, {"r_m", other.r_m}, {"k_m", other.k_m}};
+  for (const auto& [name, value] : planted) {
+    const Json& p = *params.Find(name);
+    EXPECT_NEAR(p.Find("offline_same_trial")->AsNumber(), value, kAgreementPercent / 100.0 * value)
+        << name;
+    EXPECT_LT(std::abs(p.Find("error_vs_offline_percent")->AsNumber()), kAgreementPercent) << name;
+  }
+}
+
 TEST(Ekf, ConvergenceTimeIsFirstTimeInsideBandForGood) {
   const std::vector<double> t = {0, 1, 2, 3, 4, 5};
   // final 1.0; ±5 %: 1.04 is inside, 1.2 at t = 2 is outside, so convergence at t = 3.

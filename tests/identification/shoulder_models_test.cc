@@ -162,6 +162,38 @@ TEST(ShoulderModels, Model2FitRecoversPlantedParameters) {
   EXPECT_LT(fit.cost, 1e-6);
 }
 
+// [Spagnol 2013] §III-C: R̃1 = R̃2 = 0 in Table II(a), and §IV's EKF (eq. 4) drops them. The fit
+// that holds them at zero keeps them there and recovers the rest; the free fit finds them.
+TEST(ShoulderModels, Model2FitWithZeroActivationDampingHoldsThemAtZero) {
+  ShoulderModel2Params truth = PlantedModel2();
+  truth.r_ant = 0.4;
+  truth.r_post = 0.3;
+  const Eigen::VectorXd p = ToVector(truth);
+  const std::vector<ShoulderData> trials = {
+      Simulated(ShoulderModel::kModel2, p, truth.theta_max_ant, truth.theta_max_post, kSeed + 3)};
+  const auto free = FitShoulderModel(ShoulderModel::kModel2, trials, truth.theta_max_ant,
+                                     truth.theta_max_post, truth.c);
+  EXPECT_FALSE(free.zero_activation_damping);
+  EXPECT_NEAR(free.p(2), truth.r_ant, kRecoveryRelTol * truth.r_ant);
+  EXPECT_NEAR(free.p(3), truth.r_post, kRecoveryRelTol * truth.r_post);
+  const auto held = FitShoulderModel(ShoulderModel::kModel2, trials, truth.theta_max_ant,
+                                     truth.theta_max_post, truth.c, Eigen::VectorXd(), true);
+  EXPECT_TRUE(held.zero_activation_damping);
+  EXPECT_EQ(held.p(2), 0.0);
+  EXPECT_EQ(held.p(3), 0.0);
+  EXPECT_EQ(held.ci95(2), 0.0);
+  EXPECT_GT(held.cost, free.cost);  // the planted damping is missing
+  // Planted without activation damping, the held fit recovers every parameter.
+  const ShoulderModel2Params simple = PlantedModel2();
+  const Eigen::VectorXd ps = ToVector(simple);
+  const auto fit = FitShoulderModel(ShoulderModel::kModel2,
+                                    {Simulated(ShoulderModel::kModel2, ps, simple.theta_max_ant,
+                                               simple.theta_max_post, kSeed + 4)},
+                                    simple.theta_max_ant, simple.theta_max_post, simple.c,
+                                    Eigen::VectorXd(), true);
+  for (int i : {0, 1, 4, 5}) EXPECT_NEAR(fit.p(i), ps(i), kRecoveryRelTol * ps(i)) << i;
+}
+
 TEST(ShoulderModels, Model1FitRecoversPlantedParametersWithKnownFriction) {
   const ShoulderModel1Params truth{-1.77, 1.76, 0.33, 0.6, 0.89, 0.3, 7.0, 0.95, 0.15};
   const Eigen::VectorXd p = ToVector(truth);
