@@ -80,8 +80,8 @@ void ShoulderEkf::Update(double theta, double omega) {
 }
 
 void ShoulderEkf::Predict(double sigma_ant, double sigma_post, double omega_measured, double dt) {
-  const double fs = std::isnan(omega_measured) ? config_.friction_c * Sign(x_(1))
-                                               : config_.friction_c * Sign(omega_measured);
+  const bool measured = config_.friction_sign_from_measurement && !std::isnan(omega_measured);
+  const double fs = config_.friction_c * Sign(measured ? omega_measured : x_(1));
   const ShoulderEkfMatrix F = ShoulderEkfJacobian(x_, sigma_ant, sigma_post, dt,
                                                   config_.theta_max_ant, config_.theta_max_post);
   const ShoulderEkfVector next = ShoulderEkfTransition(
