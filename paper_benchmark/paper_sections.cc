@@ -1122,7 +1122,9 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
     md +=
         "\nEKF (model 2 with augmented parameter state): convergence time (into a band "
         "around the final estimate) and mean estimate after convergence relative to the "
-        "offline fit:\n\n| participant | parameter | convergence time s | error vs offline % |"
+        "offline fit of the same trial with the filter's model (R_ant = R_post = 0) and c, as "
+        "paper 003 Table IV:\n\n| participant | parameter | convergence time s | "
+        "error vs offline % |"
         "\n|---|---|---|---|\n";
     for (int p = 0; p < np; ++p) {
       const Json& t0 = fits[p][m].metrics.Find("trials")->Items()[0];
@@ -1186,6 +1188,39 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
         "mean J_L velocity EKF " + Fixed(e, 1) + " % (filtered, measurement-updated state) vs " +
             "offline " + Fixed(b, 1) + " % (simulation)" +
             (model2_fits ? "" : "; not tested: offline model 2 predicts no better than the mean"));
+    findings.Push(f);
+    md += FindingLine(f);
+  }
+  if (ie >= 0) {
+    // Paper 003 Table IV: online and offline estimates within 5 % on the same data.
+    double worst = 0.0;
+    std::string where;
+    for (int p = 0; p < np; ++p) {
+      const Json& params = *fits[p][ie].metrics.Find("trials")->Items()[0].Find("parameters");
+      for (std::size_t k = 0; k < params.Keys().size(); ++k) {
+        const double e = params.Items()[k].Find("error_vs_offline_percent")->AsNumber();
+        if (std::isfinite(e) && std::abs(e) >= worst) {
+          worst = std::abs(e);
+          where = params.Keys()[k] + ", p" + std::to_string(p + 1);
+        }
+      }
+    }
+    const bool holds = worst < 5.0;
+    // On data of model 2 itself the filter and the offline fit agree within 5 %
+    // (Ekf.ErrorVsOfflineIsAgainstTheOfflineFitOfTheSameTrialAndModel); on fesim's arm they
+    // weigh model 2's misfit differently (the filter one-step predictions weighted by its
+    // tuning, the offline fit the simulated velocity over the whole trial).
+    const std::string cause =
+        "; cause: model 2 does not describe fesim's arm exactly (held-out J_L " + Fixed(jl2, 1) +
+        " % against model 1's " + (i1 >= 0 ? Fixed(MeanFinite(jl[i1]), 1) : std::string("–")) +
+        " %), and the filter (weighted one-step predictions) and the offline fit (simulated "
+        "velocity over the trial) settle on different compromises; on data of model 2 itself "
+        "they agree within 5 %";
+    Json f = Finding(
+        "the EKF's estimates differ from the offline fit's of the same data by less than 5 % "
+        "(paper 003 Table IV)",
+        holds,
+        "largest |difference| " + Fixed(worst, 1) + " % (" + where + ")" + (holds ? "" : cause));
     findings.Push(f);
     md += FindingLine(f);
   }
