@@ -1,5 +1,6 @@
 #include "identification/shoulder_models.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -92,10 +93,13 @@ Eigen::VectorXd VelocityResiduals(ShoulderModel model, const Eigen::VectorXd& p,
   return r;
 }
 
-/// Equation-error least squares: (ω(k+1) − ω(k))/Δt = φ(k)ᵀ p, samples at rest excluded.
+/// Equation-error least squares: (ω(k+1) − ω(k))/Δt = φ(k)ᵀ p, samples at rest excluded. Only
+/// the entries `free` of p are solved for; the others keep their values in `fixed` (units of
+/// ModelRegressors; `fixed` is zero at the free entries).
 Eigen::VectorXd EquationErrorStart(ShoulderModel model, double tm_ant, double tm_post,
-                                   const std::vector<ShoulderData>& trials, double known_c) {
-  const int np = model == ShoulderModel::kModel1 ? 9 : 7;
+                                   const std::vector<ShoulderData>& trials,
+                                   const Eigen::VectorXd& fixed, const std::vector<int>& free) {
+  const int np = static_cast<int>(fixed.size());
   std::vector<Eigen::VectorXd> rows;
   std::vector<double> ys;
   for (const auto& t : trials) {
@@ -109,24 +113,36 @@ Eigen::VectorXd EquationErrorStart(ShoulderModel model, double tm_ant, double tm
       ys.push_back((t.omega[k + 1] - t.omega[k]) / dt);
     }
   }
-  const int nfree = known_c >= 0.0 ? np - 1 : np;
-  Eigen::VectorXd p = Eigen::VectorXd::Zero(np);
-  if (known_c >= 0.0) p(np - 1) = known_c;
+  const int nfree = static_cast<int>(free.size());
+  Eigen::VectorXd p = fixed;
   if (rows.size() < 2 * static_cast<std::size_t>(np)) return p;
   Eigen::MatrixXd A(rows.size(), nfree);
   Eigen::VectorXd y(rows.size());
   for (std::size_t i = 0; i < rows.size(); ++i) {
-    A.row(i) = rows[i].head(nfree).transpose();
-    y(i) = ys[i] - (known_c >= 0.0 ? rows[i](np - 1) * known_c : 0.0);
+    y(i) = ys[i] - rows[i].dot(fixed);
+    for (int j = 0; j < nfree; ++j) A(i, j) = rows[i](free[j]);
   }
   Eigen::VectorXd scale = A.colwise().norm().transpose();
   for (int j = 0; j < nfree; ++j) scale(j) = scale(j) > 0.0 ? scale(j) : 1.0;
   const Eigen::VectorXd sol =
       (A * scale.cwiseInverse().asDiagonal()).colPivHouseholderQr().solve(y).cwiseQuotient(scale);
-  p.head(nfree) = sol;
   const auto lb = LowerBounds(model);
-  for (int j = 0; j < np; ++j) p(j) = std::max(p(j), lb[j]);
+  for (int j = 0; j < nfree; ++j) p(free[j]) = std::max(sol(j), lb[free[j]]);
   return p;
+}
+
+/// Indices of p an offline fit identifies: all but c when it is known, and but R̃_ant, R̃_post of
+/// model 2 when they are held at zero.
+std::vector<int> FreeParameters(ShoulderModel model, bool friction_known,
+                                bool zero_activation_damping) {
+  const int np = model == ShoulderModel::kModel1 ? 9 : 7;
+  std::vector<int> free;
+  for (int j = 0; j < np; ++j) {
+    if (j == np - 1 && friction_known) continue;
+    if (model == ShoulderModel::kModel2 && zero_activation_damping && (j == 2 || j == 3)) continue;
+    free.push_back(j);
+  }
+  return free;
 }
 
 }  // namespace
@@ -338,7 +354,7 @@ double PerformanceIndexJL(const std::vector<double>& y, const std::vector<double
 
 ShoulderFit FitShoulderModel(ShoulderModel model, const std::vector<ShoulderData>& trials,
                              double theta_max_ant, double theta_max_post, double known_c,
-                             const Eigen::VectorXd& initial) {
+                             const Eigen::VectorXd& initial, bool zero_activation_damping) {
   if (trials.empty()) throw std::runtime_error("shoulder fit: no trials");
   const int np = model == ShoulderModel::kModel1 ? 9 : 7;
   ShoulderFit fit;
@@ -346,11 +362,19 @@ ShoulderFit FitShoulderModel(ShoulderModel model, const std::vector<ShoulderData
   fit.theta_max_ant = theta_max_ant;
   fit.theta_max_post = theta_max_post;
   fit.friction_known = known_c >= 0.0;
-  Eigen::VectorXd p = initial.size() == np ? initial
-                                           : EquationErrorStart(model, theta_max_ant,
-                                                                theta_max_post, trials, known_c);
-  if (fit.friction_known) p(np - 1) = known_c;
-  const int nfree = fit.friction_known ? np - 1 : np;
+  fit.zero_activation_damping = model == ShoulderModel::kModel2 && zero_activation_damping;
+  const std::vector<int> free =
+      FreeParameters(model, fit.friction_known, fit.zero_activation_damping);
+  const int nfree = static_cast<int>(free.size());
+  Eigen::VectorXd fixed = Eigen::VectorXd::Zero(np);
+  if (fit.friction_known) fixed(np - 1) = known_c;
+  Eigen::VectorXd p =
+      initial.size() == np
+          ? initial
+          : EquationErrorStart(model, theta_max_ant, theta_max_post, trials, fixed, free);
+  for (int j = 0; j < np; ++j) {
+    if (std::find(free.begin(), free.end(), j) == free.end()) p(j) = fixed(j);
+  }
   const auto lb = LowerBounds(model);
   auto residuals = [&](const Eigen::VectorXd& q) {
     return VelocityResiduals(model, q, theta_max_ant, theta_max_post, trials);
@@ -358,9 +382,9 @@ ShoulderFit FitShoulderModel(ShoulderModel model, const std::vector<ShoulderData
   auto jacobian = [&](const Eigen::VectorXd& q, const Eigen::VectorXd& r0) {
     Eigen::MatrixXd J(r0.size(), nfree);
     for (int j = 0; j < nfree; ++j) {
-      const double h = kFdRelativeStep * std::max(std::abs(q(j)), 1e-2);
+      const double h = kFdRelativeStep * std::max(std::abs(q(free[j])), 1e-2);
       Eigen::VectorXd qp = q;
-      qp(j) += h;
+      qp(free[j]) += h;
       J.col(j) = (residuals(qp) - r0) / h;
     }
     return J;
@@ -381,8 +405,7 @@ ShoulderFit FitShoulderModel(ShoulderModel model, const std::vector<ShoulderData
       M.diagonal() += lambda * A.diagonal() + Eigen::VectorXd::Constant(nfree, 1e-15);
       const Eigen::VectorXd step = M.ldlt().solve(-g);
       Eigen::VectorXd trial = p;
-      trial.head(nfree) += step;
-      for (int j = 0; j < nfree; ++j) trial(j) = std::max(trial(j), lb[j]);
+      for (int j = 0; j < nfree; ++j) trial(free[j]) = std::max(p(free[j]) + step(j), lb[free[j]]);
       const Eigen::VectorXd r_new = residuals(trial);
       const double c_new = r_new.squaredNorm();
       if (c_new < cost) {
@@ -418,13 +441,13 @@ ShoulderFit FitShoulderModel(ShoulderModel model, const std::vector<ShoulderData
   fit.iterations = it;
   fit.p = p;
   fit.cost = cost;
-  // Gauss–Newton covariance s² (JᵀJ)⁻¹ in parameter units.
+  // Gauss–Newton covariance s² (JᵀJ)⁻¹ in parameter units; fixed parameters get 0.
   fit.ci95 = Eigen::VectorXd::Zero(np);
   const double dof = static_cast<double>(r.size()) - nfree;
   if (dof > 0) {
     const Eigen::MatrixXd A = J.transpose() * J;
     const Eigen::MatrixXd cov = (cost / dof) * A.completeOrthogonalDecomposition().pseudoInverse();
-    for (int j = 0; j < nfree; ++j) fit.ci95(j) = kZ95 * std::sqrt(std::max(cov(j, j), 0.0));
+    for (int j = 0; j < nfree; ++j) fit.ci95(free[j]) = kZ95 * std::sqrt(std::max(cov(j, j), 0.0));
   }
   return fit;
 }
@@ -444,6 +467,19 @@ void ThetaMaxFromMetadata(const Trial& trial, double* theta_max_ant, double* the
   };
   get("theta_max_ant", theta_max_ant);
   get("theta_max_post", theta_max_post);
+}
+
+void ThetaMaxFromJointRange(double q_min, double q_max, const ShoulderData& data,
+                            double* theta_max_ant, double* theta_max_post) {
+  if (!(q_min < data.theta_rest && data.theta_rest < q_max)) {
+    throw std::invalid_argument("shoulder model 2: rest angle " + Num(data.theta_rest) +
+                                " rad outside the joint range (" + Num(q_min) + ", " + Num(q_max) +
+                                ") rad");
+  }
+  const double a = data.direction * (q_min - data.theta_rest);
+  const double b = data.direction * (q_max - data.theta_rest);
+  *theta_max_ant = std::min(a, b);
+  *theta_max_post = std::max(a, b);
 }
 
 double KnownFrictionFromMetadata(const Trial& trial) {

@@ -18,7 +18,10 @@
 //  * The numeric values of θmax were lost in the text extraction of [Spagnol 2013] ("6 5π", "3 π");
 //    we read them as |θmax_ant| = 5π/16 and |θmax_post| = π/3 with signs chosen so that the
 //    anterior deltoid drives θ negative, as ã1 < 0 in [Spagnol 2013] Table I. They are trial
-//    metadata `theta_max_ant` / `theta_max_post` (rad) when present.
+//    metadata `theta_max_ant` / `theta_max_post` (rad) when present. The paper calls them "the
+//    maximum reachable angles" — of its rig: on another rig whose arm travels beyond them the
+//    torque K σ (θmax − θ) turns around and the fit fails, so `fesim benchmark` sets them to the
+//    ends of the rig's joint range (ThetaMaxFromJointRange).
 //  * Simulation is forward Euler at the sample times (as the EKF discretisation, eq. 7–10), with a
 //    Karnopp-style stick rule for the Coulomb friction: the velocity stops at zero instead of
 //    reversing, and stays at zero while |drive| ≤ c. The paper's friction model is sign(ω) only.
@@ -150,14 +153,15 @@ double PerformanceIndexJL(const std::vector<double>& y, const std::vector<double
 /// Result of an offline fit.
 struct ShoulderFit {
   ShoulderModel model = ShoulderModel::kModel2;
-  Eigen::VectorXd p;            ///< identified p (ModelRegressors order).
-  Eigen::VectorXd ci95;         ///< 95 % half-widths from the Gauss–Newton covariance.
-  double theta_max_ant = 0.0;   ///< rad
-  double theta_max_post = 0.0;  ///< rad
-  bool friction_known = false;  ///< c was given (metadata friction_c), not fitted.
-  double cost = 0.0;            ///< Σ J_L(ω) over trials at the optimum.
-  int iterations = 0;           ///< Levenberg–Marquardt iterations.
-  bool converged = false;       ///< false when the iteration limit stopped the fit.
+  Eigen::VectorXd p;                     ///< identified p (ModelRegressors order).
+  Eigen::VectorXd ci95;                  ///< 95 % half-widths from the Gauss–Newton covariance.
+  double theta_max_ant = 0.0;            ///< rad
+  double theta_max_post = 0.0;           ///< rad
+  bool friction_known = false;           ///< c was given (metadata friction_c), not fitted.
+  bool zero_activation_damping = false;  ///< model 2 with R̃_ant = R̃_post = 0 held fixed.
+  double cost = 0.0;                     ///< Σ J_L(ω) over trials at the optimum.
+  int iterations = 0;                    ///< Levenberg–Marquardt iterations.
+  bool converged = false;                ///< false when the iteration limit stopped the fit.
   /// "relative_cost_decrease_below_tolerance", "step_below_tolerance", "iteration_limit", or
   /// "no_decrease_at_damping_limit" (converged after ≥ 1 accepted step; not converged when no
   /// step from the start point lowered the cost, so the start is never returned as a fit).
@@ -166,9 +170,12 @@ struct ShoulderFit {
 
 /// Offline nonlinear least squares on angular velocity ([Spagnol 2013] §III-A). `initial`
 /// (optional, may be empty) replaces the equation-error start. `known_c` < 0 means "fit c".
+/// `zero_activation_damping` (model 2 only) holds R̃_ant = R̃_post = 0: the simplified model 2
+/// that [Spagnol 2013] §III-C arrives at (Table II(a): both zero) and §IV's EKF (eq. 4) tracks.
 ShoulderFit FitShoulderModel(ShoulderModel model, const std::vector<ShoulderData>& trials,
                              double theta_max_ant, double theta_max_post, double known_c,
-                             const Eigen::VectorXd& initial = Eigen::VectorXd());
+                             const Eigen::VectorXd& initial = Eigen::VectorXd(),
+                             bool zero_activation_damping = false);
 
 /// `fesim identify` entries: shoulder-model1 and shoulder-model2.
 MethodResult RunShoulderModelMethod(ShoulderModel model, const std::vector<Trial>& train,
@@ -180,6 +187,16 @@ MethodEntry ShoulderModel2Method();
 
 /// θmax from trial metadata (theta_max_ant / theta_max_post, rad), else the defaults above.
 void ThetaMaxFromMetadata(const Trial& trial, double* theta_max_ant, double* theta_max_post);
+
+/// Model 2's θmax on a given rig. [Spagnol 2013] eq. 3 defines θmax,1 and θmax,2 as "the maximum
+/// reachable angles": a property of the paper's exoskeleton and subject, not a constant. On
+/// another rig they are the ends q_min < q_max (rad, the trial's frame) of its joint range, taken
+/// into the model's frame θ = s (q − q_rest) of `data`: the anterior deltoid's θmax is the end
+/// with θ < 0, the posterior's the end with θ > 0 (rad). Throws std::invalid_argument unless
+/// q_min < data.theta_rest < q_max.
+void ThetaMaxFromJointRange(double q_min, double q_max, const ShoulderData& data,
+                            double* theta_max_ant, double* theta_max_post);
+
 /// Known friction from metadata friction_c (rad/s²), or −1 when absent.
 double KnownFrictionFromMetadata(const Trial& trial);
 

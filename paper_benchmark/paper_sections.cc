@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <complex>
+#include <cstdio>
 #include <map>
 #include <mutex>
 #include <set>
@@ -14,11 +15,14 @@
 
 #include "identification/fullmodel/full_model_fit.h"
 #include "identification/metrics.h"
+#include "identification/shoulder_models.h"
 #include "identification/spectrum.h"
 #include "paper_benchmark/paper_values.h"
 #include "paper_benchmark/sections.h"
 #include "render/plot.h"
 #include "scenarios/scenario.h"
+#include "scenarios/study.h"
+#include "sim/model_params.h"
 #include "sim/reaching.h"
 
 namespace fesim::paper_benchmark {
@@ -826,6 +830,65 @@ std::string PaperShoulderJl(const std::string& method) {
   return "–";
 }
 
+/// The fit options of one shoulder participant: model 2's θmax (theta_max_ant, theta_max_post,
+/// rad, the model's frame) at the ends of the rig's joint range for the trial's joint
+/// (identification::ThetaMaxFromJointRange; [Spagnol 2013] eq. 3's "maximum reachable angles"),
+/// added to the section's options. Paper 003's own values (≈ ±1 rad from rest) lie inside the
+/// range fesim's arm travels on this protocol.
+std::map<std::string, std::string> ShoulderFitOptions(const BenchmarkSection& section,
+                                                      const StudyItem& item, const Trial& train) {
+  std::map<std::string, std::string> options = section.options;
+  const identification::ShoulderData d = identification::ExtractShoulderData(train);
+  const auto& names = sim::CoordinateNames();
+  const auto it = std::find(names.begin(), names.end(), d.joint);
+  if (it == names.end()) return options;  // not a model coordinate: the paper's θmax
+  const auto& passive = item.scenario.model.coordinates[it - names.begin()].passive;
+  double ant = 0.0, post = 0.0;
+  identification::ThetaMaxFromJointRange(passive.min_angle_rad, passive.max_angle_rad, d, &ant,
+                                         &post);
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.17g", ant);
+  options.emplace("theta_max_ant", buf);
+  std::snprintf(buf, sizeof buf, "%.17g", post);
+  options.emplace("theta_max_post", buf);
+  return options;
+}
+
+/// A shoulder trial with the models' input as [Spagnol 2013] §III has it: σ_i is the activation
+/// of stimulated muscle i (its eEMG-measured recruitment through calcium dynamics), not the pulse
+/// width. fesim has no eEMG; the simulator's activation (truth a.<muscle>) of the muscle each
+/// driven channel u.<channel> reaches most (electrode matrix of `model`) stands for it, noise-free,
+/// as column a.<channel> at the measured times. The trial gets its own trial_hash (the fit cache
+/// key). Throws std::runtime_error naming the column when the truth lacks it.
+Trial WithStimulatedActivations(const Trial& measured, const Trial& truth,
+                                const sim::ModelParams& model) {
+  Trial t = measured;
+  const muscles::ArrayMatrix a = sim::BuildElectrodeMatrix(model);
+  std::string added;
+  for (const std::string& u : measured.NamesWithPrefix("u.")) {
+    const std::string channel = u.substr(2);
+    int k = -1;
+    for (std::size_t c = 0; c < model.channels.size(); ++c) {
+      if (model.channels[c].name == channel) k = static_cast<int>(c);
+    }
+    if (k < 0) continue;
+    int best = -1;
+    for (int j = 0; j < a.muscles; ++j) {
+      if (a(j, k) > 0.0 && (best < 0 || a(j, k) > a(best, k))) best = j;
+    }
+    if (best < 0) continue;
+    const std::string column = "a." + model.muscles[static_cast<std::size_t>(best)].name;
+    if (!truth.Has(column)) {
+      throw std::runtime_error("shoulder: truth column " + column + " missing (channel " + channel +
+                               ")");
+    }
+    t.AddColumn("a." + channel, Resample(truth, column, measured.time));
+    added += " a." + channel + "=" + column;
+  }
+  t.metadata["trial_hash"] = Fnv1a64Hex(TrialHash(measured) + "\nactivations" + added);
+  return t;
+}
+
 }  // namespace
 
 SectionResult RunElbowTests(const BenchmarkSection& section, SectionContext* ctx) {
@@ -961,18 +1024,47 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
   const int nm = static_cast<int>(methods.size());
   std::vector<std::vector<FitOutput>> fits(static_cast<std::size_t>(np),
                                            std::vector<FitOutput>(static_cast<std::size_t>(nm)));
+  // Per participant: trials 1 (fit) and 2 (held out) with σ, and model 2's θmax.
+  std::vector<Trial> train(static_cast<std::size_t>(np)), test(static_cast<std::size_t>(np));
+  std::vector<std::map<std::string, std::string>> options(static_cast<std::size_t>(np));
+  for (int p = 0; p < np; ++p) {
+    const StudyItem& item = data.study.items[L.Index(p, 0, 0)];
+    train[p] = WithStimulatedActivations(data.measured[L.Index(p, 0, 0)],
+                                         data.truth[L.Index(p, 0, 0)], item.scenario.model);
+    test[p] = WithStimulatedActivations(data.measured[L.Index(p, 0, 1)],
+                                        data.truth[L.Index(p, 0, 1)], item.scenario.model);
+    options[p] = ShoulderFitOptions(section, item, train[p]);
+  }
   ctx->loop->Run("shoulder fit", static_cast<std::size_t>(np) * nm, [&](std::size_t i) {
     const int p = static_cast<int>(i) / nm, m = static_cast<int>(i) % nm;
-    const std::vector<Trial> train = {data.measured[L.Index(p, 0, 0)]};
-    const std::vector<Trial> test = {data.measured[L.Index(p, 0, 1)]};
-    fits[p][m] = ctx->fits->Run(methods[m], train, test, section.options);
+    fits[p][m] = ctx->fits->Run(methods[m], {train[p]}, {test[p]}, options[p]);
     ctx->progress->Done(kShoulderFitWeight, "shoulder: models 1, 2 and EKF");
   });
   SectionResult out;
   std::string md = "## Shoulder (paper 003)\n\n";
+  Json theta_max = Json::Array();
+  std::string theta_max_text;
+  for (int p = 0; p < np; ++p) {
+    const auto ant = options[p].find("theta_max_ant"), post = options[p].find("theta_max_post");
+    if (ant == options[p].end() || post == options[p].end()) continue;
+    const double a = std::stod(ant->second), b = std::stod(post->second);
+    Json j = Json::Object();
+    j.Set("participant", "p" + std::to_string(p + 1)).Set("theta_max_ant_rad", a);
+    j.Set("theta_max_post_rad", b);
+    theta_max.Push(j);
+    theta_max_text += (theta_max_text.empty() ? "" : ", ") + std::string("p") +
+                      std::to_string(p + 1) + " " + Fixed(a * 180.0 / M_PI, 0) + "° / " +
+                      Fixed(b * 180.0 / M_PI, 0) + "°";
+  }
   md += "Study `" + data.study.name + "`: " + std::to_string(np) +
         " participant(s); fitted on trial 1, evaluated on trial 2 (pseudo-random anterior / "
-        "posterior deltoid steps). J_L = paper 003's normalised squared error Σ(y − ŷ)²/Σ(y − ȳ)² "
+        "posterior deltoid steps). Input σ: the simulated activation of the stimulated deltoid "
+        "part, as paper 003 §III feeds its models the activation estimated from the evoked EMG "
+        "(fesim has no EMG; here noise-free). Model 2's θmax (paper 003: the maximum reachable "
+        "angles) at the ends of the rig's joint range, from rest in the paper's frame "
+        "(anterior / posterior): " +
+        (theta_max_text.empty() ? std::string("paper 003's") : theta_max_text) +
+        ". J_L = paper 003's normalised squared error Σ(y − ŷ)²/Σ(y − ȳ)² "
         "(%, lower is better); "
         "Best Fit of the simulated velocity against the noiseless truth. Paper: J_L velocity of "
         "Tables I(b) and II(b), one measured subject, on its identification data, not a held-out "
@@ -1019,6 +1111,8 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
   }
   out.json.Set("study", data.study.name);
   out.json.Set("participants", np);
+  out.json.Set("input_sigma", "simulated activation of the stimulated muscle (truth a.*)");
+  out.json.Set("theta_max", theta_max);
   out.json.Set("fits", rows);
   out.json.Set("paper", PaperJson(kPaper003));
   if (np > 0) ShoulderFitPlot(data.measured[L.Index(0, 0, 1)], methods, fits[0], ctx, &md);
@@ -1028,7 +1122,9 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
     md +=
         "\nEKF (model 2 with augmented parameter state): convergence time (into a band "
         "around the final estimate) and mean estimate after convergence relative to the "
-        "offline fit:\n\n| participant | parameter | convergence time s | error vs offline % |"
+        "offline fit of the same trial with the filter's model (R_ant = R_post = 0) and c, as "
+        "paper 003 Table IV:\n\n| participant | parameter | convergence time s | "
+        "error vs offline % |"
         "\n|---|---|---|---|\n";
     for (int p = 0; p < np; ++p) {
       const Json& t0 = fits[p][m].metrics.Find("trials")->Items()[0];
@@ -1057,13 +1153,18 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
   // with model 2 holds only then, never because model 2 failed.
   const double jl2 = i2 >= 0 ? MeanFinite(jl[i2]) : NAN;
   const bool model2_fits = jl2 < 100.0;
-  // Why the fits differ from paper 003's on this rig (measured on the quick study, fits
-  // on true activations instead of u / 300 µs: model 1 0.8–3 %, model 2 10–45 %).
+  // Why model 1 fits better here (a real difference, measured on the quick study with σ = the
+  // activation): model 2 makes the torque K σ (θmax − θ), so the farther θmax, the less it
+  // depends on θ; p1's held-out J_L falls from 2.4 % at θmax = (−2.02, 1.82) rad (the rig's
+  // range ends) to 1.4 % at (−2.5, 2.5) and 0.9 % at (−2.5, 3.5), toward model 1's 0.8 %.
+  // fesim's deltoid (a Hill muscle on a constant moment arm) depends on θ only through its
+  // force–length curve, less than model 2 with θmax inside the joint range allows.
   const std::string cause =
-      "; cause: the models' input is σ = u / 300 µs, without the recruitment curve and "
-      "activation dynamics that paper 003's σ (eEMG through calcium dynamics) contains, and "
-      "fesim's deltoid torque hardly depends on the angle, whereas model 2 makes it "
-      "proportional to θmax − θ";
+      "; cause: a difference of the muscle, not of the fit — model 2's torque K σ (θmax − θ) with "
+      "θmax at the rig's range ends depends on the angle more than fesim's deltoid (a Hill "
+      "muscle on a constant moment arm), whereas model 1 sets torque and stiffness apart; "
+      "model 2's J_L " +
+      Fixed(jl2, 1) + " % against paper 003's " + PaperShoulderJl("shoulder-model2") + " %";
   if (i1 >= 0 && i2 >= 0) {
     // J_L is a normalised squared error: lower is better.
     const double a = MeanFinite(jl[i1]), b = jl2;
@@ -1087,6 +1188,39 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
         "mean J_L velocity EKF " + Fixed(e, 1) + " % (filtered, measurement-updated state) vs " +
             "offline " + Fixed(b, 1) + " % (simulation)" +
             (model2_fits ? "" : "; not tested: offline model 2 predicts no better than the mean"));
+    findings.Push(f);
+    md += FindingLine(f);
+  }
+  if (ie >= 0) {
+    // Paper 003 Table IV: online and offline estimates within 5 % on the same data.
+    double worst = 0.0;
+    std::string where;
+    for (int p = 0; p < np; ++p) {
+      const Json& params = *fits[p][ie].metrics.Find("trials")->Items()[0].Find("parameters");
+      for (std::size_t k = 0; k < params.Keys().size(); ++k) {
+        const double e = params.Items()[k].Find("error_vs_offline_percent")->AsNumber();
+        if (std::isfinite(e) && std::abs(e) >= worst) {
+          worst = std::abs(e);
+          where = params.Keys()[k] + ", p" + std::to_string(p + 1);
+        }
+      }
+    }
+    const bool holds = worst < 5.0;
+    // On data of model 2 itself the filter and the offline fit agree within 5 %
+    // (Ekf.ErrorVsOfflineIsAgainstTheOfflineFitOfTheSameTrialAndModel); on fesim's arm they
+    // weigh model 2's misfit differently (the filter one-step predictions weighted by its
+    // tuning, the offline fit the simulated velocity over the whole trial).
+    const std::string cause =
+        "; cause: model 2 does not describe fesim's arm exactly (held-out J_L " + Fixed(jl2, 1) +
+        " % against model 1's " + (i1 >= 0 ? Fixed(MeanFinite(jl[i1]), 1) : std::string("–")) +
+        " %), and the filter (weighted one-step predictions) and the offline fit (simulated "
+        "velocity over the trial) settle on different compromises; on data of model 2 itself "
+        "they agree within 5 %";
+    Json f = Finding(
+        "the EKF's estimates differ from the offline fit's of the same data by less than 5 % "
+        "(paper 003 Table IV)",
+        holds,
+        "largest |difference| " + Fixed(worst, 1) + " % (" + where + ")" + (holds ? "" : cause));
     findings.Push(f);
     md += FindingLine(f);
   }

@@ -20,16 +20,20 @@ namespace fesim::paper_benchmark {
 namespace {
 
 /// The truth record reduced to what the benchmark compares against: inputs, joint angles and
-/// velocities, sensor torques (the full record with forces and activations is `fesim simulate`'s).
+/// velocities, sensor torques, and the activations a.* of the muscles that were activated (the
+/// shoulder section's σ, [Spagnol 2013] §III; the full record with forces is `fesim simulate`'s).
 Trial TrimTruth(const Trial& truth) {
   Trial t;
   t.metadata = truth.metadata;
   t.time = truth.time;
   for (std::size_t k = 0; k < truth.names.size(); ++k) {
     const std::string& n = truth.names[k];
+    const auto& c = truth.columns[k];
+    const bool active =
+        n.rfind("a.", 0) == 0 && std::any_of(c.begin(), c.end(), [](double v) { return v != 0.0; });
     if (n.rfind("u.", 0) == 0 || n.rfind("q.", 0) == 0 || n.rfind("qd.", 0) == 0 ||
-        n.rfind("tau.", 0) == 0) {
-      t.AddColumn(n, truth.columns[k]);
+        n.rfind("tau.", 0) == 0 || active) {
+      t.AddColumn(n, c);
     }
   }
   return t;
@@ -298,7 +302,7 @@ StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
   // key: a change of the defaults (sim::TaskTolerances) must not reuse trials of the old ones.
   const std::string key = Fnv1a64Hex(
       st.source_text + "\n--\n" + ReadFile(st.scenario_path) + "\n--\n" + std::to_string(seed) +
-      "\n" + FESIM_VERSION + "\nsensor-view-1\ndefault-tolerances " +
+      "\n" + FESIM_VERSION + "\nsensor-view-1\ntruth-activations\ndefault-tolerances " +
       std::to_string(sim::TaskTolerances::kTrialGeneration) + " " +
       std::to_string(sim::TaskTolerances::kTrialGenerationTremor) + " " +
       std::to_string(sim::TaskTolerances::kTrialGenerationFriction));

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <stdexcept>
@@ -161,6 +162,38 @@ TEST(ShoulderModels, Model2FitRecoversPlantedParameters) {
   EXPECT_LT(fit.cost, 1e-6);
 }
 
+// [Spagnol 2013] §III-C: R̃1 = R̃2 = 0 in Table II(a), and §IV's EKF (eq. 4) drops them. The fit
+// that holds them at zero keeps them there and recovers the rest; the free fit finds them.
+TEST(ShoulderModels, Model2FitWithZeroActivationDampingHoldsThemAtZero) {
+  ShoulderModel2Params truth = PlantedModel2();
+  truth.r_ant = 0.4;
+  truth.r_post = 0.3;
+  const Eigen::VectorXd p = ToVector(truth);
+  const std::vector<ShoulderData> trials = {
+      Simulated(ShoulderModel::kModel2, p, truth.theta_max_ant, truth.theta_max_post, kSeed + 3)};
+  const auto free = FitShoulderModel(ShoulderModel::kModel2, trials, truth.theta_max_ant,
+                                     truth.theta_max_post, truth.c);
+  EXPECT_FALSE(free.zero_activation_damping);
+  EXPECT_NEAR(free.p(2), truth.r_ant, kRecoveryRelTol * truth.r_ant);
+  EXPECT_NEAR(free.p(3), truth.r_post, kRecoveryRelTol * truth.r_post);
+  const auto held = FitShoulderModel(ShoulderModel::kModel2, trials, truth.theta_max_ant,
+                                     truth.theta_max_post, truth.c, Eigen::VectorXd(), true);
+  EXPECT_TRUE(held.zero_activation_damping);
+  EXPECT_EQ(held.p(2), 0.0);
+  EXPECT_EQ(held.p(3), 0.0);
+  EXPECT_EQ(held.ci95(2), 0.0);
+  EXPECT_GT(held.cost, free.cost);  // the planted damping is missing
+  // Planted without activation damping, the held fit recovers every parameter.
+  const ShoulderModel2Params simple = PlantedModel2();
+  const Eigen::VectorXd ps = ToVector(simple);
+  const auto fit = FitShoulderModel(ShoulderModel::kModel2,
+                                    {Simulated(ShoulderModel::kModel2, ps, simple.theta_max_ant,
+                                               simple.theta_max_post, kSeed + 4)},
+                                    simple.theta_max_ant, simple.theta_max_post, simple.c,
+                                    Eigen::VectorXd(), true);
+  for (int i : {0, 1, 4, 5}) EXPECT_NEAR(fit.p(i), ps(i), kRecoveryRelTol * ps(i)) << i;
+}
+
 TEST(ShoulderModels, Model1FitRecoversPlantedParametersWithKnownFriction) {
   const ShoulderModel1Params truth{-1.77, 1.76, 0.33, 0.6, 0.89, 0.3, 7.0, 0.95, 0.15};
   const Eigen::VectorXd p = ToVector(truth);
@@ -241,6 +274,56 @@ TEST(ShoulderModels, Model2RecoversPlantedParametersFromNoisyRigFrameTrials) {
   EXPECT_NEAR(r.predictions[0].Column("q.shoulder_elv_plane")[0],
               test.Column("q.shoulder_elv_plane")[0], kExactTol);
   EXPECT_NE(r.model_yaml.find("direction: -1"), std::string::npos) << r.model_yaml;
+}
+
+TEST(ShoulderModels, ThetaMaxFromJointRangeInTheModelsFrame) {
+  constexpr double kDeg = M_PI / 180.0;
+  ShoulderData d;
+  d.theta_rest = 14.0 * kDeg;  // the shoulder_exo rig: rest 14°, range −90° … 130°
+  d.direction = -1.0;          // its anterior deltoid drives q up
+  double ant = 0.0, post = 0.0;
+  ThetaMaxFromJointRange(-90.0 * kDeg, 130.0 * kDeg, d, &ant, &post);
+  EXPECT_NEAR(ant, -116.0 * kDeg, kExactTol);  // 130° is −116° from rest in θ
+  EXPECT_NEAR(post, 104.0 * kDeg, kExactTol);
+  d.direction = 1.0;
+  ThetaMaxFromJointRange(-90.0 * kDeg, 130.0 * kDeg, d, &ant, &post);
+  EXPECT_NEAR(ant, -104.0 * kDeg, kExactTol);
+  EXPECT_NEAR(post, 116.0 * kDeg, kExactTol);
+  EXPECT_THROW(ThetaMaxFromJointRange(20.0 * kDeg, 130.0 * kDeg, d, &ant, &post),
+               std::invalid_argument);
+}
+
+// [Spagnol 2013] eq. 3's θmax are its rig's reachable angles. An arm that travels beyond the
+// paper's θmax_ant (≈ −56°) from rest, as fesim's shoulder_exo arm does (to ≈ −100°), turns the
+// anterior deltoid's torque K σ (θmax − θ) around there: with the paper's θmax the fit cannot
+// follow; with the rig's it recovers the planted person.
+TEST(ShoulderModels, Model2NeedsTheRigsThetaMaxWhenTheArmTravelsBeyondThePapers) {
+  constexpr double kRigThetaMaxAnt = -2.0246;  // rad: −116°, shoulder_exo's range end
+  constexpr double kRigThetaMaxPost = 1.8151;  // rad: +104°
+  constexpr double kPaperFitFloor = 0.01;      // J_L(ω) of the paper-θmax fit stays above 1 %
+  ShoulderModel2Params truth = PlantedModel2();
+  truth.k_ant = 3.0;
+  truth.k_post = 2.0;
+  truth.k_m = 0.5;  // weak passive spring: full anterior activation holds θ ≈ −1.7 rad
+  truth.theta_max_ant = kRigThetaMaxAnt;
+  truth.theta_max_post = kRigThetaMaxPost;
+  const Eigen::VectorXd p = ToVector(truth);
+  const ShoulderData d =
+      Simulated(ShoulderModel::kModel2, p, kRigThetaMaxAnt, kRigThetaMaxPost, kSeed + 11);
+  double theta_min = 0.0;
+  for (double th : d.theta) theta_min = std::min(theta_min, th);
+  ASSERT_LT(theta_min, ShoulderModel2Params().theta_max_ant);  // beyond the paper's θmax
+  const ShoulderModel2Params paper;
+  const auto wrong = FitShoulderModel(ShoulderModel::kModel2, {d}, paper.theta_max_ant,
+                                      paper.theta_max_post, truth.c);
+  EXPECT_GT(wrong.cost, kPaperFitFloor);
+  const auto right =
+      FitShoulderModel(ShoulderModel::kModel2, {d}, kRigThetaMaxAnt, kRigThetaMaxPost, truth.c);
+  EXPECT_LT(right.cost, 1e-6);
+  const auto names = ParameterNames(ShoulderModel::kModel2);
+  for (int i = 0; i < p.size(); ++i) {
+    EXPECT_NEAR(right.p(i), p(i), kRecoveryRelTol * std::max(std::abs(p(i)), 0.1)) << names[i];
+  }
 }
 
 TEST(ShoulderModels, FrameFromMetadataAndTransformedBack) {
