@@ -2,6 +2,7 @@
 // internal to paper_benchmark/, declared here for tests/paper_benchmark/paper_sections_test.cc.
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -58,6 +59,11 @@ struct ElbowBestFits {
 ElbowBestFits GatherElbowBestFits(const std::vector<ElbowJob>& jobs,
                                   const std::vector<ElbowJobFigures>& figures, int methods,
                                   int protocols);
+
+/// [Le 2010] Table 3 under the measure of fesim's finding "the staircase model predicts the other
+/// tests best": per test fitted on ("TR", "FRN", "Staircase"), the mean over both algorithms of
+/// the mean Best Fit on the other two tests (%; the blank cell of Table 3(a) left out).
+std::map<std::string, double> PaperCrossMeanOfOthers();
 
 /// Angle amplitude of the identified tremor, rad: the tremor term d = λ1 cos + λ2 sin at
 /// frequency f_hz ([Copur 2016] eq. 10) enters the output as d / A_P (identification/tremor_arx.h),

@@ -187,6 +187,11 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
   }
   for (const auto& f : At(r, "findings").Items()) {
     EXPECT_NE(report.find(f.Find("margin")->AsString()), std::string::npos);
+    // A finding that fails says why (issue 27: a bug fixed, a protocol matched, or a difference).
+    if (!f.Find("holds")->AsBool()) {
+      EXPECT_NE(f.Find("margin")->AsString().find("cause: "), std::string::npos)
+          << f.Find("claim")->AsString();
+    }
   }
   // Every value of the papers' table (paper_values.cc) stands in its paper's section of the
   // report and in that section's results.json "paper" block.

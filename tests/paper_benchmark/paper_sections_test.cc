@@ -182,6 +182,16 @@ TEST(PaperSections, ElbowBestFitsGoToIdentificationValidationAndCrossValidation)
   EXPECT_EQ(b.cross_truth[0][1], (std::vector<double>{1000.0, 1000.0}));
 }
 
+TEST(PaperSections, PaperTableThreeRanksFrnFirstByTheMeanOverTheOtherTests) {
+  // [Le 2010] Table 3, off the diagonal: (a) TR (17.76, 47.94), FRN (83.96, 71.40), Staircase
+  // (79.53, 42.67); (b) TR (41.08, 64.11), FRN (68.75, 67.86), Staircase (80.72, 45.00).
+  const auto m = PaperCrossMeanOfOthers();
+  ASSERT_EQ(m.size(), 3u);
+  EXPECT_NEAR(m.at("TR"), (32.85 + 52.595) / 2.0, 1e-9);
+  EXPECT_NEAR(m.at("FRN"), (77.68 + 68.305) / 2.0, 1e-9);
+  EXPECT_NEAR(m.at("Staircase"), (61.10 + 62.86) / 2.0, 1e-9);
+}
+
 TEST(PaperSections, TremorAmplitudeDividesByTheArxDenominatorAtTheTremorFrequency) {
   // |λ| = 5; without poles the amplitude is |λ|.
   EXPECT_NEAR(TremorAngleAmplitude({}, 3.0, 4.0, 6.0, 0.01), 5.0, kTol);
