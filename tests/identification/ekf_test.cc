@@ -244,9 +244,9 @@ TEST(Ekf, TuningFromMetadataIsValidated) {
   }
 }
 
-TEST(Ekf, MethodReportsConvergenceAndErrorsAgainstTruthAndOffline) {
-  const Truth truth;
-  const ShoulderData d = OwnModelData(truth, 120.0, 1e9, 1.0, 1e-4, 1e-3, kSeed + 3);
+/// A trial of the EKF's own model (eq. 9–10) with activations a.* and known friction.
+Trial OwnModelTrial(const Truth& truth, double noise_theta, double noise_omega, unsigned seed) {
+  const ShoulderData d = OwnModelData(truth, 120.0, 1e9, 1.0, noise_theta, noise_omega, seed);
   Trial t;
   t.time = d.time;
   t.AddColumn("a.deltoid_anterior", d.sigma_ant);
@@ -254,8 +254,15 @@ TEST(Ekf, MethodReportsConvergenceAndErrorsAgainstTruthAndOffline) {
   t.AddColumn("q.shoulder_horizontal", d.theta);
   t.AddColumn("qd.shoulder_horizontal", d.omega);
   t.metadata["friction_c"] = std::to_string(truth.c);
+  t.metadata["theta_direction"] = "1";
+  t.metadata["ekf.r_omega"] = std::to_string(noise_omega * noise_omega);
+  return t;
+}
+
+TEST(Ekf, MethodReportsConvergenceAndErrorsAgainstTruthAndOffline) {
+  const Truth truth;
+  Trial t = OwnModelTrial(truth, 1e-4, 1e-3, kSeed + 3);
   t.metadata["true_k_ant"] = std::to_string(truth.k_ant);
-  t.metadata["ekf.r_omega"] = "1e-6";
   const auto r = RunShoulderEkfMethod({t}, {}, nullptr);
   ASSERT_EQ(r.predictions.size(), 1u);
   const auto& k_ant = r.predictions[0].Column("param.k_ant");
@@ -308,21 +315,6 @@ TEST(Ekf, MethodConvergesToPlantedParametersOnNoisyRigFrameTrial) {
   }
   // The filtered angle is reported in the trial's frame.
   EXPECT_NEAR(r.predictions[0].Column("q.shoulder_elv_plane")[100], q[100], 5.0 * kRigAngleNoise);
-}
-
-/// A trial of the EKF's own model (eq. 9–10) with activations a.* and known friction.
-Trial OwnModelTrial(const Truth& truth, double noise_theta, double noise_omega, unsigned seed) {
-  const ShoulderData d = OwnModelData(truth, 120.0, 1e9, 1.0, noise_theta, noise_omega, seed);
-  Trial t;
-  t.time = d.time;
-  t.AddColumn("a.deltoid_anterior", d.sigma_ant);
-  t.AddColumn("a.deltoid_posterior", d.sigma_post);
-  t.AddColumn("q.shoulder_horizontal", d.theta);
-  t.AddColumn("qd.shoulder_horizontal", d.omega);
-  t.metadata["friction_c"] = std::to_string(truth.c);
-  t.metadata["theta_direction"] = "1";
-  t.metadata["ekf.r_omega"] = std::to_string(noise_omega * noise_omega);
-  return t;
 }
 
 // [Spagnol 2013] Table IV compares the online estimate with the offline fit of the same data set
