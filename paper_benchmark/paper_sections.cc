@@ -1077,37 +1077,12 @@ SectionResult RunTremorWrist(const BenchmarkSection& section, SectionContext* ct
   return out;
 }
 
-SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) {
-  const std::string& path = ctx->quick ? section.quick_study_path : section.study_path;
-  const StudyTrials data = SectionStudy(section, ctx);
-  const StudyLayout L = LayoutOf(data.study);
-  if (L.reps < 2) throw std::runtime_error(path + ": repetitions: shoulder needs >= 2");
-  const int np = L.participants;
-  const std::vector<std::string>& methods = section.methods;
-  const int nm = static_cast<int>(methods.size());
-  std::vector<std::vector<FitOutput>> fits(static_cast<std::size_t>(np),
-                                           std::vector<FitOutput>(static_cast<std::size_t>(nm)));
-  // Per participant: trials 1 (fit) and 2 (held out) with σ, and model 2's θmax.
-  std::vector<Trial> train(static_cast<std::size_t>(np)), test(static_cast<std::size_t>(np));
-  std::vector<std::map<std::string, std::string>> options(static_cast<std::size_t>(np));
-  for (int p = 0; p < np; ++p) {
-    const StudyItem& item = data.study.items[L.Index(p, 0, 0)];
-    train[p] = WithStimulatedActivations(data.measured[L.Index(p, 0, 0)],
-                                         data.truth[L.Index(p, 0, 0)], item.scenario.model);
-    test[p] = WithStimulatedActivations(data.measured[L.Index(p, 0, 1)],
-                                        data.truth[L.Index(p, 0, 1)], item.scenario.model);
-    options[p] = ShoulderFitOptions(section, item, train[p]);
-  }
-  ctx->loop->Run("shoulder fit", static_cast<std::size_t>(np) * nm, [&](std::size_t i) {
-    const int p = static_cast<int>(i) / nm, m = static_cast<int>(i) % nm;
-    fits[p][m] = ctx->fits->Run(methods[m], {train[p]}, {test[p]}, options[p]);
-    ctx->progress->Done(kShoulderFitWeight, "shoulder: models 1, 2 and EKF");
-  });
-  SectionResult out;
-  std::string md = "## Shoulder (paper 003)\n\n";
+/// Model 2's θmax of each participant (ShoulderFitOptions) as JSON rows; `text` gets
+/// "p1 a° / b°, …" for the report.
+Json ShoulderThetaMax(const std::vector<std::map<std::string, std::string>>& options,
+                      std::string* text) {
   Json theta_max = Json::Array();
-  std::string theta_max_text;
-  for (int p = 0; p < np; ++p) {
+  for (std::size_t p = 0; p < options.size(); ++p) {
     const auto ant = options[p].find("theta_max_ant"), post = options[p].find("theta_max_post");
     if (ant == options[p].end() || post == options[p].end()) continue;
     const double a = std::stod(ant->second), b = std::stod(post->second);
@@ -1115,28 +1090,22 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
     j.Set("participant", "p" + std::to_string(p + 1)).Set("theta_max_ant_rad", a);
     j.Set("theta_max_post_rad", b);
     theta_max.Push(j);
-    theta_max_text += (theta_max_text.empty() ? "" : ", ") + std::string("p") +
-                      std::to_string(p + 1) + " " + Fixed(a * 180.0 / M_PI, 0) + "° / " +
-                      Fixed(b * 180.0 / M_PI, 0) + "°";
+    *text += (text->empty() ? "" : ", ") + std::string("p") + std::to_string(p + 1) + " " +
+             Fixed(a * 180.0 / M_PI, 0) + "° / " + Fixed(b * 180.0 / M_PI, 0) + "°";
   }
-  md += "Study `" + data.study.name + "`: " + std::to_string(np) +
-        " participant(s); fitted on trial 1, evaluated on trial 2 (pseudo-random anterior / "
-        "posterior deltoid steps). Input σ: the simulated activation of the stimulated deltoid "
-        "part, as paper 003 §III feeds its models the activation estimated from the evoked EMG "
-        "(fesim has no EMG; here noise-free). Model 2's θmax (paper 003: the maximum reachable "
-        "angles) at the ends of the rig's joint range, from rest in the paper's frame "
-        "(anterior / posterior): " +
-        (theta_max_text.empty() ? std::string("paper 003's") : theta_max_text) +
-        ". J_L = paper 003's normalised squared error Σ(y − ŷ)²/Σ(y − ȳ)² "
-        "(%, lower is better); "
-        "Best Fit of the simulated velocity against the noiseless truth. Paper: J_L velocity of "
-        "Tables I(b) and II(b), one measured subject, on its identification data, not a held-out "
-        "trial (as printed in the stored copy, which loses digits).\n\n"
-        "| participant | method | J_L velocity % | paper J_L velocity % | J_L position % | "
-        "velocity Best Fit vs truth % |\n|---|---|---|---|---|---|\n";
+  return theta_max;
+}
+
+/// The fits' table: one row per participant and method (J_L of velocity and position on the
+/// held-out trial, Best Fit against the truth); jl[m] collects each method's J_L velocity, `ekf`
+/// the EKF rows with their parameters' convergence.
+Json ShoulderFitRows(const StudyTrials& data, const StudyLayout& L,
+                     const std::vector<std::string>& methods,
+                     const std::vector<std::vector<FitOutput>>& fits,
+                     std::vector<std::vector<double>>* jl, Json* ekf, std::string* md) {
   Json rows = Json::Array();
-  std::vector<std::vector<double>> jl(nm);
-  Json ekf = Json::Array();
+  const int np = L.participants, nm = static_cast<int>(methods.size());
+  jl->assign(static_cast<std::size_t>(nm), {});
   for (int p = 0; p < np; ++p) {
     const Trial& truth = data.truth[L.Index(p, 0, 1)];
     for (int m = 0; m < nm; ++m) {
@@ -1149,7 +1118,7 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
         if (n.rfind("qd.", 0) == 0) qd = n;
       }
       const double bf = qd.empty() ? NAN : FitAgainst(f.predictions[0], truth, qd);
-      jl[m].push_back(jv);
+      (*jl)[m].push_back(jv);
       Json r = Json::Object();
       r.Set("participant", "p" + std::to_string(p + 1)).Set("method", methods[m]);
       r.Set("J_L_velocity_percent", jv).Set("J_L_position_percent", jp);
@@ -1165,24 +1134,25 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
           conv.Set(params.Keys()[k], c);
         }
         r.Set("ekf_parameters", conv);
-        ekf.Push(r);
+        ekf->Push(r);
       }
       rows.Push(r);
-      md += "| p" + std::to_string(p + 1) + " | " + methods[m] + " | " + Fixed(jv, 1) + " | " +
-            PaperShoulderJl(methods[m]) + " | " + Fixed(jp, 1) + " | " + Fixed(bf, 1) + " |\n";
+      *md += "| p" + std::to_string(p + 1) + " | " + methods[m] + " | " + Fixed(jv, 1) + " | " +
+             PaperShoulderJl(methods[m]) + " | " + Fixed(jp, 1) + " | " + Fixed(bf, 1) + " |\n";
     }
   }
-  out.json.Set("study", data.study.name);
-  out.json.Set("participants", np);
-  out.json.Set("input_sigma", "simulated activation of the stimulated muscle (truth a.*)");
-  out.json.Set("theta_max", theta_max);
-  out.json.Set("fits", rows);
-  out.json.Set("paper", PaperJson(kPaper003));
-  if (np > 0) ShoulderFitPlot(data.measured[L.Index(0, 0, 1)], methods, fits[0], ctx, &md);
-  // EKF convergence table and parameter trajectories of participant 1.
+  return rows;
+}
+
+/// The EKF's convergence table (paper 003 Table IV's comparison) and participant 1's parameter
+/// trajectories.
+void ShoulderEkfTable(const std::vector<std::string>& methods,
+                      const std::vector<std::vector<FitOutput>>& fits, SectionContext* ctx,
+                      std::string* md) {
+  const int np = static_cast<int>(fits.size()), nm = static_cast<int>(methods.size());
   for (int m = 0; m < nm; ++m) {
     if (methods[m] != "shoulder-ekf") continue;
-    md +=
+    *md +=
         "\nEKF (model 2 with augmented parameter state): convergence time (into a band "
         "around the final estimate) and mean estimate after convergence relative to the "
         "offline fit of the same trial with the filter's model (R_ant = R_post = 0) and c, as "
@@ -1194,14 +1164,22 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
       const Json& params = *t0.Find("parameters");
       for (std::size_t k = 0; k < params.Keys().size(); ++k) {
         const Json& pj = params.Items()[k];
-        md += "| p" + std::to_string(p + 1) + " | " + params.Keys()[k] + " | " +
-              Fixed(pj.Find("convergence_time_s")->AsNumber(), 2) + " | " +
-              Fixed(pj.Find("error_vs_offline_percent")->AsNumber(), 1) + " |\n";
+        *md += "| p" + std::to_string(p + 1) + " | " + params.Keys()[k] + " | " +
+               Fixed(pj.Find("convergence_time_s")->AsNumber(), 2) + " | " +
+               Fixed(pj.Find("error_vs_offline_percent")->AsNumber(), 1) + " |\n";
       }
     }
-    EkfParameterPlot(fits[0][m].predictions[0], ctx, &md);
+    EkfParameterPlot(fits[0][m].predictions[0], ctx, md);
   }
-  out.json.Set("ekf", ekf);
+}
+
+/// Paper 003's findings: models 1 and 2 fit alike, the EKF tracks at least as well as the
+/// offline model 2, and (Table IV) the EKF's estimates lie within 5 % of the offline fit's —
+/// each with its cause when it fails.
+Json ShoulderFindings(const std::vector<std::string>& methods,
+                      const std::vector<std::vector<FitOutput>>& fits,
+                      const std::vector<std::vector<double>>& jl, std::string* md) {
+  const int np = static_cast<int>(fits.size()), nm = static_cast<int>(methods.size());
   Json findings = Json::Array();
   int i1 = -1, i2 = -1;
   for (int m = 0; m < nm; ++m) {
@@ -1240,7 +1218,7 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
                      "mean J_L velocity model 1 " + Fixed(a, 1) + " %, model 2 " + Fixed(b, 1) +
                          " % (held-out trial)" + (holds ? "" : cause));
     findings.Push(f);
-    md += FindingLine(f);
+    *md += FindingLine(f);
   }
   if (i2 >= 0 && ie >= 0) {
     const double b = jl2, e = MeanFinite(jl[ie]);
@@ -1252,7 +1230,7 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
             "offline " + Fixed(b, 1) + " % (simulation)" +
             (model2_fits ? "" : "; not tested: offline model 2 predicts no better than the mean"));
     findings.Push(f);
-    md += FindingLine(f);
+    *md += FindingLine(f);
   }
   if (ie >= 0) {
     // Paper 003 Table IV: online and offline estimates within 5 % on the same data.
@@ -1285,8 +1263,69 @@ SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) 
         holds,
         "largest |difference| " + Fixed(worst, 1) + " % (" + where + ")" + (holds ? "" : cause));
     findings.Push(f);
-    md += FindingLine(f);
+    *md += FindingLine(f);
   }
+  return findings;
+}
+
+SectionResult RunShoulder(const BenchmarkSection& section, SectionContext* ctx) {
+  const std::string& path = ctx->quick ? section.quick_study_path : section.study_path;
+  const StudyTrials data = SectionStudy(section, ctx);
+  const StudyLayout L = LayoutOf(data.study);
+  if (L.reps < 2) throw std::runtime_error(path + ": repetitions: shoulder needs >= 2");
+  const int np = L.participants;
+  const std::vector<std::string>& methods = section.methods;
+  const int nm = static_cast<int>(methods.size());
+  std::vector<std::vector<FitOutput>> fits(static_cast<std::size_t>(np),
+                                           std::vector<FitOutput>(static_cast<std::size_t>(nm)));
+  // Per participant: trials 1 (fit) and 2 (held out) with σ, and model 2's θmax.
+  std::vector<Trial> train(static_cast<std::size_t>(np)), test(static_cast<std::size_t>(np));
+  std::vector<std::map<std::string, std::string>> options(static_cast<std::size_t>(np));
+  for (int p = 0; p < np; ++p) {
+    const StudyItem& item = data.study.items[L.Index(p, 0, 0)];
+    train[p] = WithStimulatedActivations(data.measured[L.Index(p, 0, 0)],
+                                         data.truth[L.Index(p, 0, 0)], item.scenario.model);
+    test[p] = WithStimulatedActivations(data.measured[L.Index(p, 0, 1)],
+                                        data.truth[L.Index(p, 0, 1)], item.scenario.model);
+    options[p] = ShoulderFitOptions(section, item, train[p]);
+  }
+  ctx->loop->Run("shoulder fit", static_cast<std::size_t>(np) * nm, [&](std::size_t i) {
+    const int p = static_cast<int>(i) / nm, m = static_cast<int>(i) % nm;
+    fits[p][m] = ctx->fits->Run(methods[m], {train[p]}, {test[p]}, options[p]);
+    ctx->progress->Done(kShoulderFitWeight, "shoulder: models 1, 2 and EKF");
+  });
+  SectionResult out;
+  std::string md = "## Shoulder (paper 003)\n\n";
+  std::string theta_max_text;
+  const Json theta_max = ShoulderThetaMax(options, &theta_max_text);
+  md += "Study `" + data.study.name + "`: " + std::to_string(np) +
+        " participant(s); fitted on trial 1, evaluated on trial 2 (pseudo-random anterior / "
+        "posterior deltoid steps). Input σ: the simulated activation of the stimulated deltoid "
+        "part, as paper 003 §III feeds its models the activation estimated from the evoked EMG "
+        "(fesim has no EMG; here noise-free). Model 2's θmax (paper 003: the maximum reachable "
+        "angles) at the ends of the rig's joint range, from rest in the paper's frame "
+        "(anterior / posterior): " +
+        (theta_max_text.empty() ? std::string("paper 003's") : theta_max_text) +
+        ". J_L = paper 003's normalised squared error Σ(y − ŷ)²/Σ(y − ȳ)² "
+        "(%, lower is better); "
+        "Best Fit of the simulated velocity against the noiseless truth. Paper: J_L velocity of "
+        "Tables I(b) and II(b), one measured subject, on its identification data, not a held-out "
+        "trial (as printed in the stored copy, which loses digits).\n\n"
+        "| participant | method | J_L velocity % | paper J_L velocity % | J_L position % | "
+        "velocity Best Fit vs truth % |\n|---|---|---|---|---|---|\n";
+  std::vector<std::vector<double>> jl;
+  Json ekf = Json::Array();
+  const Json rows = ShoulderFitRows(data, L, methods, fits, &jl, &ekf, &md);
+  out.json.Set("study", data.study.name);
+  out.json.Set("participants", np);
+  out.json.Set("input_sigma", "simulated activation of the stimulated muscle (truth a.*)");
+  out.json.Set("theta_max", theta_max);
+  out.json.Set("fits", rows);
+  out.json.Set("paper", PaperJson(kPaper003));
+  if (np > 0) ShoulderFitPlot(data.measured[L.Index(0, 0, 1)], methods, fits[0], ctx, &md);
+  ShoulderEkfTable(methods, fits, ctx, &md);
+  out.json.Set("ekf", ekf);
+  const Json findings = ShoulderFindings(methods, fits, jl, &md);
   out.json.Set("findings", findings);
   out.markdown = md + "\n";
   return out;
