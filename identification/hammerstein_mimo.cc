@@ -232,25 +232,26 @@ struct LanesOf<4> {
 constexpr int kPhiCoefficients = 14;
 constexpr int kPhiRows[kPhiCoefficients] = {0, 1, 1, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4};
 constexpr int kPhiCols[kPhiCoefficients] = {0, 0, 1, 0, 1, 2, 0, 1, 2, 3, 0, 1, 2, 4};
-/// Sums of one chain's exact normal equations, per lane in PropagateLanes: a², b², a b, a o,
-/// b o over the samples, with a and b the Ω and μ columns of J up to the factors k_omega, k_mu
-/// and o = ỹ − y the residual.
-constexpr int kSensitivitySums = 5;
+/// Sums of one chain's exact normal equations and cost, per lane in PropagateLanes: a², b², a b,
+/// a o, b o, o² over the samples, with a and b the Ω and μ columns of J up to the factors
+/// k_omega, k_mu and o = ỹ − y the residual.
+constexpr int kSensitivitySums = 6;
 
 /// W independent chains (joint responses), one per lane, in the deviation form of
 /// JointSensitivityFilter: per sample k
-///   o = (ỹ − z)(k) − e₃,  sums += (a², b², a b, a o, b o),
+///   o = (ỹ − z)(k) − e₃,  sums += (a², b², a b, a o, b o, o²),
 ///   e ← Φ e − (z(k+1) − z(k)) s₁,
 /// from e = 0 (the steady state of z(0)). The input z enters only through ỹ − z and its
 /// increments, both fixed during the dynamic step, so the recursion needs no Γ and the lanes
 /// read one interleaved record per sample: `samples` holds, per sample, W values of ỹ − z, W of
 /// z(k+1) − z(k) (0 at the last sample) and, with kWeighted, W weights (1 measured, 0 missing:
 /// no residual and no Jacobian row; ỹ − z is stored as 0 there). `coef` holds the
-/// kPhiCoefficients coefficients, W lanes each; o is written to out[l][k]; `sums` receives
-/// kSensitivitySums × W values (aa, bb, ab, ao, bo; lane-minor). 19 multiplications and 18
-/// additions per sample and lane, against 26 and 23 of the recursion on x with Γ z. A lane
-/// whose records are all 0 stays at 0 (padding).
-template <int W, bool kWeighted>
+/// kPhiCoefficients coefficients, W lanes each; with kStore o is written to out[l][k] (out is
+/// not read otherwise); `sums` receives kSensitivitySums × W values (aa, bb, ab, ao, bo, oo;
+/// lane-minor). 20 multiplications and 19 additions per sample and lane, against 26 and 23 of
+/// the recursion on x with Γ z (and a residual vector to sum the cost from). A lane whose
+/// records are all 0 stays at 0 (padding).
+template <int W, bool kWeighted, bool kStore>
 [[gnu::always_inline]] inline void PropagateLanes(const double* coef, const double* samples,
                                                   Eigen::Index N, double* const* out,
                                                   double* sums) {
@@ -259,12 +260,14 @@ template <int W, bool kWeighted>
   V* const p[kPhiCoefficients] = {&p11, &p21, &p22, &p31, &p32, &p33, &pa1,
                                   &pa2, &pa3, &paa, &pb1, &pb2, &pb3, &pbb};
   for (int j = 0; j < kPhiCoefficients; ++j) std::memcpy(p[j], coef + j * W, sizeof(V));
-  double* o_out[W];
-  for (int l = 0; l < W; ++l) o_out[l] = out[l];
+  double* o_out[W] = {};
+  if constexpr (kStore) {
+    for (int l = 0; l < W; ++l) o_out[l] = out[l];
+  }
   constexpr int kStride = (kWeighted ? 3 : 2) * W;
   const V zero = {};
   V e1 = zero, e2 = zero, e3 = zero, a = zero, b = zero;
-  V aa = zero, bb = zero, ab = zero, ao = zero, bo = zero;
+  V aa = zero, bb = zero, ab = zero, ao = zero, bo = zero, oo = zero;
   for (Eigen::Index k = 0; k < N; ++k) {
     const double* rec = samples + k * kStride;
     V yz, dz;
@@ -279,13 +282,16 @@ template <int W, bool kWeighted>
       ak *= w;
       bk *= w;
     }
+    if constexpr (kStore) {
 #pragma GCC unroll 4
-    for (int l = 0; l < W; ++l) o_out[l][k] = o[l];
+      for (int l = 0; l < W; ++l) o_out[l][k] = o[l];
+    }
     aa += ak * ak;
     bb += bk * bk;
     ab += ak * bk;
     ao += ak * o;
     bo += bk * o;
+    oo += o * o;
     const V n1 = p11 * e1 - dz;
     const V n2 = p22 * e2 + (p21 * e1 - dz);
     const V n3 = p33 * e3 + (p31 * e1 + p32 * e2 - dz);
@@ -303,27 +309,32 @@ template <int W, bool kWeighted>
     sums[2 * W + l] = ab[l];
     sums[3 * W + l] = ao[l];
     sums[4 * W + l] = bo[l];
+    sums[5 * W + l] = oo[l];
   }
 }
 
 /// PropagateLanes on four lanes, compiled for AVX (no FMA: every lane does the same IEEE
 /// operations as on two SSE2 lanes, so the results do not depend on the lane count).
-[[gnu::target("avx")]] void PropagateLanes4(bool weighted, const double* coef,
+[[gnu::target("avx")]] void PropagateLanes4(bool weighted, bool store, const double* coef,
                                             const double* samples, Eigen::Index N,
                                             double* const* out, double* sums) {
   if (weighted) {
-    PropagateLanes<4, true>(coef, samples, N, out, sums);
+    store ? PropagateLanes<4, true, true>(coef, samples, N, out, sums)
+          : PropagateLanes<4, true, false>(coef, samples, N, out, sums);
   } else {
-    PropagateLanes<4, false>(coef, samples, N, out, sums);
+    store ? PropagateLanes<4, false, true>(coef, samples, N, out, sums)
+          : PropagateLanes<4, false, false>(coef, samples, N, out, sums);
   }
 }
 
-void PropagateLanes2(bool weighted, const double* coef, const double* samples, Eigen::Index N,
-                     double* const* out, double* sums) {
+void PropagateLanes2(bool weighted, bool store, const double* coef, const double* samples,
+                     Eigen::Index N, double* const* out, double* sums) {
   if (weighted) {
-    PropagateLanes<2, true>(coef, samples, N, out, sums);
+    store ? PropagateLanes<2, true, true>(coef, samples, N, out, sums)
+          : PropagateLanes<2, true, false>(coef, samples, N, out, sums);
   } else {
-    PropagateLanes<2, false>(coef, samples, N, out, sums);
+    store ? PropagateLanes<2, false, true>(coef, samples, N, out, sums)
+          : PropagateLanes<2, false, false>(coef, samples, N, out, sums);
   }
 }
 
@@ -392,36 +403,40 @@ class DynamicProblem {
     return r;
   }
 
-  /// r(Θ) and the exact JᵀJ, Jᵀr from one fused pass (PropagateLanes, one run of chains at a
-  /// time; r equals Residual's to rounding).
-  Eigen::VectorXd ResidualWithNormalEquations(const Eigen::VectorXd& theta, Eigen::MatrixXd* jtj,
-                                              Eigen::VectorXd* jtr) const {
+  /// The cost ‖r(Θ)‖² and the exact JᵀJ, Jᵀr from one pass (PropagateLanes, one run of chains at
+  /// a time), and r(Θ) into *r unless r is null (r equals Residual's to rounding).
+  double NormalEquations(const Eigen::VectorXd& theta, Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr,
+                         Eigen::VectorXd* r) const {
     std::vector<JointSensitivityFilter> f;
     for (double T : periods_) {
       for (Eigen::Index i = 0; i < q_; ++i) {
         f.push_back(DiscretiseJointSensitivities(theta(0), theta(1 + i), T));
       }
     }
-    Eigen::VectorXd r(n_res_);
+    if (r != nullptr) r->resize(n_res_);
     jtj->setZero(q_ + 1, q_ + 1);
     jtr->setZero(q_ + 1);
+    double cost = 0.0;
     const int W = lanes_;
     std::vector<double> coef(kPhiCoefficients * W), sums(kSensitivitySums * W);
     std::vector<double*> out(W);
     std::vector<double> padding;  // the residuals of padding lanes, discarded
     for (const Run& run : runs_) {
       const auto lanes = static_cast<int>(run.chains.size());
-      if (lanes < W && padding.size() < static_cast<std::size_t>(run.N)) padding.resize(run.N);
+      if (r != nullptr && lanes < W && padding.size() < static_cast<std::size_t>(run.N)) {
+        padding.resize(run.N);
+      }
       for (int l = 0; l < W; ++l) {
         const Chain& c = chains_[run.chains[std::min(l, lanes - 1)]];
         const JointSensitivityFilter& fc = f[c.filter];
         for (int j = 0; j < kPhiCoefficients; ++j) {
           coef[j * W + l] = fc.Phi(kPhiRows[j], kPhiCols[j]);
         }
-        out[l] = l < lanes ? r.data() + c.offset : padding.data();
+        if (r != nullptr) out[l] = l < lanes ? r->data() + c.offset : padding.data();
       }
-      (W == 4 ? PropagateLanes4 : PropagateLanes2)(!W_.empty(), coef.data(), run.samples.data(),
-                                                   run.N, out.data(), sums.data());
+      (W == 4 ? PropagateLanes4 : PropagateLanes2)(!W_.empty(), r != nullptr, coef.data(),
+                                                   run.samples.data(), run.N, out.data(),
+                                                   sums.data());
       for (int l = 0; l < lanes; ++l) {
         const Chain& c = chains_[run.chains[l]];
         const double ko = f[c.filter].k_omega, km = f[c.filter].k_mu;
@@ -432,10 +447,11 @@ class DynamicProblem {
         (*jtj)(i, i) += km * km * s(1);
         (*jtr)(0) += ko * s(3);
         (*jtr)(i) += km * s(4);
+        cost += s(5);
       }
     }
     for (Eigen::Index i = 1; i <= q_; ++i) (*jtj)(i, 0) = (*jtj)(0, i);
-    return r;
+    return cost;
   }
 
   /// Structured forward differences straight into the normal equations: per trial and joint i,
@@ -642,7 +658,7 @@ DynamicNormalEquations HammersteinDynamicNormalEquations(const std::vector<MimoT
   Eigen::VectorXd theta(p.mu_s.size() + 1);
   theta << p.omega_rad_s, p.mu_s;
   DynamicNormalEquations out;
-  out.residual = problem.ResidualWithNormalEquations(theta, &out.jtj, &out.jtr);
+  problem.NormalEquations(theta, &out.jtj, &out.jtr, &out.residual);
   return out;
 }
 
@@ -816,18 +832,19 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
   const Eigen::Index q = fit->params.d_rad.rows();
   const DynamicProblem problem(trials, fit->params);
   const bool exact = options.dynamic_jacobian == DynamicJacobian::kExactSensitivities;
-  // Exact path: every residual evaluation also propagates the sensitivities and keeps JᵀJ, Jᵀr
-  // for its Θ. LevenbergMarquardt asks for the normal equations only at the point it evaluated
-  // last (the start, then each accepted step), so they come without another simulation; at any
-  // other Θ they are recomputed.
+  // Exact path: every cost evaluation also propagates the sensitivities and keeps JᵀJ, Jᵀr for
+  // its Θ, and the residual vector is never stored (LevenbergMarquardtOnCost).
+  // LevenbergMarquardt asks for the normal equations only at the point it evaluated last (the
+  // start, then each accepted step), so they come without another simulation; at any other Θ
+  // they are recomputed.
   Eigen::VectorXd cached_theta;
   Eigen::MatrixXd cached_jtj;
   Eigen::VectorXd cached_jtr;
-  const auto residual = [&](const Eigen::VectorXd& theta) -> Eigen::VectorXd {
-    if (!exact) return problem.Residual(theta);
+  const auto cost = [&](const Eigen::VectorXd& theta) {
     cached_theta = theta;
-    return problem.ResidualWithNormalEquations(theta, &cached_jtj, &cached_jtr);
+    return problem.NormalEquations(theta, &cached_jtj, &cached_jtr, nullptr);
   };
+  const auto residual = [&](const Eigen::VectorXd& theta) { return problem.Residual(theta); };
   const auto normal_equations = [&](const Eigen::VectorXd& theta, const Eigen::VectorXd& r0,
                                     Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr, int* evals) {
     if (!exact) {
@@ -836,7 +853,7 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
       return;
     }
     if (cached_theta.size() != theta.size() || cached_theta != theta) {
-      residual(theta);
+      cost(theta);
       ++*evals;
     }
     *jtj = cached_jtj;
@@ -861,7 +878,9 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
     LmOptions lo;
     lo.relative_tolerance = kRelativeTolerance;
     lo.hold_active_bounds = true;
-    LmResult r = LevenbergMarquardt(residual, x0, lower, upper, lo, {}, {}, normal_equations);
+    LmResult r = exact
+                     ? LevenbergMarquardtOnCost(cost, x0, lower, upper, normal_equations, lo)
+                     : LevenbergMarquardt(residual, x0, lower, upper, lo, {}, {}, normal_equations);
     fit->dynamic_step_wall_s.push_back(Seconds(ts));
     fit->dynamic_step_cpu_s.push_back(ThreadCpuSeconds() - cpu);
     fit->dynamic_step_iterations.push_back(r.iterations);
