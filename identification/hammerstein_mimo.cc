@@ -505,7 +505,7 @@ class DynamicProblem {
   struct Run {
     std::vector<std::size_t> chains;
     Eigen::Index N = 0;
-    std::vector<double> samples;
+    Eigen::VectorXd samples;
   };
 
   /// Groups the chains into runs and interleaves their records: ỹ − ẑ, ẑ(k+1) − ẑ(k) and the
@@ -521,17 +521,32 @@ class DynamicProblem {
              Z_[chains_[c].trial].rows() == run.N) {
         run.chains.push_back(c++);
       }
-      run.samples.assign(static_cast<std::size_t>(run.N * fields * W), 0.0);
-      for (std::size_t l = 0; l < run.chains.size(); ++l) {
+      run.samples.resize(run.N * fields * W);
+      const Eigen::Index stride = fields * W;
+      for (int l = 0; l < W; ++l) {
+        double* rec = run.samples.data() + l;
+        if (l >= static_cast<int>(run.chains.size())) {  // padding
+          for (Eigen::Index k = 0; k < run.N; ++k) {
+            for (int f = 0; f < fields; ++f) rec[k * stride + f * W] = 0.0;
+          }
+          continue;
+        }
         const Chain& ch = chains_[run.chains[l]];
         const double* z = Z_[ch.trial].col(ch.joint).data();
         const double* yt = Yt_[ch.trial].col(ch.joint).data();
-        const double* w = Weights(ch);
-        double* rec = run.samples.data() + l;
-        for (Eigen::Index k = 0; k < run.N; ++k, rec += fields * W) {
-          rec[0] = w == nullptr || w[k] > 0.0 ? yt[k] - z[k] : 0.0;
-          rec[W] = k + 1 < run.N ? z[k + 1] - z[k] : 0.0;
-          if (w != nullptr) rec[2 * W] = w[k];
+        for (Eigen::Index k = 0; k + 1 < run.N; ++k) {
+          rec[k * stride] = yt[k] - z[k];
+          rec[k * stride + W] = z[k + 1] - z[k];
+        }
+        if (run.N > 0) {
+          rec[(run.N - 1) * stride] = yt[run.N - 1] - z[run.N - 1];
+          rec[(run.N - 1) * stride + W] = 0.0;
+        }
+        if (const double* w = Weights(ch)) {
+          for (Eigen::Index k = 0; k < run.N; ++k) {
+            if (!(w[k] > 0.0)) rec[k * stride] = 0.0;
+            rec[k * stride + 2 * W] = w[k];
+          }
         }
       }
       runs_.push_back(std::move(run));
