@@ -79,6 +79,27 @@ Eigen::MatrixXd ActivationMatrix(const std::vector<SigmoidParams>& phi, const Ei
   return H;
 }
 
+/// ẑ = D h(u, Φ) (eq. 43), N×q: ActivationMatrix · Dᵀ evaluated once per run of identical
+/// consecutive input rows (a step-grid protocol holds each input for seconds) and copied to the
+/// run's rows.
+Eigen::MatrixXd StaticOutput(const std::vector<SigmoidParams>& phi, const Eigen::MatrixXd& d,
+                             const Eigen::MatrixXd& u) {
+  const Eigen::Index N = u.rows();
+  std::vector<Eigen::Index> first;  // the first row of each run
+  for (Eigen::Index k = 0; k < N; ++k) {
+    if (k == 0 || u.row(k) != u.row(k - 1)) first.push_back(k);
+  }
+  Eigen::MatrixXd u_runs(static_cast<Eigen::Index>(first.size()), u.cols());
+  for (std::size_t r = 0; r < first.size(); ++r) u_runs.row(r) = u.row(first[r]);
+  const Eigen::MatrixXd z_runs = ActivationMatrix(phi, u_runs) * d.transpose();
+  Eigen::MatrixXd z(N, d.rows());
+  for (std::size_t r = 0; r < first.size(); ++r) {
+    const Eigen::Index end = r + 1 < first.size() ? first[r + 1] : N;
+    z.middleRows(first[r], end - first[r]).rowwise() = z_runs.row(r);
+  }
+  return z;
+}
+
 void ProjectCutoffs(int n, Eigen::VectorXd* x) {
   const Eigen::Index l = x->size() / (n + 1);
   for (Eigen::Index j = 0; j < l; ++j) {
@@ -349,7 +370,7 @@ class DynamicProblem {
     bool missing = false;
     for (const auto& t : trials) missing = missing || !t.y_rad.allFinite();
     for (const auto& t : trials) {
-      Z_.emplace_back(ActivationMatrix(phi, t.u_us) * p.d_rad.transpose());
+      Z_.emplace_back(StaticOutput(phi, p.d_rad, t.u_us));
       Yt_.emplace_back((-t.y_rad).rowwise() + p.rest_rad.transpose());
       n_res_ += t.u_us.rows() * q_;
       if (missing) {  // weights 1 (measured) / 0 (missing, its ỹ stored as 0)
