@@ -269,9 +269,8 @@ constexpr int kSensitivitySums = 6;
 /// no residual and no Jacobian row; ỹ − z is stored as 0 there). `coef` holds the
 /// kPhiCoefficients coefficients, W lanes each; with kStore o is written to out[l][k] (out is
 /// not read otherwise); `sums` receives kSensitivitySums × W values (aa, bb, ab, ao, bo, oo;
-/// lane-minor). 20 multiplications and 19 additions per sample and lane, against 26 and 23 of
-/// the recursion on x with Γ z (and a residual vector to sum the cost from). A lane whose
-/// records are all 0 stays at 0 (padding).
+/// lane-minor). 20 multiplications and 19 additions per sample and lane (a recursion on x itself
+/// would add the Γ z terms: 26 and 23). A lane whose records are all 0 stays at 0 (padding).
 template <int W, bool kWeighted, bool kStore>
 [[gnu::always_inline]] inline void PropagateLanes(const double* coef, const double* samples,
                                                   Eigen::Index N, double* const* out,
