@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "identification/fullmodel/full_model_fit.h"
@@ -351,6 +352,10 @@ void BM_HammersteinTwoStep(benchmark::State& state) {
   state.counters["dynamic_step_iterations"] = mean(fit.dynamic_step_iterations);
   state.counters["dynamic_step_simulations"] = mean(fit.dynamic_step_evaluations);
   state.counters["dynamic_cost"] = fit.dynamic_cost;
+  state.counters["omega_rad_s"] = fit.params.omega_rad_s;  // Θ, to compare fits across changes
+  for (Eigen::Index i = 0; i < fit.params.mu_s.size(); ++i) {
+    state.counters["mu_" + std::to_string(i) + "_s"] = fit.params.mu_s(i);
+  }
   state.counters["total_ms"] = 1e3 * fit.total_wall_s;
   const id::MimoTrialData v = ToMimo(s.validation);
   const Eigen::MatrixXd yh = id::SimulateHammersteinMimo(fit.params, v.u_us, v.sample_period_s);

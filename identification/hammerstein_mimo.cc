@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numeric>
 #include <random>
@@ -76,6 +77,27 @@ Eigen::MatrixXd ActivationMatrix(const std::vector<SigmoidParams>& phi, const Ei
     H.col(j) = ((e - 1.0) / (e + phi[j].gamma)).matrix();
   }
   return H;
+}
+
+/// ẑ = D h(u, Φ) (eq. 43), N×q: ActivationMatrix · Dᵀ evaluated once per run of identical
+/// consecutive input rows (a step-grid protocol holds each input for seconds) and copied to the
+/// run's rows.
+Eigen::MatrixXd StaticOutput(const std::vector<SigmoidParams>& phi, const Eigen::MatrixXd& d,
+                             const Eigen::MatrixXd& u) {
+  const Eigen::Index N = u.rows();
+  std::vector<Eigen::Index> first;  // the first row of each run
+  for (Eigen::Index k = 0; k < N; ++k) {
+    if (k == 0 || u.row(k) != u.row(k - 1)) first.push_back(k);
+  }
+  Eigen::MatrixXd u_runs(static_cast<Eigen::Index>(first.size()), u.cols());
+  for (std::size_t r = 0; r < first.size(); ++r) u_runs.row(r) = u.row(first[r]);
+  const Eigen::MatrixXd z_runs = ActivationMatrix(phi, u_runs) * d.transpose();
+  Eigen::MatrixXd z(N, d.rows());
+  for (std::size_t r = 0; r < first.size(); ++r) {
+    const Eigen::Index end = r + 1 < first.size() ? first[r + 1] : N;
+    z.middleRows(first[r], end - first[r]).rowwise() = z_runs.row(r);
+  }
+  return z;
 }
 
 void ProjectCutoffs(int n, Eigen::VectorXd* x) {
@@ -214,94 +236,126 @@ DifferenceSums SimulatePairDifferences(const FilterLanes& c, const double* z, co
   return out;
 }
 
-/// The coefficients of two augmented joint filters (DiscretiseJointSensitivities), one per lane:
-/// the ZOH filter (x1, x2, x3; the same coefficients as FilterLanes) and the sensitivity states
-/// v (row 4) and u (row 5). Φ(4,5) = Φ(5,4) = 0: v and u are driven by x and z only.
-struct SensitivityLanes {
-  Lanes2 a11, a21, a22, a31, a32, a33, b1, b2, b3, c2, c3;
-  Lanes2 v1, v2, v3, v4, vb, u1, u2, u3, u5, ub;
+/// W lanes of one SIMD register: two in SSE2 (any x86-64), four in AVX.
+template <int W>
+struct LanesOf;
+template <>
+struct LanesOf<2> {
+  typedef double type __attribute__((vector_size(16)));
+};
+template <>
+struct LanesOf<4> {
+  typedef double type __attribute__((vector_size(32)));
 };
 
-SensitivityLanes PairSensitivities(const JointSensitivityFilter& f0,
-                                   const JointSensitivityFilter& f1) {
-  const auto phi = [&](int i, int j) { return Lanes2{f0.Phi(i, j), f1.Phi(i, j)}; };
-  const auto gamma = [&](int i) { return Lanes2{f0.Gamma(i), f1.Gamma(i)}; };
-  return {phi(0, 0),
-          phi(1, 0),
-          phi(1, 1),
-          phi(2, 0),
-          phi(2, 1),
-          phi(2, 2),
-          gamma(0),
-          gamma(1),
-          gamma(2),
-          Lanes2{f0.C(1), f1.C(1)},
-          Lanes2{f0.C(2), f1.C(2)},
-          phi(3, 0),
-          phi(3, 1),
-          phi(3, 2),
-          phi(3, 3),
-          gamma(3),
-          phi(4, 0),
-          phi(4, 1),
-          phi(4, 2),
-          phi(4, 4),
-          gamma(4)};
+/// The 14 coefficients of JointSensitivityFilter::Phi that the deviation recursion uses, in the
+/// order PropagateLanes reads them (Φ(0,0); Φ(1,0..1); Φ(2,0..2); Φ(3,0..3); Φ(4,0..2), Φ(4,4)).
+constexpr int kPhiCoefficients = 14;
+constexpr int kPhiRows[kPhiCoefficients] = {0, 1, 1, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4};
+constexpr int kPhiCols[kPhiCoefficients] = {0, 0, 1, 0, 1, 2, 0, 1, 2, 3, 0, 1, 2, 4};
+/// Sums of one chain's exact normal equations and cost, per lane in PropagateLanes: a², b², a b,
+/// a o, b o, o² over the samples, with a and b the Ω and μ columns of J up to the factors
+/// k_omega, k_mu and o = ỹ − y the residual.
+constexpr int kSensitivitySums = 6;
+
+/// W independent chains (joint responses), one per lane, in the deviation form of
+/// JointSensitivityFilter: per sample k
+///   o = (ỹ − z)(k) − e₃,  sums += (a², b², a b, a o, b o, o²),
+///   e ← Φ e − (z(k+1) − z(k)) s₁,
+/// from e = 0 (the steady state of z(0)). The input z enters only through ỹ − z and its
+/// increments, both fixed during the dynamic step, so the recursion needs no Γ and the lanes
+/// read one interleaved record per sample: `samples` holds, per sample, W values of ỹ − z, W of
+/// z(k+1) − z(k) (0 at the last sample) and, with kWeighted, W weights (1 measured, 0 missing:
+/// no residual and no Jacobian row; ỹ − z is stored as 0 there). `coef` holds the
+/// kPhiCoefficients coefficients, W lanes each; with kStore o is written to out[l][k] (out is
+/// not read otherwise); `sums` receives kSensitivitySums × W values (aa, bb, ab, ao, bo, oo;
+/// lane-minor). 20 multiplications and 19 additions per sample and lane (a recursion on x itself
+/// would add the Γ z terms: 26 and 23). A lane whose records are all 0 stays at 0 (padding).
+template <int W, bool kWeighted, bool kStore>
+[[gnu::always_inline]] inline void PropagateLanes(const double* coef, const double* samples,
+                                                  Eigen::Index N, double* const* out,
+                                                  double* sums) {
+  using V = typename LanesOf<W>::type;
+  V p11, p21, p22, p31, p32, p33, pa1, pa2, pa3, paa, pb1, pb2, pb3, pbb;
+  V* const p[kPhiCoefficients] = {&p11, &p21, &p22, &p31, &p32, &p33, &pa1,
+                                  &pa2, &pa3, &paa, &pb1, &pb2, &pb3, &pbb};
+  for (int j = 0; j < kPhiCoefficients; ++j) std::memcpy(p[j], coef + j * W, sizeof(V));
+  double* o_out[W] = {};
+  if constexpr (kStore) {
+    for (int l = 0; l < W; ++l) o_out[l] = out[l];
+  }
+  constexpr int kStride = (kWeighted ? 3 : 2) * W;
+  const V zero = {};
+  V e1 = zero, e2 = zero, e3 = zero, a = zero, b = zero;
+  V aa = zero, bb = zero, ab = zero, ao = zero, bo = zero, oo = zero;
+  for (Eigen::Index k = 0; k < N; ++k) {
+    const double* rec = samples + k * kStride;
+    V yz, dz;
+    std::memcpy(&yz, rec, sizeof(V));
+    std::memcpy(&dz, rec + W, sizeof(V));
+    V o = yz - e3;
+    V ak = a, bk = b;
+    if constexpr (kWeighted) {
+      V w;
+      std::memcpy(&w, rec + 2 * W, sizeof(V));
+      o *= w;
+      ak *= w;
+      bk *= w;
+    }
+    if constexpr (kStore) {
+#pragma GCC unroll 4
+      for (int l = 0; l < W; ++l) o_out[l][k] = o[l];
+    }
+    aa += ak * ak;
+    bb += bk * bk;
+    ab += ak * bk;
+    ao += ak * o;
+    bo += bk * o;
+    oo += o * o;
+    const V n1 = p11 * e1 - dz;
+    const V n2 = p22 * e2 + (p21 * e1 - dz);
+    const V n3 = p33 * e3 + (p31 * e1 + p32 * e2 - dz);
+    const V na = paa * a + (pa1 * e1 + pa2 * e2 + pa3 * e3);
+    const V nb = pbb * b + (pb1 * e1 + pb2 * e2 + pb3 * e3);
+    e1 = n1;
+    e2 = n2;
+    e3 = n3;
+    a = na;
+    b = nb;
+  }
+  for (int l = 0; l < W; ++l) {
+    sums[0 * W + l] = aa[l];
+    sums[1 * W + l] = bb[l];
+    sums[2 * W + l] = ab[l];
+    sums[3 * W + l] = ao[l];
+    sums[4 * W + l] = bo[l];
+    sums[5 * W + l] = oo[l];
+  }
 }
 
-/// Sums over one chain of the exact normal equations: a = y − v, b = y − u (the Ω and μ
-/// columns of J up to the factors k_omega, k_mu) and the residual o = ỹ − y.
-struct SensitivitySums {
-  double aa = 0, bb = 0, ab = 0, ao = 0, bo = 0;
-};
-
-/// SimulatePair (the residuals, bit for bit: the same filter coefficients and operations) fused
-/// with the propagation of the sensitivity states v, u and the sums of SensitivitySums, one
-/// chain per lane (out0 == out1 allowed when both lanes are the same chain).
-template <bool kWeighted>
-void SimulatePairSensitivities(const SensitivityLanes& c, const double* z0, const double* z1,
-                               const double* y0, const double* y1, const double* w0,
-                               const double* w1, Eigen::Index N, double* out0, double* out1,
-                               SensitivitySums* s0, SensitivitySums* s1) {
-  *s0 = {};
-  *s1 = {};
-  if (N <= 0) return;
-  Lanes2 x1 = {z0[0], z1[0]}, x2 = x1, x3 = x1, v = x1, u = x1;
-  const Lanes2 zero = {0.0, 0.0};
-  Lanes2 aa = zero, bb = zero, ab = zero, ao = zero, bo = zero;
-  for (Eigen::Index k = 0; k < N; ++k) {
-    const Lanes2 z = {z0[k], z1[k]};
-    const Lanes2 y = {y0[k], y1[k]};
-    const Lanes2 yhat = c.c2 * x2 + c.c3 * x3;
-    Lanes2 o = y - yhat;
-    Lanes2 a = yhat - v;
-    Lanes2 b = yhat - u;
-    if constexpr (kWeighted) {  // a missing sample: no residual, no Jacobian row
-      const Lanes2 w = {w0[k], w1[k]};
-      o *= w;
-      a *= w;
-      b *= w;
-    }
-    out0[k] = o[0];
-    out1[k] = o[1];
-    aa += a * a;
-    bb += b * b;
-    ab += a * b;
-    ao += a * o;
-    bo += b * o;
-    const Lanes2 n1 = c.a11 * x1 + c.b1 * z;
-    const Lanes2 n2 = c.a22 * x2 + (c.a21 * x1 + c.b2 * z);
-    const Lanes2 n3 = c.a33 * x3 + (c.a31 * x1 + c.a32 * x2 + c.b3 * z);
-    const Lanes2 n4 = c.v4 * v + (c.v1 * x1 + c.v2 * x2 + c.v3 * x3 + c.vb * z);
-    const Lanes2 n5 = c.u5 * u + (c.u1 * x1 + c.u2 * x2 + c.u3 * x3 + c.ub * z);
-    x1 = n1;
-    x2 = n2;
-    x3 = n3;
-    v = n4;
-    u = n5;
+/// PropagateLanes on four lanes, compiled for AVX (no FMA: every lane does the same IEEE
+/// operations as on two SSE2 lanes, so the results do not depend on the lane count).
+[[gnu::target("avx")]] void PropagateLanes4(bool weighted, bool store, const double* coef,
+                                            const double* samples, Eigen::Index N,
+                                            double* const* out, double* sums) {
+  if (weighted) {
+    store ? PropagateLanes<4, true, true>(coef, samples, N, out, sums)
+          : PropagateLanes<4, true, false>(coef, samples, N, out, sums);
+  } else {
+    store ? PropagateLanes<4, false, true>(coef, samples, N, out, sums)
+          : PropagateLanes<4, false, false>(coef, samples, N, out, sums);
   }
-  *s0 = {aa[0], bb[0], ab[0], ao[0], bo[0]};
-  *s1 = {aa[1], bb[1], ab[1], ao[1], bo[1]};
+}
+
+void PropagateLanes2(bool weighted, bool store, const double* coef, const double* samples,
+                     Eigen::Index N, double* const* out, double* sums) {
+  if (weighted) {
+    store ? PropagateLanes<2, true, true>(coef, samples, N, out, sums)
+          : PropagateLanes<2, true, false>(coef, samples, N, out, sums);
+  } else {
+    store ? PropagateLanes<2, false, true>(coef, samples, N, out, sums)
+          : PropagateLanes<2, false, false>(coef, samples, N, out, sums);
+  }
 }
 
 /// The dynamic step's residual r(Θ) = ỹ − C x = ŷ − y for fixed ẑ = D h(u) (eq. 43), rows grouped
@@ -315,7 +369,7 @@ class DynamicProblem {
     bool missing = false;
     for (const auto& t : trials) missing = missing || !t.y_rad.allFinite();
     for (const auto& t : trials) {
-      Z_.emplace_back(ActivationMatrix(phi, t.u_us) * p.d_rad.transpose());
+      Z_.emplace_back(StaticOutput(phi, p.d_rad, t.u_us));
       Yt_.emplace_back((-t.y_rad).rowwise() + p.rest_rad.transpose());
       n_res_ += t.u_us.rows() * q_;
       if (missing) {  // weights 1 (measured) / 0 (missing, its ỹ stored as 0)
@@ -340,6 +394,7 @@ class DynamicProblem {
       }
       offset += Z_[t].rows();
     }
+    BuildRuns();
   }
 
   Eigen::Index residuals() const { return n_res_; }
@@ -368,42 +423,55 @@ class DynamicProblem {
     return r;
   }
 
-  /// r(Θ) (equal to Residual's bit for bit) and the exact JᵀJ, Jᵀr from one fused pass.
-  Eigen::VectorXd ResidualWithNormalEquations(const Eigen::VectorXd& theta, Eigen::MatrixXd* jtj,
-                                              Eigen::VectorXd* jtr) const {
+  /// The cost ‖r(Θ)‖² and the exact JᵀJ, Jᵀr from one pass (PropagateLanes, one run of chains at
+  /// a time), and r(Θ) into *r unless r is null (r equals Residual's to rounding).
+  double NormalEquations(const Eigen::VectorXd& theta, Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr,
+                         Eigen::VectorXd* r) const {
     std::vector<JointSensitivityFilter> f;
     for (double T : periods_) {
       for (Eigen::Index i = 0; i < q_; ++i) {
         f.push_back(DiscretiseJointSensitivities(theta(0), theta(1 + i), T));
       }
     }
-    Eigen::VectorXd r(n_res_);
+    if (r != nullptr) r->resize(n_res_);
     jtj->setZero(q_ + 1, q_ + 1);
     jtr->setZero(q_ + 1);
-    const auto add = [&](const Chain& c, const SensitivitySums& s) {
-      const double ko = f[c.filter].k_omega, km = f[c.filter].k_mu;
-      const Eigen::Index i = 1 + c.joint;
-      (*jtj)(0, 0) += ko * ko * s.aa;
-      (*jtj)(0, i) += ko * km * s.ab;
-      (*jtj)(i, i) += km * km * s.bb;
-      (*jtr)(0) += ko * s.ao;
-      (*jtr)(i) += km * s.bo;
-    };
-    ForEachPair([&](const Chain& a, const Chain& b, Eigen::Index N) {
-      SensitivitySums sa, sb;
-      const auto run = [&](auto weighted) {
-        SimulatePairSensitivities<decltype(weighted)::value>(
-            PairSensitivities(f[a.filter], f[b.filter]), Z_[a.trial].col(a.joint).data(),
-            Z_[b.trial].col(b.joint).data(), Yt_[a.trial].col(a.joint).data(),
-            Yt_[b.trial].col(b.joint).data(), Weights(a), Weights(b), N, r.data() + a.offset,
-            r.data() + b.offset, &sa, &sb);
-      };
-      W_.empty() ? run(std::false_type{}) : run(std::true_type{});
-      add(a, sa);
-      if (&a != &b) add(b, sb);
-    });
+    double cost = 0.0;
+    const int W = lanes_;
+    std::vector<double> coef(kPhiCoefficients * W), sums(kSensitivitySums * W);
+    std::vector<double*> out(W);
+    std::vector<double> padding;  // the residuals of padding lanes, discarded
+    for (const Run& run : runs_) {
+      const auto lanes = static_cast<int>(run.chains.size());
+      if (r != nullptr && lanes < W && padding.size() < static_cast<std::size_t>(run.N)) {
+        padding.resize(run.N);
+      }
+      for (int l = 0; l < W; ++l) {
+        const Chain& c = chains_[run.chains[std::min(l, lanes - 1)]];
+        const JointSensitivityFilter& fc = f[c.filter];
+        for (int j = 0; j < kPhiCoefficients; ++j) {
+          coef[j * W + l] = fc.Phi(kPhiRows[j], kPhiCols[j]);
+        }
+        if (r != nullptr) out[l] = l < lanes ? r->data() + c.offset : padding.data();
+      }
+      (W == 4 ? PropagateLanes4 : PropagateLanes2)(!W_.empty(), r != nullptr, coef.data(),
+                                                   run.samples.data(), run.N, out.data(),
+                                                   sums.data());
+      for (int l = 0; l < lanes; ++l) {
+        const Chain& c = chains_[run.chains[l]];
+        const double ko = f[c.filter].k_omega, km = f[c.filter].k_mu;
+        const Eigen::Index i = 1 + c.joint;
+        const auto s = [&](int m) { return sums[m * W + l]; };
+        (*jtj)(0, 0) += ko * ko * s(0);
+        (*jtj)(0, i) += ko * km * s(2);
+        (*jtj)(i, i) += km * km * s(1);
+        (*jtr)(0) += ko * s(3);
+        (*jtr)(i) += km * s(4);
+        cost += s(5);
+      }
+    }
     for (Eigen::Index i = 1; i <= q_; ++i) (*jtj)(i, 0) = (*jtj)(0, i);
-    return r;
+    return cost;
   }
 
   /// Structured forward differences straight into the normal equations: per trial and joint i,
@@ -452,6 +520,59 @@ class DynamicProblem {
     return W_.empty() ? nullptr : W_[c.trial].col(c.joint).data();
   }
 
+  /// Up to lanes_ consecutive chains of equal length, propagated side by side, with their
+  /// PropagateLanes records (lanes past the last chain are padding: all records 0).
+  struct Run {
+    std::vector<std::size_t> chains;
+    Eigen::Index N = 0;
+    Eigen::VectorXd samples;
+  };
+
+  /// Groups the chains into runs and interleaves their records: ỹ − ẑ, ẑ(k+1) − ẑ(k) and the
+  /// weights, fixed for the whole dynamic step.
+  void BuildRuns() {
+    lanes_ = __builtin_cpu_supports("avx") ? 4 : 2;
+    const int W = lanes_;
+    const int fields = W_.empty() ? 2 : 3;
+    for (std::size_t c = 0; c < chains_.size();) {
+      Run run;
+      run.N = Z_[chains_[c].trial].rows();
+      while (c < chains_.size() && static_cast<int>(run.chains.size()) < W &&
+             Z_[chains_[c].trial].rows() == run.N) {
+        run.chains.push_back(c++);
+      }
+      run.samples.resize(run.N * fields * W);
+      const Eigen::Index stride = fields * W;
+      for (int l = 0; l < W; ++l) {
+        double* rec = run.samples.data() + l;
+        if (l >= static_cast<int>(run.chains.size())) {  // padding
+          for (Eigen::Index k = 0; k < run.N; ++k) {
+            for (int f = 0; f < fields; ++f) rec[k * stride + f * W] = 0.0;
+          }
+          continue;
+        }
+        const Chain& ch = chains_[run.chains[l]];
+        const double* z = Z_[ch.trial].col(ch.joint).data();
+        const double* yt = Yt_[ch.trial].col(ch.joint).data();
+        for (Eigen::Index k = 0; k + 1 < run.N; ++k) {
+          rec[k * stride] = yt[k] - z[k];
+          rec[k * stride + W] = z[k + 1] - z[k];
+        }
+        if (run.N > 0) {
+          rec[(run.N - 1) * stride] = yt[run.N - 1] - z[run.N - 1];
+          rec[(run.N - 1) * stride + W] = 0.0;
+        }
+        if (const double* w = Weights(ch)) {
+          for (Eigen::Index k = 0; k < run.N; ++k) {
+            if (!(w[k] > 0.0)) rec[k * stride] = 0.0;
+            rec[k * stride + 2 * W] = w[k];
+          }
+        }
+      }
+      runs_.push_back(std::move(run));
+    }
+  }
+
   template <typename F>
   void ForEachPair(const F& f) const {
     for (std::size_t c = 0; c < chains_.size();) {
@@ -469,6 +590,8 @@ class DynamicProblem {
   Eigen::Index n_res_ = 0, rows_per_joint_ = 0, measured_ = 0;
   std::vector<double> periods_;
   std::vector<Chain> chains_;
+  int lanes_ = 2;  // W of PropagateLanes: 4 where the CPU has AVX
+  std::vector<Run> runs_;
 };
 
 }  // namespace
@@ -513,46 +636,36 @@ JointSensitivityFilter DiscretiseJointSensitivities(double omega_rad_s, double m
   if (!(omega_rad_s > 0.0) || !(mu_s >= 0.0) || !(sample_period_s > 0.0)) {
     throw std::invalid_argument("joint sensitivities: need Omega > 0, mu >= 0, T > 0");
   }
-  // States x1, x2, x3, v, u and the held input z (column 5): d/dt [x; z] = M [x; z], so that
-  // exp(M T) holds Φ and Γ (the ZOH of the augmented system; see the header for v and u).
+  // States x1, x2, x3, a, b and the held input z (column 5): d/dt [x; z] = M [x; z], so that
+  // exp(M T) holds Φ and Γ (the ZOH of the augmented system; see the header for a and b).
   const double w = omega_rad_s;
   Eigen::Matrix<double, 6, 6> M = Eigen::Matrix<double, 6, 6>::Zero();
   M(0, 0) = -w;  // x1' = Ω(z − x1)
   M(0, 5) = w;
   M(1, 0) = w;  // x2' = Ω(x1 − x2)
   M(1, 1) = -w;
-  JointSensitivityFilter f;
   if (mu_s > kMuNegligible_s) {
-    M(2, 1) = 1.0 / mu_s;  // x3' = (x2 − x3)/μ, y = x3
+    M(2, 1) = 1.0 / mu_s;  // x3' = (x2 − x3)/μ
     M(2, 2) = -1.0 / mu_s;
-    f.C << 0.0, 0.0, 1.0;
   } else {
-    f.C << 0.0, 1.0, 0.0;  // y = x2; x3 stays at its start and is not used
+    M.row(2) = M.row(1);  // P² alone: x3 ≡ x2
   }
-  M(3, 1) = w * f.C(1);  // v' = Ω(y − v)
-  M(3, 2) = w * f.C(2);
+  M.row(3) = M.row(2);  // a' = y' − Ω a (y = x3)
   M(3, 3) = -w;
+  JointSensitivityFilter f;
   f.k_omega = -2.0 / w;
   if (mu_s > kMuSensitivityFloor_s) {
-    M(4, 2) = 1.0 / mu_s;  // u' = (y − u)/μ
+    M.row(4) = M.row(2);  // b' = y' − b/μ
     M(4, 4) = -1.0 / mu_s;
     f.k_mu = 1.0 / mu_s;
   } else {
-    // u ≡ y + x2 − x1, so that y − u = x1 − x2: u' = y' + Ω(x1 − x2) − Ω(z − x1).
-    M.row(4) = f.C(1) * M.row(1) + f.C(2) * M.row(2);
-    M(4, 0) += 2.0 * w;
-    M(4, 1) -= w;
-    M(4, 5) -= w;
+    M.row(4) = M.row(0) - M.row(1);  // b = x1 − x2
     f.k_mu = w;
   }
   const Eigen::Matrix<double, 6, 6> E = (M * sample_period_s).exp();
-  f.Phi = E.topLeftCorner<5, 5>();
+  f.Phi = E.topLeftCorner<5, 5>().triangularView<Eigen::Lower>();
+  f.Phi(4, 3) = 0.0;
   f.Gamma = E.topRightCorner<5, 1>();
-  // The filter rows exactly as DiscretiseJointDynamics computes them, so the residuals of the
-  // fused pass equal those of the plain simulation bit for bit (the difference is rounding).
-  const JointFilter plain = DiscretiseJointDynamics(omega_rad_s, mu_s, sample_period_s);
-  f.Phi.topLeftCorner<3, 3>() = plain.Ad;
-  f.Gamma.head<3>() = plain.Bd;
   return f;
 }
 
@@ -560,14 +673,16 @@ Eigen::MatrixXd SimulateJointSensitivities(double omega_rad_s, double mu_s,
                                            const Eigen::VectorXd& z, double sample_period_s) {
   const JointSensitivityFilter f = DiscretiseJointSensitivities(omega_rad_s, mu_s, sample_period_s);
   const Eigen::Index N = z.size();
+  const Eigen::Matrix<double, 5, 1> s1 =
+      (Eigen::Matrix<double, 5, 1>() << 1, 1, 1, 0, 0).finished();
   Eigen::MatrixXd out(N, 3);
-  Eigen::Matrix<double, 5, 1> s = Eigen::Matrix<double, 5, 1>::Constant(N > 0 ? z(0) : 0.0);
+  Eigen::Matrix<double, 5, 1> e = Eigen::Matrix<double, 5, 1>::Zero();
   for (Eigen::Index k = 0; k < N; ++k) {
-    const double y = f.C * s.head<3>();
-    out(k, 0) = y;
-    out(k, 1) = -f.k_omega * (y - s(3));
-    out(k, 2) = -f.k_mu * (y - s(4));
-    s = f.Phi * s + f.Gamma * z(k);
+    out(k, 0) = z(k) + e(2);
+    out(k, 1) = -f.k_omega * e(3);
+    out(k, 2) = -f.k_mu * e(4);
+    e = f.Phi * e;
+    if (k + 1 < N) e -= (z(k + 1) - z(k)) * s1;
   }
   return out;
 }
@@ -578,7 +693,7 @@ DynamicNormalEquations HammersteinDynamicNormalEquations(const std::vector<MimoT
   Eigen::VectorXd theta(p.mu_s.size() + 1);
   theta << p.omega_rad_s, p.mu_s;
   DynamicNormalEquations out;
-  out.residual = problem.ResidualWithNormalEquations(theta, &out.jtj, &out.jtr);
+  problem.NormalEquations(theta, &out.jtj, &out.jtr, &out.residual);
   return out;
 }
 
@@ -752,18 +867,19 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
   const Eigen::Index q = fit->params.d_rad.rows();
   const DynamicProblem problem(trials, fit->params);
   const bool exact = options.dynamic_jacobian == DynamicJacobian::kExactSensitivities;
-  // Exact path: every residual evaluation also propagates the sensitivities and keeps JᵀJ, Jᵀr
-  // for its Θ. LevenbergMarquardt asks for the normal equations only at the point it evaluated
-  // last (the start, then each accepted step), so they come without another simulation; at any
-  // other Θ they are recomputed.
+  // Exact path: every cost evaluation also propagates the sensitivities and keeps JᵀJ, Jᵀr for
+  // its Θ, and the residual vector is never stored (LevenbergMarquardtOnCost).
+  // LevenbergMarquardt asks for the normal equations only at the point it evaluated last (the
+  // start, then each accepted step), so they come without another simulation; at any other Θ
+  // they are recomputed.
   Eigen::VectorXd cached_theta;
   Eigen::MatrixXd cached_jtj;
   Eigen::VectorXd cached_jtr;
-  const auto residual = [&](const Eigen::VectorXd& theta) -> Eigen::VectorXd {
-    if (!exact) return problem.Residual(theta);
+  const auto cost = [&](const Eigen::VectorXd& theta) {
     cached_theta = theta;
-    return problem.ResidualWithNormalEquations(theta, &cached_jtj, &cached_jtr);
+    return problem.NormalEquations(theta, &cached_jtj, &cached_jtr, nullptr);
   };
+  const auto residual = [&](const Eigen::VectorXd& theta) { return problem.Residual(theta); };
   const auto normal_equations = [&](const Eigen::VectorXd& theta, const Eigen::VectorXd& r0,
                                     Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr, int* evals) {
     if (!exact) {
@@ -772,7 +888,7 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
       return;
     }
     if (cached_theta.size() != theta.size() || cached_theta != theta) {
-      residual(theta);
+      cost(theta);
       ++*evals;
     }
     *jtj = cached_jtj;
@@ -797,7 +913,9 @@ void FitHammersteinDynamic(const std::vector<MimoTrialData>& trials,
     LmOptions lo;
     lo.relative_tolerance = kRelativeTolerance;
     lo.hold_active_bounds = true;
-    LmResult r = LevenbergMarquardt(residual, x0, lower, upper, lo, {}, {}, normal_equations);
+    LmResult r = exact
+                     ? LevenbergMarquardtOnCost(cost, x0, lower, upper, normal_equations, lo)
+                     : LevenbergMarquardt(residual, x0, lower, upper, lo, {}, {}, normal_equations);
     fit->dynamic_step_wall_s.push_back(Seconds(ts));
     fit->dynamic_step_cpu_s.push_back(ThreadCpuSeconds() - cpu);
     fit->dynamic_step_iterations.push_back(r.iterations);

@@ -135,33 +135,38 @@ struct JointFilter {
 };
 JointFilter DiscretiseJointDynamics(double omega_rad_s, double mu_s, double sample_period_s);
 
-/// The ZOH discretisation of H̃(s, θ_i) (eq. 18) augmented with two states whose outputs give
-/// its exact parameter sensitivities. With y = C x the joint's filter output (x3; x2 when μ_i is
-/// negligible) and P(s) = 1/(1 + s/Ω), L(s) = 1/(1 + μ_i s), so H̃ = L P²:
+/// The ZOH discretisation of H̃(s, θ_i) (eq. 18) augmented with two states whose outputs are
+/// its exact parameter sensitivities. With y the joint's filter output and P(s) = 1/(1 + s/Ω),
+/// L(s) = 1/(1 + μ_i s), so H̃ = L P²:
 ///   ∂H̃/∂Ω = (2/Ω) (H̃ − P H̃)           (∂P/∂Ω = P (1 − P)/Ω),
 ///   ∂H̃/∂μ = −(1/μ) (H̃ − L H̃)           (∂L/∂μ = −L (1 − L)/μ),
-/// so with v = P y and u = L y (states 4 and 5, v̇ = Ω(y − v), u̇ = (y − u)/μ):
-///   ∂y/∂Ω = (2/Ω) (y − v),  ∂y/∂μ = −(y − u)/μ.
-/// At μ = 0 (and below kMuNegligible_s, where the model is P²) the right derivative is
-/// ∂y/∂μ = −ẏ = −Ω(x1 − x2); u ≡ y + x2 − x1 then, so that ∂y/∂μ = −Ω (y − u). The same limit
-/// is used for 0 < μ ≤ 5e-7 s, where (y − u)/μ cancels to noise (relative error ≲ 3e-5 there;
-/// ≤ 1e-6 for μ = 0 and μ ≥ 2e-6 s). The ZOH of the augmented system
-/// is exact for piecewise-constant z, so the sampled v, u (and the sensitivities) are exact
-/// samples of the continuous ones: the derivatives of the discrete simulation, not
-/// approximations. All five states start at z(0) (steady state). Units: Ω rad/s, μ s, T s.
+/// so with v = P y and u = L y (v̇ = Ω(y − v), u̇ = (y − u)/μ) the states a = y − v and
+/// b = y − u (ȧ = ẏ − Ω a, ḃ = ẏ − b/μ) give
+///   ∂y/∂Ω = (2/Ω) a,  ∂y/∂μ = −b/μ.
+/// States x1, x2, x3, a, b; y = x3 always (for μ ≤ kMuNegligible_s, where the model is P², x3
+/// follows x2's equation, x3 ≡ x2). At μ = 0 the right derivative is ∂y/∂μ = −ẏ = −Ω(x1 − x2), so
+/// b = x1 − x2 and ∂y/∂μ = −Ω b there; the same limit is used for 0 < μ ≤ 5e-7 s, where b/μ
+/// would lose its digits (relative error ≲ 3e-5 there; ≤ 1e-6 for μ = 0 and μ ≥ 2e-6 s).
+/// The ZOH of the augmented system is exact for piecewise-constant z, so the sampled a, b (and the
+/// sensitivities) are exact samples of the continuous ones: the derivatives of the discrete
+/// simulation, not approximations. A constant z is the steady state x1 = x2 = x3 = z, a = b = 0
+/// (H̃(0) = 1), so Φ s₁ + Γ = s₁ with s₁ = [1 1 1 0 0]ᵀ: the deviation e(k) = x(k) − z(k) s₁
+/// follows e(k+1) = Φ e(k) − (z(k+1) − z(k)) s₁, y(k) = z(k) + e₃(k), without Γ (what the dynamic
+/// step propagates; all states start at the steady state of z(0), e(0) = 0). Units: Ω rad/s, μ s,
+/// T s.
 struct JointSensitivityFilter {
-  Eigen::Matrix<double, 5, 5> Phi;    ///< lower triangular; states x1, x2, x3, v, u.
-  Eigen::Matrix<double, 5, 1> Gamma;  ///< input column.
-  Eigen::RowVector3d C;               ///< y = C x (as JointFilter::C).
-  double k_omega = 0.0;               ///< ∂(ỹ − y)/∂Ω = k_omega (y − v): −2/Ω, s/rad.
-  double k_mu = 0.0;  ///< ∂(ỹ − y)/∂μ = k_mu (y − u): 1/μ, or Ω for μ ≤ 5e-7 s, 1/s.
+  Eigen::Matrix<double, 5, 5> Phi;    ///< lower triangular, Φ(4, 3) = 0; states x1, x2, x3, a, b.
+  Eigen::Matrix<double, 5, 1> Gamma;  ///< input column (s₁ − Φ s₁ up to rounding).
+  double k_omega = 0.0;               ///< ∂(ỹ − y)/∂Ω = k_omega a: −2/Ω, s/rad.
+  double k_mu = 0.0;  ///< ∂(ỹ − y)/∂μ = k_mu b: 1/μ, or Ω for μ ≤ 5e-7 s, 1/s.
 };
 JointSensitivityFilter DiscretiseJointSensitivities(double omega_rad_s, double mu_s,
                                                     double sample_period_s);
 
-/// One joint's filter response y(k) = C x(k) to z (N samples, from the steady state of z(0))
-/// with its exact derivatives: N×3, columns y, ∂y/∂Ω, ∂y/∂μ (a scalar reference of what the
-/// dynamic step propagates).
+/// One joint's filter response y(k) to z (N samples, from the steady state of z(0)) with its
+/// exact derivatives: N×3, columns y, ∂y/∂Ω, ∂y/∂μ (the deviation recursion of
+/// JointSensitivityFilter one sample at a time: a scalar reference of what the dynamic step
+/// propagates).
 Eigen::MatrixXd SimulateJointSensitivities(double omega_rad_s, double mu_s,
                                            const Eigen::VectorXd& z, double sample_period_s);
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 namespace fesim::identification {
@@ -120,22 +121,32 @@ Convergence ToConvergence(const LmResult& result) {
   return {result.converged, LmStopReasonName(result.stop_reason), result.iterations};
 }
 
-LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
-                            const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
-                            const LmOptions& options, const ProjectionFn& project,
-                            const JacobianFn& jacobian, const NormalEquationsFn& normal_equations) {
+namespace {
+
+/// The iteration of LevenbergMarquardt and LevenbergMarquardtOnCost: exactly one of `residual`
+/// and `cost` is set; with `cost`, r is never formed (res.residual stays empty) and
+/// `normal_equations` is set, broyden off.
+LmResult Minimise(const ResidualFn& residual, const CostFn& cost, Eigen::VectorXd x0,
+                  const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                  const LmOptions& options, const ProjectionFn& project, const JacobianFn& jacobian,
+                  const NormalEquationsFn& normal_equations) {
   if (lower.size() != x0.size() || upper.size() != x0.size()) {
     throw std::invalid_argument("LevenbergMarquardt: bounds and x0 sizes differ");
   }
   if (normal_equations && options.broyden) {
     throw std::invalid_argument("LevenbergMarquardt: normal equations need broyden = false");
   }
+  // ‖r(x)‖², and r(x) into *r unless only the cost is given.
+  const auto evaluate = [&](const Eigen::VectorXd& x, Eigen::VectorXd* r) {
+    if (cost) return cost(x);
+    *r = residual(x);
+    return r->squaredNorm();
+  };
   LmResult res;
   Clamp(lower, upper, project, &x0);
   res.x = x0;
-  res.residual = residual(res.x);
+  res.cost = evaluate(res.x, &res.residual);
   res.evaluations = 1;
-  res.cost = res.residual.squaredNorm();
   const int p = static_cast<int>(x0.size());
   const auto jac = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& r) {
     ++res.jacobian_evaluations;
@@ -193,9 +204,9 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
         fresh = false;
       }
     }
-    const Eigen::VectorXd r_new = residual(x_new);
+    Eigen::VectorXd r_new;
+    const double cost_new = evaluate(x_new, &r_new);
     ++res.evaluations;
-    const double cost_new = r_new.squaredNorm();
     if (options.broyden && r_new.allFinite()) {
       // Broyden's rank-one secant update after every trial step, accepted or not:
       // J_new Δx = r(x + Δx) − r(x) exactly, J unchanged on the directions orthogonal to Δx.
@@ -205,7 +216,7 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
     if (std::isfinite(cost_new) && cost_new < res.cost) {
       const double decrease = res.cost - cost_new;
       res.x = x_new;
-      res.residual = r_new;
+      res.residual = std::move(r_new);
       const double old_cost = res.cost;
       res.cost = cost_new;
       ++res.iterations;
@@ -257,6 +268,26 @@ LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
   res.jtj = jtj;
   res.converged = LmConverged(res.stop_reason);
   return res;
+}
+
+}  // namespace
+
+LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
+                            const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                            const LmOptions& options, const ProjectionFn& project,
+                            const JacobianFn& jacobian, const NormalEquationsFn& normal_equations) {
+  return Minimise(residual, {}, std::move(x0), lower, upper, options, project, jacobian,
+                  normal_equations);
+}
+
+LmResult LevenbergMarquardtOnCost(const CostFn& cost, Eigen::VectorXd x0,
+                                  const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                                  const NormalEquationsFn& normal_equations,
+                                  const LmOptions& options, const ProjectionFn& project) {
+  if (!cost || !normal_equations) {
+    throw std::invalid_argument("LevenbergMarquardtOnCost: needs the cost and normal equations");
+  }
+  return Minimise({}, cost, std::move(x0), lower, upper, options, project, {}, normal_equations);
 }
 
 Eigen::VectorXd ConfidenceHalfWidths95(const Eigen::MatrixXd& jtj, double cost, long n_residuals,

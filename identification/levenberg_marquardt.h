@@ -109,12 +109,25 @@ using NormalEquationsFn =
     std::function<void(const Eigen::VectorXd& x, const Eigen::VectorXd& r, Eigen::MatrixXd* jtj,
                        Eigen::VectorXd* jtr, int* evaluations)>;
 
+/// x → ‖r(x)‖², for residuals that supply their normal equations and need not be stored.
+using CostFn = std::function<double(const Eigen::VectorXd&)>;
+
 /// Minimises ‖r(x)‖² subject to lower ≤ x ≤ upper (entries may be ±inf).
 LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
                             const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
                             const LmOptions& options = {}, const ProjectionFn& project = {},
                             const JacobianFn& jacobian = {},
                             const NormalEquationsFn& normal_equations = {});
+
+/// LevenbergMarquardt with `normal_equations` on a residual that is never formed: `cost` gives
+/// ‖r(x)‖² and `normal_equations` JᵀJ and Jᵀr (its r argument is empty). The same iteration
+/// (broyden must be off); LmResult::residual stays empty. For long residuals whose normal
+/// equations are accumulated in the pass that computes the cost (the Hammerstein dynamic step),
+/// where storing r and summing its squares again would be a second pass over memory.
+LmResult LevenbergMarquardtOnCost(const CostFn& cost, Eigen::VectorXd x0,
+                                  const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                                  const NormalEquationsFn& normal_equations,
+                                  const LmOptions& options = {}, const ProjectionFn& project = {});
 
 /// 95 % half-widths 1.96 √diag(σ² (JᵀJ)⁺), σ² = cost / (N − p); NaN for parameters in a
 /// singular direction of JᵀJ (eigenvalue < 1e-12 of the largest; not estimable, e.g. held at a

@@ -221,6 +221,35 @@ TEST(LevenbergMarquardt, NormalEquationsCallbackMatchesTheJacobianPath) {
                std::invalid_argument);
 }
 
+TEST(LevenbergMarquardt, CostOnlyPathMatchesTheResidualPath) {
+  // The same normal equations with r formed or only its cost: identical iterates, no residual.
+  const auto J = [](const Eigen::VectorXd&) {
+    Eigen::Matrix2d j;
+    j << -10.0, 10.0, 1.0, 1.0;
+    return Eigen::MatrixXd(j);
+  };
+  const NormalEquationsFn normal = [&](const Eigen::VectorXd& x, const Eigen::VectorXd&,
+                                       Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr, int*) {
+    *jtj = J(x).transpose() * J(x);
+    *jtr = J(x).transpose() * Valley(x);
+  };
+  const CostFn cost = [](const Eigen::VectorXd& x) { return Valley(x).squaredNorm(); };
+  const Eigen::Vector2d lower(-10.0, -10.0), upper(1.0, 10.0), start(-5.0, 6.0);
+  LmOptions o;
+  o.hold_active_bounds = true;
+  const LmResult a = LevenbergMarquardt(Valley, start, lower, upper, o, {}, {}, normal);
+  const LmResult b = LevenbergMarquardtOnCost(cost, start, lower, upper, normal, o);
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_EQ(a.evaluations, b.evaluations);
+  EXPECT_EQ(a.x, b.x);
+  EXPECT_EQ(a.cost_history, b.cost_history);
+  EXPECT_EQ(b.residual.size(), 0);
+  EXPECT_THROW(LevenbergMarquardtOnCost(cost, start, lower, upper, {}, o), std::invalid_argument);
+  o.broyden = true;
+  EXPECT_THROW(LevenbergMarquardtOnCost(cost, start, lower, upper, normal, o),
+               std::invalid_argument);
+}
+
 TEST(ConvergenceReport, JsonYamlAndWarningNameTheBestRun) {
   const std::vector<Convergence> runs = {{true, "step_below_tolerance", 7},
                                          {false, "iteration_limit", 30}};
