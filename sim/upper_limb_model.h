@@ -104,7 +104,7 @@ class UpperLimbModel {
   std::vector<int> LockedYIndices(const SimTK::State& state) const;
 
   /// Muscle quantities. Reads only the state variables (q, u, activation states), so a state
-  /// realised to Stage::Time suffices.
+  /// realised to Stage::Instance suffices.
   MuscleSnapshot ComputeMuscles(const SimTK::State& state) const;
 
   /// Generalised forces (N·m per coordinate) that the muscle force element applies to the
