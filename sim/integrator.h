@@ -41,10 +41,11 @@ using Observer = std::function<void(const SimTK::State&)>;
 
 /// Advances `state` (at its current time) through `report_times` (sorted, ≥ state time),
 /// applying the schedule's stimulation changes, and calls `observer` at each report time with
-/// the state realised to `observe_stage` (Velocity suffices for kinematics and muscle forces;
-/// Acceleration is needed for sensor torques; Stage::Time suffices to read q and u, and saves the
-/// kinematics at every report time). Throws std::runtime_error naming the simulated
-/// time and the integrator's reason on failure.
+/// the state realised to `observe_stage` (Velocity suffices for kinematics; Acceleration is
+/// needed for sensor torques; Stage::Instance suffices to read the time and the state variables
+/// q, u and the activations, hence UpperLimbModel::ComputeMuscles, and saves realising the time
+/// and the kinematics at every report time). Throws std::runtime_error naming the simulated time
+/// and the integrator's reason on failure.
 IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorParams& params,
                                 const StimulationSchedule& schedule,
                                 const std::vector<double>& report_times, SimTK::State* state,

@@ -248,9 +248,11 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
                        : kNaN);
     }
   };
+  // The rows read only state variables (q, u, activations: ComputeMuscles) unless a torque
+  // sensor needs the motion forces, so the kinematics are not realised at every report time.
   result.stats = IntegrateTrial(
       model, req.integrator, effective, report, &state, observer,
-      sens.torques.coordinates.empty() ? SimTK::Stage::Velocity : SimTK::Stage::Acceleration);
+      sens.torques.coordinates.empty() ? SimTK::Stage::Instance : SimTK::Stage::Acceleration);
 
   // Baseline-offset removal over the initial rest window, per measured column.
   RemoveBaseline(sens.angles, meas.time, &meas.q);

@@ -103,7 +103,8 @@ class UpperLimbModel {
   /// (q̇ = u = 0, u̇ = 0), so integrators may leave them out of the state they advance.
   std::vector<int> LockedYIndices(const SimTK::State& state) const;
 
-  /// Muscle quantities (state realised to Stage::Velocity at least).
+  /// Muscle quantities. Reads only the state variables (q, u, activation states), so a state
+  /// realised to Stage::Instance suffices.
   MuscleSnapshot ComputeMuscles(const SimTK::State& state) const;
 
   /// Generalised forces (N·m per coordinate) that the muscle force element applies to the

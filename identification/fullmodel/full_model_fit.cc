@@ -140,8 +140,9 @@ sim::StimulationSchedule DelayedSchedule(const sim::ModelParams& model, const Si
 /// Simulated angles q[column][sample] (rad) of `plan` on `model`: the rig's initial state at
 /// t = 0, the schedule delayed by the electromechanical delay (as sim::RunTrial does), CVODES with
 /// `integrator`'s settings, q read at exactly the sample times from a state realised only to
-/// Stage::Time (no kinematics per sample: 173 → 129 ms CPU for a 140 s, 40 Hz data set, bench/
-/// fullmodel_bench.cc BM_SimulateDataSet/4), without RunTrial's sensor and truth records.
+/// Stage::Instance (no kinematics per sample: 173 → 129 ms CPU for a 140 s, 40 Hz data set, bench/
+/// fullmodel_bench.cc BM_SimulateDataSet/4, and not Stage::Time either), without RunTrial's sensor
+/// and truth records.
 std::vector<std::vector<double>> SimulatePlan(const sim::ModelParams& model, const SimPlan& plan,
                                               const sim::IntegratorParams& integrator) {
   const sim::UpperLimbModel limb(model);
@@ -156,7 +157,7 @@ std::vector<std::vector<double>> SimulatePlan(const sim::ModelParams& model, con
           q[k].push_back(limb.GetQ(s, plan.coords[k]));
         }
       },
-      SimTK::Stage::Time);
+      SimTK::Stage::Instance);
   return q;
 }
 
