@@ -639,6 +639,9 @@ class Cvodes {
     if (SUNContext_Create(nullptr, &sunctx_) != 0) throw std::runtime_error("SUNContext_Create");
     y_ = N_VNew_Serial(n, sunctx_);
     mem_ = CVodeCreate(adams ? CV_ADAMS : CV_BDF, sunctx_);
+    // CVODES prints its failures to stderr by default; keep the last message instead, for the
+    // exception that reports the failure (a fit's rejected trial point is not the user's error).
+    CVodeSetErrHandlerFn(mem_, KeepMessage, &last_error_);
     a_ = SUNDenseMatrix(n, n, sunctx_);
     ls_ = SUNLinSol_Dense(y_, a_, sunctx_);
     tol_ = tol;
@@ -705,6 +708,7 @@ class Cvodes {
       Check(CVodeSetMaxNumSteps(mem_, left), "CVodeSetMaxNumSteps", t_out);
     }
     double t_reached = 0.0;
+    last_error_.clear();
     const int flag = CVode(mem_, t_out, y_, &t_reached, CV_NORMAL);
     if (flag < 0) {
       LoadState(ctx_, t_reached, N_VGetArrayPointer(y_));
@@ -712,7 +716,8 @@ class Cvodes {
           flag == CV_TOO_MUCH_WORK && step_budget_ > 0 && left < kMaxSteps
               ? "the step budget (IntegratorParams::max_steps = " + std::to_string(step_budget_) +
                     ") is used up"
-              : std::string("CVODES ") + CVodeGetReturnFlagName(flag);
+              : std::string("CVODES ") + CVodeGetReturnFlagName(flag) +
+                    (last_error_.empty() ? std::string() : ": " + last_error_);
       throw std::runtime_error("integration failed at t = " + std::to_string(t_reached) + " s (" +
                                why + "); " + DescribeState(*ctx_->model, *ctx_->state) +
                                kFailureHint);
@@ -746,9 +751,16 @@ class Cvodes {
  private:
   void Check(int flag, const char* what, double t) {
     if (flag < 0) {
-      throw std::runtime_error(std::string(what) + " failed at t = " + std::to_string(t) + " s");
+      throw std::runtime_error(std::string(what) + " failed at t = " + std::to_string(t) + " s" +
+                               (last_error_.empty() ? std::string() : " (" + last_error_ + ")"));
     }
   }
+  /// CVErrHandlerFn: stores CVODES' message (warnings included) in *(std::string*)data.
+  static void KeepMessage(int /*error_code*/, const char* /*module*/, const char* /*function*/,
+                          char* msg, void* data) {
+    *static_cast<std::string*>(data) = msg != nullptr ? msg : "";
+  }
+  std::string last_error_;  // CVODES' last error or warning message
   SUNContext sunctx_ = nullptr;
   N_Vector y_ = nullptr;
   void* mem_ = nullptr;

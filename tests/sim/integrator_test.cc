@@ -318,6 +318,31 @@ TEST(Integrator, SimbodyFailureNamesTimeCoordinateAndHint) {
       << message;
 }
 
+TEST(Integrator, CvodesFailureCarriesItsMessageAndPrintsNothing) {
+  // The planted fault under CVODES, with threshold 0 so that the torque is NaN from the first
+  // step on (at 2 rad/s CVODES crawls along the threshold for minutes before it gives up): the
+  // failure is an exception whose one line carries CVODES' own reason; nothing goes to stderr (a
+  // fit's rejected trial point is not the user's error, and `fesim benchmark` on the independent
+  // cohort printed dozens of such blocks).
+  const UpperLimbModel faulty(ElbowReflexFault(std::nan(""), 0.0));
+  SimTK::State s = faulty.MakeInitialState();
+  std::string message;
+  ::testing::internal::CaptureStderr();
+  try {
+    IntegrateTrial(faulty, IntegratorParams{IntegratorParams::Method::kCvodes, 1e-6}, {},
+                   Times(0.5, 0.001), &s, [](const SimTK::State&) {});
+  } catch (const std::runtime_error& e) {
+    message = e.what();
+  }
+  const std::string err = ::testing::internal::GetCapturedStderr();
+  ASSERT_FALSE(message.empty()) << "a NaN torque must stop the integration";
+  EXPECT_EQ(message.rfind("integration failed at t = ", 0), 0u) << message;
+  EXPECT_NE(message.find("CVODES CV_"), std::string::npos) << message;
+  EXPECT_NE(message.find("At t = "), std::string::npos) << "CVODES' own reason: " << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  EXPECT_EQ(err, "");
+}
+
 TEST(Integrator, SpeedTimeScaleLoosensOnlyTheSpeedsAndKeepsTheAnglesAccurate) {
   // Hand rig (arm locked) with a 0.12 N·m, 5.35 Hz wrist tremor, the case that made diagnosis
   // fits slow: at tolerance 1e-5 the steps are limited by the speeds' error. With their absolute
