@@ -76,6 +76,35 @@ protocols::StimulationProgram DatasetProgram(const std::string& name, double dur
                               "' (allowed: steps, grid, multisine)");
 }
 
+protocols::StimulationProgram HeldProgram(const fesim::Trial& record) {
+  const std::vector<std::string> names = record.NamesWithPrefix("u.");
+  if (names.empty() || record.size() < 2) {
+    throw std::invalid_argument("foreign: HeldProgram needs u.* columns and >= 2 samples");
+  }
+  protocols::StimulationProgram program;
+  std::vector<const std::vector<double>*> columns;
+  for (const auto& n : names) {
+    program.channels.push_back(n.substr(2));
+    columns.push_back(&record.Column(n));
+  }
+  for (std::size_t i = 0; i < record.size(); ++i) {
+    std::vector<double> values;
+    values.reserve(columns.size());
+    for (const auto* c : columns) values.push_back((*c)[i]);
+    if (i == 0 || values != program.values_us.back()) {
+      program.times_s.push_back(record.time[i] - record.time[0]);
+      program.values_us.push_back(std::move(values));
+    }
+  }
+  program.duration_s = record.time.back() - record.time[0];
+  // A switch at the last sample is never held: the program ends there.
+  if (program.times_s.size() > 1 && program.times_s.back() >= program.duration_s) {
+    program.times_s.pop_back();
+    program.values_us.pop_back();
+  }
+  return program;
+}
+
 Dataset MakeDataset(const DatasetSpec& spec) {
   Dataset out;
   out.person = DrawPerson(spec.spread, spec.person_seed);

@@ -52,6 +52,13 @@ struct Dataset {
 protocols::StimulationProgram DatasetProgram(const std::string& name, double duration_s,
                                              std::uint64_t seed);
 
+/// The stimulation a recorded trial held: its u.<channel> columns (µs) as a zero-order hold
+/// between its samples — a switch at every sample whose values differ from the previous one —
+/// ending at the last sample time. Replays another simulator's protocol (e.g. `fesim
+/// benchmark`'s hand-array study) on a foreign person. Throws std::invalid_argument when the
+/// trial has no u.* column or fewer than 2 samples.
+protocols::StimulationProgram HeldProgram(const fesim::Trial& record);
+
 /// Draws the person, plants the effects at the floor and simulates every protocol. Throws like
 /// SimulateTrial.
 Dataset MakeDataset(const DatasetSpec& spec);

@@ -70,6 +70,39 @@ TEST(ForeignDataset, APlantedEffectIsRaisedToTheFloorAndTheSameSeedGivesTheSameD
             d.truth[0].Column("q.wrist_flexion"));
 }
 
+TEST(ForeignDataset, AHeldProgramReplaysARecordsInputsAtEverySample) {
+  // A record of another simulator: 2 channels, 60 Hz, a switch on one channel at t = 0.5 s and
+  // on the other at 1 s.
+  Trial record;
+  std::vector<double> ext, flex;
+  for (int k = 0; k <= 90; ++k) {
+    const double t = k / 60.0;
+    record.time.push_back(t);
+    ext.push_back(t < 0.5 - 1e-9 ? 0.0 : 150.0);
+    flex.push_back(t < 1.0 - 1e-9 ? 50.0 : 0.0);
+  }
+  record.AddColumn("u.ext", ext);
+  record.AddColumn("u.flex", flex);
+  const protocols::StimulationProgram p = HeldProgram(record);
+  EXPECT_EQ(p.channels, (std::vector<std::string>{"ext", "flex"}));
+  ASSERT_EQ(p.times_s.size(), 3u);  // the start and the two switches
+  EXPECT_NEAR(p.times_s[1], 0.5, 1e-12);
+  EXPECT_NEAR(p.times_s[2], 1.0, 1e-12);
+  EXPECT_NEAR(p.duration_s, 1.5, 1e-12);
+  for (std::size_t k = 0; k < record.size(); ++k) {
+    const std::vector<double> v = protocols::ValueAt(p, record.time[k]);
+    EXPECT_EQ(v[0], ext[k]) << k;
+    EXPECT_EQ(v[1], flex[k]) << k;
+  }
+  // Simulated on a foreign person, the record's inputs come back at the same times.
+  const ForeignTrial t = SimulateTrial(NominalPerson(), {}, p, SensorSpec{}, 5);
+  ASSERT_EQ(t.measured.size(), record.size());
+  EXPECT_EQ(t.measured.Column("u.ext"), ext);
+  Trial empty;
+  empty.time = {0.0, 1.0};
+  EXPECT_THROW(HeldProgram(empty), std::invalid_argument);
+}
+
 TEST(ForeignDataset, AnUnknownProtocolIsNamed) {
   try {
     DatasetProgram("ramp", 10.0, 1);
