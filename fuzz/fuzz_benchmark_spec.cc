@@ -34,9 +34,14 @@ void CheckBudget(const fesim::FullModelBudget& m) {
   if (m.keep < 1 || m.keep > 39 || m.starts < 1 || m.starts > 100 || m.max_iterations < 1 ||
       m.max_iterations > 1000 || !(m.integrator_tolerance >= 1e-8) ||
       !(m.integrator_tolerance <= 1e-2) || !(m.fd_relative_step >= 1e-8) ||
-      !(m.fd_relative_step <= 0.1)) {
+      !(m.fd_relative_step <= 0.1) || !(m.relative_tolerance >= 1e-12) ||
+      !(m.relative_tolerance <= 0.1)) {
     std::abort();
   }
+}
+
+void CheckIndependent(const fesim::IndependentCohort& c) {
+  if (c.participants < 0 || c.participants > 100 || c.seed > 1000000000u) std::abort();
 }
 
 }  // namespace
@@ -69,6 +74,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
     CheckBudget(b.full_model);
     CheckBudget(b.quick_full_model);
+    CheckIndependent(b.independent);
+    CheckIndependent(b.quick_independent);
     if (b.assumption_participants < 0 || b.assumption_participants > 1000) std::abort();
   } catch (const std::runtime_error& e) {
     if (std::string(e.what()).rfind(path, 0) != 0) std::abort();  // message must name the file

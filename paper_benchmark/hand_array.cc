@@ -13,6 +13,8 @@
 #include <set>
 #include <stdexcept>
 
+#include "foreign/dataset.h"
+#include "foreign/random.h"
 #include "identification/fullmodel/full_model_fit.h"
 #include "identification/metrics.h"
 #include "paper_benchmark/paper_values.h"
@@ -47,6 +49,7 @@ Json FoldJson(const FoldFigures& f) {
   j.Set("normalised_error", f.error);
   j.Set("truth_normalised_error_unseen", f.truth_error);
   j.Set("local_step_wall_s", f.step_wall_s);
+  j.Set("iterations", f.iterations);
   Json p = Json::Object();
   for (const auto& [k, v] : f.parameters) p.Set(k, v);
   j.Set("parameters", p);
@@ -60,6 +63,8 @@ FoldFigures FoldFromJson(const Json& j) {
     f.truth_error.push_back(v.AsNumber());
   }
   f.step_wall_s = j.Find("local_step_wall_s")->AsNumber();
+  const Json* it = j.Find("iterations");
+  f.iterations = it != nullptr ? static_cast<int>(it->AsNumber()) : 0;
   const Json& p = *j.Find("parameters");
   for (std::size_t k = 0; k < p.Keys().size(); ++k)
     f.parameters[p.Keys()[k]] = p.Items()[k].AsNumber();
@@ -232,8 +237,15 @@ struct HandArrayInputs {
   bool do_full = false, do_ham = false;
   FullModelBudget budget;
   sim::ModelParams rig;
+  sim::SensorParams angle_sensor;  ///< the scenario's tracker (rate, noise).
+  /// Empty: fesim's cohort (the study's participants); else the cohort's name in the report.
+  std::string independent;
 
   const Study& study() const { return data.study; }
+  /// A work loop's label: fesim's cohort's as given, the independent cohort's marked.
+  std::string Label(const std::string& label) const {
+    return independent.empty() ? label : label + " (independent cohort)";
+  }
   std::size_t Index(int p, int proto, int r) const { return layout.Index(p, proto, r); }
   /// Fold k of participant p: train on the other step-grid data sets, test on data set k (and
   /// the unseen input's data set k).
@@ -261,8 +273,48 @@ HandArrayInputs ReadInputs(const BenchmarkSection& section, SectionContext* ctx)
   in.do_full = std::count(section.methods.begin(), section.methods.end(), "full-model");
   in.do_ham = std::count(section.methods.begin(), section.methods.end(), "hammerstein-mimo");
   in.budget = ctx->quick ? ctx->spec->quick_full_model : ctx->spec->full_model;
-  in.rig = LoadScenario(in.data.study.scenario_path).model;
+  const Scenario scenario = LoadScenario(in.data.study.scenario_path);
+  in.rig = scenario.model;
+  in.angle_sensor = scenario.trial.sensors.angles;
   return in;
+}
+
+/// The independent cohort (BenchmarkSpec::independent): persons of the foreign simulator (foreign/:
+/// a planar chain with its own muscle, recruitment, activation and passive models; persons drawn
+/// with foreign::PersonSpread's defaults, far wider than the study's cohort) given the stimulation
+/// of every data set of the study's participant 1, recorded by a tracker at the scenario's rate and
+/// noise (no dropouts, like the study's). Same layout as fesim's cohort, so the folds, fits and
+/// tables below apply unchanged; `study` (name, rig) stays the study's.
+HandArrayInputs IndependentInputs(const HandArrayInputs& in, const IndependentCohort& cohort) {
+  HandArrayInputs out = in;
+  out.independent = "the independent simulator's cohort";
+  out.np = cohort.participants;
+  out.layout.participants = cohort.participants;
+  const std::size_t per = in.layout.protocols.size() * static_cast<std::size_t>(in.reps);
+  const std::size_t n = per * static_cast<std::size_t>(cohort.participants);
+  out.data.measured.assign(n, Trial{});
+  out.data.truth.assign(n, Trial{});
+  out.data.simulated = static_cast<int>(n);
+  foreign::SensorSpec sensor;
+  sensor.rate_hz = in.angle_sensor.rate_hz;
+  sensor.noise_std_rad = in.angle_sensor.noise_std;
+  sensor.dropout_probability = 0.0;
+  const auto hashed = [](Trial t) {
+    t.metadata.erase("trial_hash");
+    t.metadata["trial_hash"] = Fnv1a64Hex(FormatTrialCsv(t));
+    return t;
+  };
+  in.ctx->loop->Run(out.Label("hand_array trials"), n, [&](std::size_t i) {
+    const std::size_t p = i / per, item = i % per;  // item: participant 1's layout index
+    const std::uint64_t person_seed = cohort.seed + p;
+    const foreign::Person person = foreign::DrawPerson(foreign::PersonSpread{}, person_seed);
+    foreign::ForeignTrial t = foreign::SimulateTrial(
+        person, {}, foreign::HeldProgram(in.data.measured[item]), sensor,
+        foreign::DeriveSeed(person_seed, "hand_array item " + std::to_string(item)));
+    out.data.measured[i] = hashed(std::move(t.measured));
+    out.data.truth[i] = hashed(std::move(t.truth));
+  });
+  return out;
 }
 
 /// Hammerstein (16): every participant × fold in parallel. *example gets the prediction of
@@ -270,7 +322,7 @@ HandArrayInputs ReadInputs(const BenchmarkSection& section, SectionContext* ctx)
 std::vector<FoldFigures> FitHammersteinFolds(const HandArrayInputs& in, Trial* example) {
   SectionContext* ctx = in.ctx;
   std::vector<FoldFigures> ham(static_cast<std::size_t>(in.np * in.reps));
-  ctx->loop->Run("hand_array hammerstein fit", ham.size(), [&](std::size_t i) {
+  ctx->loop->Run(in.Label("hand_array hammerstein fit"), ham.size(), [&](std::size_t i) {
     const int p = static_cast<int>(i) / in.reps, k = static_cast<int>(i) % in.reps;
     std::vector<Trial> train, test;
     in.FoldSets(p, k, &train, &test);
@@ -307,6 +359,7 @@ std::vector<std::string> FullModelFoldKey(const HandArrayInputs& in,
                                   std::to_string(budget.keep),
                                   std::to_string(budget.starts),
                                   std::to_string(budget.max_iterations),
+                                  std::to_string(budget.relative_tolerance),
                                   std::to_string(budget.integrator_tolerance),
                                   std::to_string(budget.fd_relative_step),
                                   budget.broyden ? "broyden" : "fd",
@@ -333,6 +386,7 @@ Json FitFullModelFold(const HandArrayInputs& in, int p, int k, const std::vector
   o.keep_parameters = budget.keep;
   o.starts = budget.starts;
   o.max_iterations = budget.max_iterations;
+  o.relative_tolerance = budget.relative_tolerance;
   o.integrator_tolerance = budget.integrator_tolerance;
   o.fd_relative_step = budget.fd_relative_step;
   o.broyden = budget.broyden;
@@ -359,11 +413,11 @@ Json FitFullModelFold(const HandArrayInputs& in, int p, int k, const std::vector
   for (std::size_t q = 0; q < fit.kept.size(); ++q) {
     f.parameters[fit.kept[q].name] = fit.values(static_cast<Eigen::Index>(q));
   }
+  f.iterations = fit.runs.empty() ? 0 : fit.runs[0].iterations;
   Json j = FoldJson(f);
   Json names = Json::Array();
   for (const auto& kp : fit.kept) names.Push(kp.name);
   j.Set("kept", names);
-  j.Set("iterations", fit.runs.empty() ? 0 : fit.runs[0].iterations);
   return j;
 }
 
@@ -394,11 +448,12 @@ std::vector<FoldFigures> FitFullModelFolds(const HandArrayInputs& in) {
   // other folds fit), then the other folds; one item at a time on one process (the fit's
   // simulations are parallel inside), spread over the ranks on an MPI job.
   ctx->loop->Run(
-      "hand_array full-model fit, fold 1, participant", static_cast<std::size_t>(np),
+      in.Label("hand_array full-model fit, fold 1, participant"), static_cast<std::size_t>(np),
       [&](std::size_t p) { fold(static_cast<int>(p), 0); }, 1);
   if (reps > 1) {
     ctx->loop->Run(
-        "hand_array full-model fit, later folds", static_cast<std::size_t>(np * (reps - 1)),
+        in.Label("hand_array full-model fit, later folds"),
+        static_cast<std::size_t>(np * (reps - 1)),
         [&](std::size_t i) {
           fold(static_cast<int>(i) / (reps - 1), 1 + static_cast<int>(i) % (reps - 1));
         },
@@ -469,21 +524,69 @@ Json NominalBaseline(const HandArrayInputs& in, std::string* md) {
   return jn;
 }
 
-/// The paper's two findings (Hammerstein more accurate; its local step far faster), from the
-/// tables' means; appends their lines to *md.
-Json Findings(const HandArrayTables& t, std::string* md) {
+/// How the full-model folds' local optimisations ended: the median LM iterations and how many
+/// stopped at the budget's cap (not converged), for the report; results.json "full_model_lm".
+Json FullModelConvergence(const HandArrayInputs& in, const std::vector<FoldFigures>& full,
+                          std::string* md) {
+  std::vector<double> its;
+  int capped = 0;
+  for (const auto& f : full) {
+    its.push_back(f.iterations);
+    capped += f.iterations >= in.budget.max_iterations;
+  }
+  Json j = Json::Object();
+  j.Set("median_iterations", UpperMedian(its));
+  j.Set("folds_at_iteration_cap", capped);
+  j.Set("folds", static_cast<double>(full.size()));
+  *md += "Full-model LM iterations per fold: median " + Fixed(UpperMedian(its), 0) + "; " +
+         std::to_string(capped) + " of " + std::to_string(full.size()) +
+         " folds stopped at the cap of " + std::to_string(in.budget.max_iterations) +
+         " (the others met one of its stop tests).\n\n";
+  return j;
+}
+
+/// Mean over participants, folds and joints of the unseen input's error against the noiseless
+/// truth (NaN without an unseen input).
+double UnseenTruthError(const std::vector<FoldFigures>& folds) {
+  std::vector<double> e;
+  for (const auto& f : folds) e.insert(e.end(), f.truth_error.begin(), f.truth_error.end());
+  return MeanFinite(e);
+}
+
+/// The paper's findings from the tables' means, appended to *md: Hammerstein more accurate (on
+/// either cohort); its local step far faster (fesim's cohort only: the same fits' timing).
+Json Findings(const HandArrayInputs& in, const std::array<HandArrayModel, 2>& models,
+              const HandArrayTables& t, bool independent_follows, std::string* md) {
   Json findings = Json::Array();
   const double fe = MeanFinite(t.mean_error[0]), he = MeanFinite(t.mean_error[1]);
   const double rel = 100.0 * (fe - he) / fe;
   const std::string_view paper_reduction =
       GetPaperValue(kPaper000, "§5.2 text", "model (16) vs (12)", "mean error reduction").text;
-  Json f = Finding("Hammerstein (16) error lower than the full-model (12) fit on average (paper: " +
-                       std::string(paper_reduction) + " % lower)",
-                   he < fe,
-                   "mean normalised error " + Fixed(he, 3) + " vs " + Fixed(fe, 3) + " (" +
-                       Fixed(rel, 1) + " % lower)");
+  std::string margin = "mean normalised error " + Fixed(he, 3) + " vs " + Fixed(fe, 3) + " (" +
+                       Fixed(rel, 1) + " % lower)";
+  if (!(he < fe) && in.independent.empty()) {
+    // Why model (12) wins on fesim's cohort: it is the generator. The unseen input's error
+    // against the noiseless truth shows how close the converged fit came to it.
+    margin +=
+        "; cause: fesim's cohort is made by model (12) itself, so its fit has the "
+        "generator's structure and needs only the participant's values of its " +
+        std::to_string(in.budget.keep) +
+        " most sensitive parameters (the unseen input against the noiseless truth: full "
+        "model " +
+        Fixed(UnseenTruthError(*models[0].folds), 3) + ", Hammerstein " +
+        Fixed(UnseenTruthError(*models[1].folds), 3) +
+        "); the paper's participants were not made by model (12)" +
+        (independent_follows ? " — the independent simulator's cohort below tests the "
+                               "paper's finding on persons model (12) did not make"
+                             : std::string());
+  }
+  const std::string where = in.independent.empty() ? "" : ", " + in.independent;
+  Json f = Finding("Hammerstein (16) error lower than the full-model (12) fit on average" + where +
+                       " (paper: " + std::string(paper_reduction) + " % lower)",
+                   he < fe, margin);
   findings.Push(f);
   *md += FindingLine(f);
+  if (!in.independent.empty()) return findings;
   const double ratio = MeanFinite(t.steps[0]) / MeanFinite(t.steps[1]);
   Json g = Finding("Hammerstein local optimisation step orders of magnitude faster (paper: " +
                        std::string(PaperHandStep(0).text) + " s vs " +
@@ -558,8 +661,10 @@ void UnseenAgainstTruth(const HandArrayInputs& in, const std::array<HandArrayMod
                         Json* truth, std::string* md) {
   const int nj = static_cast<int>(in.joints.size());
   *md += "Prediction of the `" + in.layout.protocols[1] +
-         "` input, never used in training, against the noiseless full model (normalised error, "
-         "mean over participants and folds):\n\n| model |";
+         "` input, never used in training, against " +
+         (in.independent.empty() ? std::string("the noiseless full model")
+                                 : "the independent simulator's noiseless output") +
+         " (normalised error, mean over participants and folds):\n\n| model |";
   for (const auto& j : in.joints) *md += " " + j.substr(2) + " |";
   *md += "\n|---|";
   for (int j = 0; j < nj; ++j) *md += "---|";
@@ -720,25 +825,71 @@ void AssumptionsOnTruth(const HandArrayInputs& in, int na, Json* truth, std::str
   truth->Set("most_violated_assumption", switches[order[0]].id);
 }
 
+/// One cohort's fits: both models over every participant × fold (a model the section does not
+/// list gets empty figures); `example` is participant 1's fold-1 Hammerstein prediction.
+struct CohortFits {
+  std::vector<FoldFigures> ham, full;
+  Trial example;
+  std::array<HandArrayModel, 2> Models() const {
+    return {HandArrayModel{"full model (12)", &full, !full.empty() && !full[0].error.empty()},
+            HandArrayModel{"Hammerstein (16)", &ham, !ham.empty() && !ham[0].error.empty()}};
+  }
+};
+
+CohortFits FitCohort(const HandArrayInputs& in) {
+  CohortFits c;
+  const auto n = static_cast<std::size_t>(in.np * in.reps);
+  c.ham = in.do_ham ? FitHammersteinFolds(in, &c.example) : std::vector<FoldFigures>(n);
+  c.full = in.do_full ? FitFullModelFolds(in) : std::vector<FoldFigures>(n);
+  return c;
+}
+
+/// The independent cohort's subsection (IndependentInputs): its Tables 1–2, the nominal
+/// baseline, the accuracy finding and the unseen input against its noiseless truth; results.json
+/// "independent". Its finding is appended to *findings.
+Json IndependentSection(const HandArrayInputs& fesim_in, const IndependentCohort& cohort,
+                        Json* findings, std::string* md) {
+  const HandArrayInputs in = IndependentInputs(fesim_in, cohort);
+  const CohortFits fits = FitCohort(in);
+  const auto models = fits.Models();
+  const HandArrayTables tables = TablesOneTwo(models, in.joints, in.np, in.reps);
+  *md += "\n### Hand array on the independent simulator's cohort\n\n" + std::to_string(in.np) +
+         " person(s) of fesim's independent simulator (foreign/: a planar wrist–finger chain with "
+         "its own muscle, recruitment, activation and passive models, persons drawn from seed " +
+         std::to_string(cohort.seed) +
+         " far beyond the study cohort's spread), each given participant 1's stimulation of "
+         "every data set and recorded by the scenario's tracker (same rate and noise, no "
+         "dropouts); fitted and validated as above, with the same budget. The paper's "
+         "participants were not made by model (12); neither are these.";
+  *md += tables.markdown;
+  Json j = Json::Object();
+  j.Set("participants", in.np);
+  j.Set("seed", static_cast<double>(cohort.seed));
+  j.Set("table", tables.rows);
+  j.Set("mean", tables.means);
+  if (in.do_full) {
+    j.Set("nominal_full_model_mean", NominalBaseline(in, md));
+    j.Set("full_model_lm", FullModelConvergence(in, fits.full, md));
+  }
+  if (in.do_full && in.do_ham) {
+    const Json own = Findings(in, models, tables, false, md);
+    for (const auto& f : own.Items()) findings->Push(f);
+    *md += "\n";
+  }
+  Json truth = Json::Object();
+  if (in.has_unseen) UnseenAgainstTruth(in, models, &truth, md);
+  j.Set("truth", truth);
+  return j;
+}
+
 }  // namespace
 
 SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx) {
   const HandArrayInputs in = ReadInputs(section, ctx);
-  Trial example;
-  std::vector<FoldFigures> ham, full;
-  if (in.do_ham) {
-    ham = FitHammersteinFolds(in, &example);
-  } else {
-    ham.resize(static_cast<std::size_t>(in.np * in.reps));
-  }
-  if (in.do_full) {
-    full = FitFullModelFolds(in);
-  } else {
-    full.resize(static_cast<std::size_t>(in.np * in.reps));
-  }
-  const std::array<HandArrayModel, 2> models = {
-      HandArrayModel{"full model (12)", &full, in.do_full},
-      HandArrayModel{"Hammerstein (16)", &ham, in.do_ham}};
+  const IndependentCohort& cohort =
+      ctx->quick ? ctx->spec->quick_independent : ctx->spec->independent;
+  const CohortFits fits = FitCohort(in);
+  const auto models = fits.Models();
 
   // Tables 1–2: per participant, mean over folds.
   const HandArrayTables tables = TablesOneTwo(models, in.joints, in.np, in.reps);
@@ -755,15 +906,24 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
   out.json.Set("table", tables.rows);
   out.json.Set("mean", tables.means);
   out.json.Set("paper", PaperJson(kPaper000));
-  if (in.do_full) out.json.Set("nominal_full_model_mean", NominalBaseline(in, &md));
-  out.json.Set("findings", in.do_full && in.do_ham ? Findings(tables, &md) : Json::Array());
-  Plots(in, models, tables, example, &md);
+  if (in.do_full) {
+    out.json.Set("nominal_full_model_mean", NominalBaseline(in, &md));
+    out.json.Set("full_model_lm", FullModelConvergence(in, fits.full, &md));
+  }
+  Json findings = in.do_full && in.do_ham
+                      ? Findings(in, models, tables, cohort.participants > 0, &md)
+                      : Json::Array();
+  Plots(in, models, tables, fits.example, &md);
+  if (cohort.participants > 0) {
+    out.json.Set("independent", IndependentSection(in, cohort, &findings, &md));
+  }
+  out.json.Set("findings", findings);
 
   // Against the truth: unseen input, noiseless reference; parameter errors; the Assumptions.
   Json truth = Json::Object();
   md += "\n### Hand array against the ground truth\n\n";
   if (in.has_unseen) UnseenAgainstTruth(in, models, &truth, &md);
-  truth.Set("parameter_errors", ParameterErrors(in, ham, full, &md));
+  truth.Set("parameter_errors", ParameterErrors(in, fits.ham, fits.full, &md));
   md += "\n";
   const int na = std::min(in.np, ctx->spec->assumption_participants);
   if (na > 0) AssumptionsOnTruth(in, na, &truth, &md);

@@ -20,6 +20,7 @@ struct FoldFigures {
   std::vector<double> error;        ///< vs the held-out measured data set, per joint.
   std::vector<double> truth_error;  ///< vs the noiseless truth of the unseen input, per joint.
   double step_wall_s = NAN;         ///< time per local optimisation step.
+  int iterations = 0;  ///< LM iterations of the (first) local optimisation; 0 = not an LM fit.
   std::map<std::string, double> parameters;  ///< identified values with a truth counterpart.
 };
 

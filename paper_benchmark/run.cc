@@ -272,6 +272,9 @@ void PlanProgress(const BenchmarkSpec& spec, const BenchmarkOptions& options, bo
              ? FullModelFitWeight(options.quick ? spec.quick_full_model : spec.full_model)
              : 0.0);
     progress->Plan(per_fold * ni / 2);  // one fold per step-grid repetition (half the items)
+    // The independent cohort: the same folds for its persons (its trials cost little).
+    const int ip = (options.quick ? spec.quick_independent : spec.independent).participants;
+    if (np > 0) progress->Plan(per_fold * ni / 2 * ip / np);
   }
   if (spec.elbow_tests) {
     progress->Plan(study_weight(spec.elbow_tests, &np, &ni));

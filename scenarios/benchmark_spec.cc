@@ -27,6 +27,8 @@ BenchmarkSection LoadSection(const Node& top, const std::string& key, const std:
   if (key == "hand_array") {
     keys.insert("full_model");
     keys.insert("quick_full_model");
+    keys.insert("independent");
+    keys.insert("quick_independent");
   }
   n.Keys(keys);
   BenchmarkSection s;
@@ -72,16 +74,25 @@ BenchmarkSection LoadSection(const Node& top, const std::string& key, const std:
 
 FullModelBudget LoadBudget(const Node& h, const std::string& key, FullModelBudget m) {
   const Node f = h.Child(key);
-  f.Keys({"keep", "starts", "max_iterations", "integrator_tolerance", "fd_relative_step", "broyden",
-          "rank_once"});
+  f.Keys({"keep", "starts", "max_iterations", "relative_tolerance", "integrator_tolerance",
+          "fd_relative_step", "broyden", "rank_once"});
   if (f.Has("keep")) m.keep = f.Integer("keep", 1, 39);
   if (f.Has("starts")) m.starts = f.Integer("starts", 1, 100);
   if (f.Has("max_iterations")) m.max_iterations = f.Integer("max_iterations", 1, 1000);
+  f.Number("relative_tolerance", 1e-12, 0.1, &m.relative_tolerance);
   f.Number("integrator_tolerance", 1e-8, 1e-2, &m.integrator_tolerance);
   f.Number("fd_relative_step", 1e-8, 0.1, &m.fd_relative_step);
   if (f.Has("broyden")) m.broyden = f.Choice("broyden", {"true", "false"}) == "true";
   if (f.Has("rank_once")) m.rank_once = f.Choice("rank_once", {"true", "false"}) == "true";
   return m;
+}
+
+IndependentCohort LoadIndependent(const Node& h, const std::string& key, IndependentCohort c) {
+  const Node n = h.Child(key);
+  n.Keys({"participants", "seed"});
+  if (n.Has("participants")) c.participants = n.Integer("participants", 0, 100);
+  if (n.Has("seed")) c.seed = static_cast<std::uint64_t>(n.Integer("seed", 0, 1000000000));
+  return c;
 }
 
 BenchmarkSpec ParseChecked(const std::string& text, const std::string& path) {
@@ -107,6 +118,11 @@ BenchmarkSpec ParseChecked(const std::string& text, const std::string& path) {
     b.quick_full_model = b.full_model;
     if (h.Has("quick_full_model")) {
       b.quick_full_model = LoadBudget(h, "quick_full_model", b.quick_full_model);
+    }
+    if (h.Has("independent")) b.independent = LoadIndependent(h, "independent", b.independent);
+    b.quick_independent = b.independent;
+    if (h.Has("quick_independent")) {
+      b.quick_independent = LoadIndependent(h, "quick_independent", b.quick_independent);
     }
   }
   if (top.Has("elbow_tests")) b.elbow_tests = LoadSection(top, "elbow_tests", dir);

@@ -3,7 +3,8 @@
 // docs/papers.md).
 //
 //   benchmark: text                                   (required) name of the report
-//   hand_array:      {study, quick_study, methods, options, full_model, quick_full_model}
+//   hand_array:      {study, quick_study, methods, options, full_model, quick_full_model,
+//                     independent, quick_independent}
 //                                                                  [Hand Hammerstein] Tables 1–2
 //   elbow_tests:     {study, quick_study, methods, options}        [Le 2010] Tables 1–3
 //   tremor_wrist:    {study, quick_study, methods, options}        [Copur 2016] Table 5
@@ -17,16 +18,19 @@
 // (default: all of them). `options` are method options passed as `fesim identify` trial metadata
 // (`<prefix>.<key>: value`, e.g. `tremor.eps: 1.0e-5`). `full_model` sets the full-model fit's
 // budget (`quick_full_model` the one --quick uses; default: full_model's):
-//   {keep: 1–39, starts: 1–100, max_iterations: 1–1000, integrator_tolerance: 1e-8–1e-2,
-//    fd_relative_step: 1e-8–0.1, broyden: true|false, rank_once: true|false}  (the
-//    forward-difference step must be well above the integrator's relative error, else the Jacobian
-//    is integration noise)  (rank once per participant on the first fold, then fit the same K
-//    parameters in every fold; default true)
+//   {keep: 1–39, starts: 1–100, max_iterations: 1–1000, relative_tolerance: 1e-12–0.1,
+//    integrator_tolerance: 1e-8–1e-2, fd_relative_step: 1e-8–0.1, broyden: true|false, rank_once:
+//    true|false}  (the forward-difference step must be well above the integrator's relative error,
+//    else the Jacobian is integration noise)  (rank once per participant on the first fold, then
+//    fit the same K parameters in every fold; default true)
 // The hand_array study's first protocol is the paper's step grid (the cross-validation folds
 // are its repetitions); an optional second protocol is an input the models never see in
-// training, used for the prediction error against the noiseless truth.
+// training, used for the prediction error against the noiseless truth. `independent` (and
+// `quick_independent` for --quick; default: independent's) adds a cohort of the independent
+// simulator, {participants: 0–100, seed: 0–1e9} (IndependentCohort).
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
@@ -47,10 +51,21 @@ struct FullModelBudget {
   int keep = 8;
   int starts = 1;
   int max_iterations = 4;
+  /// LM stops when the cost falls by less than this fraction (FullModelFitOptions::
+  /// relative_tolerance), in [1e-12, 0.1].
+  double relative_tolerance = 1e-6;
   double integrator_tolerance = sim::TaskTolerances::kStudyFullModelFit;
   double fd_relative_step = 1e-2;
   bool broyden = true;  ///< secant Jacobian updates (FullModelFitOptions::broyden).
   bool rank_once = true;
+};
+
+/// The hand array's second cohort: persons of the independent simulator (foreign/, its own
+/// physics) given the study's own stimulation, fitted and validated like fesim's cohort — the
+/// paper's participants were not made by model (12) either (docs/papers.md).
+struct IndependentCohort {
+  int participants = 0;    ///< persons drawn (foreign::DrawPerson); 0 = none.
+  std::uint64_t seed = 1;  ///< the first person's seed; person i has seed + i.
 };
 
 struct BenchmarkSpec {
@@ -60,6 +75,8 @@ struct BenchmarkSpec {
   std::optional<BenchmarkSection> hand_array, elbow_tests, tremor_wrist, shoulder, reaching;
   FullModelBudget full_model;
   FullModelBudget quick_full_model;
+  IndependentCohort independent;
+  IndependentCohort quick_independent;
   int assumption_participants = 0;  ///< 0 = no assumption analysis.
 };
 

@@ -106,6 +106,9 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
        {"hand_array/table", "hand_array/mean/full_model/wrist_flexion",
         "hand_array/mean/hammerstein/local_step_wall_s",
         "hand_array/truth/full_model_unseen_normalised_error", "hand_array/truth/assumptions",
+        "hand_array/independent/mean/full_model/wrist_flexion",
+        "hand_array/independent/nominal_full_model_mean",
+        "hand_array/independent/truth/hammerstein_unseen_normalised_error",
         "elbow_tests/identification_best_fit_percent", "elbow_tests/validation_best_fit_percent",
         "elbow_tests/cross_validation_best_fit_percent/spline-oe/staircase",
         "tremor_wrist/order_sweep", "tremor_wrist/tremor", "shoulder/fits", "shoulder/ekf",
@@ -113,6 +116,14 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
     EXPECT_NO_THROW(At(At(r, "sections"), key)) << key;
   }
   EXPECT_EQ(At(r, "sections/hand_array/table").Items().size(), 2u);  // two participants
+  // The independent simulator's cohort: quick_independent's one person, and its own finding.
+  EXPECT_EQ(At(r, "sections/hand_array/independent/table").Items().size(), 1u);
+  int independent_findings = 0;
+  for (const auto& f : At(r, "sections/hand_array/findings").Items()) {
+    independent_findings +=
+        f.Find("claim")->AsString().find("independent simulator's cohort") != std::string::npos;
+  }
+  EXPECT_EQ(independent_findings, 1);
   EXPECT_GE(At(r, "findings").Items().size(), 6u);
 
   // 4. Planted ground truth reported back.

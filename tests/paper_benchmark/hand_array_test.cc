@@ -31,8 +31,10 @@ TEST(HandArray, FoldFiguresSurviveTheCacheRoundTrip) {
   f.error = {0.25, 0.5, 0.125};
   f.truth_error = {0.0625};
   f.step_wall_s = 3.5;
+  f.iterations = 17;
   f.parameters = {{"A.ext.ECRL", 0.75}, {"k.wrist_flexion", 1.5}};
   const FoldFigures g = FoldFromJson(Json::Parse(FoldJson(f).Dump(0)));
+  EXPECT_EQ(g.iterations, 17);
   EXPECT_EQ(g.error, f.error);
   EXPECT_EQ(g.truth_error, f.truth_error);
   EXPECT_EQ(g.step_wall_s, f.step_wall_s);

@@ -36,9 +36,15 @@ TEST(BenchmarkSpec, DefaultStudyHasEverySection) {
   EXPECT_EQ(s.elbow_tests->methods, (std::vector<std::string>{"spline-arx", "spline-oe"}));
   EXPECT_EQ(s.shoulder->methods.size(), 3u);
   EXPECT_NE(s.hand_array->quick_study_path, s.hand_array->study_path);
-  EXPECT_EQ(s.full_model.keep, 6);
+  // Paper 000 §5.1: the 29 most sensitive parameters, to convergence.
+  EXPECT_EQ(s.full_model.keep, 29);
+  EXPECT_FALSE(s.full_model.broyden);
+  EXPECT_DOUBLE_EQ(s.full_model.relative_tolerance, 1e-4);
   EXPECT_EQ(s.quick_full_model.keep, 4);
   EXPECT_TRUE(s.full_model.rank_once);
+  EXPECT_EQ(s.independent.participants, 2);
+  EXPECT_EQ(s.quick_independent.participants, 1);
+  EXPECT_EQ(s.quick_independent.seed, s.independent.seed);  // inherited
   EXPECT_EQ(s.tremor_wrist->options.at("tremor.eps"), "1.0e-5");
   EXPECT_EQ(s.assumption_participants, 2);
 }
@@ -59,6 +65,18 @@ TEST(BenchmarkSpec, BadInputNamesFileKeyAndRange) {
        base + "hand_array: {study: " + kScenarios +
            "bench_hand_array.yaml, full_model: {keep: 40}}\n",
        "hand_array.full_model.keep: 40 is outside [1, 39]"},
+      {"relative_tolerance",
+       base + "hand_array: {study: " + kScenarios +
+           "bench_hand_array.yaml, full_model: {relative_tolerance: 0.5}}\n",
+       "hand_array.full_model.relative_tolerance: 0.5 is outside [1e-12, 0.1]"},
+      {"independent",
+       base + "hand_array: {study: " + kScenarios +
+           "bench_hand_array.yaml, independent: {participants: 101}}\n",
+       "hand_array.independent.participants: 101 is outside [0, 100]"},
+      {"independent_key",
+       base + "hand_array: {study: " + kScenarios +
+           "bench_hand_array.yaml, quick_independent: {persons: 1}}\n",
+       "hand_array.quick_independent.persons: unknown key"},
       {"option",
        base + "tremor_wrist: {study: " + kScenarios + "bench_tremor.yaml, options: {eps: 1}}\n",
        "tremor_wrist.options.eps: expected <method prefix>.<option>"},
