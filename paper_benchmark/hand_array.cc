@@ -478,8 +478,11 @@ std::string Introduction(const HandArrayInputs& in) {
           " most influential of the candidate parameters (ranked " +
           (budget.rank_once ? std::string("once per participant on fold 1") : "in every fold") +
           "), " + std::to_string(budget.starts) + " start(s), at most " +
-          std::to_string(budget.max_iterations) + " LM iterations, integrator tolerance " +
-          Fixed(budget.integrator_tolerance * 1e4, 1) +
+          std::to_string(budget.max_iterations) + " LM iterations" +
+          (budget.broyden ? std::string(" (secant Jacobian updates)")
+                          : " (stop at a relative cost decrease below " +
+                                Fixed(budget.relative_tolerance * 1e4, 1) + "e-4)") +
+          ", integrator tolerance " + Fixed(budget.integrator_tolerance * 1e4, 1) +
           "e-4 (paper: " + PaperText(kPaper000, "§5.1 text", "model (12)", "parameters fitted") +
           " parameters, converged).";
   }
