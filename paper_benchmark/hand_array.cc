@@ -605,7 +605,8 @@ Json Findings(const HandArrayInputs& in, const std::array<HandArrayModel, 2>& mo
 
 /// Plots: mean normalised error per joint beside the paper's; one held-out prediction.
 void Plots(const HandArrayInputs& in, const std::array<HandArrayModel, 2>& models,
-           const HandArrayTables& t, const Trial& example, std::string* md) {
+           const HandArrayTables& t, const HandArrayTables* independent, const Trial& example,
+           std::string* md) {
   SectionContext* ctx = in.ctx;
   const int nj = static_cast<int>(in.joints.size());
   std::vector<render::BarSeries> bars;
@@ -614,13 +615,20 @@ void Plots(const HandArrayInputs& in, const std::array<HandArrayModel, 2>& model
   for (const auto& j : in.joints) cats.push_back(j.substr(2));
   for (int m = 0; m < 2; ++m) {
     if (!models[m].on) continue;
-    render::BarSeries b{models[m].name + " (fesim)", t.mean_error[m], render::PaletteColour(2 * m)};
-    render::BarSeries pb{models[m].name + " (paper 000)", {}, render::PaletteColour(2 * m + 1)};
+    const int c = independent != nullptr ? 3 * m : 2 * m;  // colour of the model's first bar
+    bars.push_back(
+        {models[m].name + " (fesim's cohort)", t.mean_error[m], render::PaletteColour(c)});
+    if (independent != nullptr) {
+      bars.push_back({models[m].name + " (independent cohort)", independent->mean_error[m],
+                      render::PaletteColour(c + 1)});
+    }
+    render::BarSeries pb{models[m].name + " (paper 000)",
+                         {},
+                         render::PaletteColour(independent != nullptr ? c + 2 : c + 1)};
     for (int j = 0; j < nj; ++j) {
       const PaperValue* v = PaperHandError(m, j);
       pb.values.push_back(v != nullptr ? v->Value() : NAN);
     }
-    bars.push_back(b);
     bars.push_back(pb);
   }
   render::Axes ax;
@@ -849,13 +857,13 @@ CohortFits FitCohort(const HandArrayInputs& in) {
 
 /// The independent cohort's subsection (IndependentInputs): its Tables 1–2, the nominal
 /// baseline, the accuracy finding and the unseen input against its noiseless truth; results.json
-/// "independent". Its finding is appended to *findings.
+/// "independent". Its finding is appended to *findings, its tables go to *tables_out.
 Json IndependentSection(const HandArrayInputs& fesim_in, const IndependentCohort& cohort,
-                        Json* findings, std::string* md) {
+                        Json* findings, HandArrayTables* tables_out, std::string* md) {
   const HandArrayInputs in = IndependentInputs(fesim_in, cohort);
   const CohortFits fits = FitCohort(in);
   const auto models = fits.Models();
-  const HandArrayTables tables = TablesOneTwo(models, in.joints, in.np, in.reps);
+  const HandArrayTables& tables = *tables_out = TablesOneTwo(models, in.joints, in.np, in.reps);
   *md += "\n### Hand array on the independent simulator's cohort\n\n" + std::to_string(in.np) +
          " person(s) of fesim's independent simulator (foreign/: a planar wrist–finger chain with "
          "its own muscle, recruitment, activation and passive models, persons drawn from seed " +
@@ -916,10 +924,14 @@ SectionResult RunHandArray(const BenchmarkSection& section, SectionContext* ctx)
   Json findings = in.do_full && in.do_ham
                       ? Findings(in, models, tables, cohort.participants > 0, &md)
                       : Json::Array();
-  Plots(in, models, tables, fits.example, &md);
+  std::string independent_md;
+  HandArrayTables independent;
   if (cohort.participants > 0) {
-    out.json.Set("independent", IndependentSection(in, cohort, &findings, &md));
+    out.json.Set("independent",
+                 IndependentSection(in, cohort, &findings, &independent, &independent_md));
   }
+  Plots(in, models, tables, cohort.participants > 0 ? &independent : nullptr, fits.example, &md);
+  md += independent_md;
   out.json.Set("findings", findings);
 
   // Against the truth: unseen input, noiseless reference; parameter errors; the Assumptions.
