@@ -529,6 +529,19 @@ double SimBestFit(const TremorModel& m, const Eigen::VectorXd& u, const Eigen::V
 
 }  // namespace
 
+std::complex<double> TremorArxResponse(const Eigen::VectorXd& a, const Eigen::VectorXd& b,
+                                       int delay_m, double sample_period_s, double f_hz) {
+  if (!(sample_period_s > 0.0) || b.size() == 0 || delay_m < 0) {
+    throw std::invalid_argument("TremorArxResponse: needs T > 0, b_0 and m_P >= 0");
+  }
+  const std::complex<double> zinv = std::polar(1.0, -2.0 * kPi * f_hz * sample_period_s);
+  std::complex<double> num = 0.0, den = 1.0, p = 1.0;
+  for (Eigen::Index j = 0; j < b.size(); ++j, p *= zinv) num += b(j) * p;
+  p = zinv;
+  for (Eigen::Index i = 0; i < a.size(); ++i, p *= zinv) den += a(i) * p;
+  return std::pow(zinv, delay_m) * num / den;
+}
+
 std::vector<TremorSweepEntry> SweepTremorOrders(const TremorData& data, const TremorOptions& base,
                                                 const std::vector<int>& poles,
                                                 const std::vector<int>& zeros,
@@ -552,6 +565,10 @@ std::vector<TremorSweepEntry> SweepTremorOrders(const TremorData& data, const Tr
           one.u_us = {data.u_us[i]};
           one.y = {data.y[i]};
           const TremorFit fit = FitTremorArx(one, opt, u_scale_us);
+          if (i == 0) {
+            e.first_a = fit.model.a;
+            e.first_b = fit.model.b;
+          }
           const std::size_t j = (i + 1) % T;
           e.validation_best_fit += SimBestFit(fit.model, data.u_us[i], data.y[i]) / T;
           e.cross_validation_best_fit += SimBestFit(fit.model, data.u_us[j], data.y[j]) / T;
@@ -626,7 +643,7 @@ TremorData TremorDataOf(const std::vector<Trial>& trials, const TremorColumns& c
 Json SweepOrders(const TremorData& tr, double u_scale, const ProgressFn& progress,
                  TremorOptions* opt) {
   const auto entries =
-      SweepTremorOrders(tr, *opt, {2, 4, 8, 12}, {1, 3, 7}, {1}, u_scale, progress);
+      SweepTremorOrders(tr, *opt, {2, 4, 8, 12}, {1, 3, 7, 12}, {1}, u_scale, progress);
   Json js = Json::Array();
   double best = -INFINITY;
   for (const auto& e : entries) {
@@ -636,6 +653,15 @@ Json SweepOrders(const TremorData& tr, double u_scale, const ProgressFn& progres
     j.Set("delay_m", e.orders.delay_m);
     j.Set("validation_best_fit_percent", e.validation_best_fit);
     j.Set("cross_validation_best_fit_percent", e.cross_validation_best_fit);
+    // Data set 1's polynomials: the frequency responses compared across orders (paper 001
+    // Figs 9–10; `fesim benchmark`'s tremor section).
+    const auto array = [](const Eigen::VectorXd& v) {
+      Json arr = Json::Array();
+      for (Eigen::Index k = 0; k < v.size(); ++k) arr.Push(v(k));
+      return arr;
+    };
+    j.Set("data_set_1_a", array(e.first_a));
+    j.Set("data_set_1_b", array(e.first_b));
     js.Push(j);
     if (e.cross_validation_best_fit > best) {
       best = e.cross_validation_best_fit;

@@ -46,6 +46,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <complex>
 #include <vector>
 
 #include "identification/method.h"
@@ -132,6 +133,9 @@ struct TremorSweepEntry {
   TremorOrders orders;
   double validation_best_fit = 0.0;        ///< %.
   double cross_validation_best_fit = 0.0;  ///< %.
+  /// The ARX polynomials a_1 … a_{l_P}, b_0 … b_{n_P} of the model fitted on data set 1 (the
+  /// models whose frequency responses paper 001 Figs 9–10 compare across orders).
+  Eigen::VectorXd first_a, first_b;
 };
 std::vector<TremorSweepEntry> SweepTremorOrders(const TremorData& data, const TremorOptions& base,
                                                 const std::vector<int>& poles,
@@ -139,8 +143,15 @@ std::vector<TremorSweepEntry> SweepTremorOrders(const TremorData& data, const Tr
                                                 const std::vector<int>& delays, double u_scale_us,
                                                 const ProgressFn& progress = nullptr);
 
+/// Frequency response of eq. (8)'s linear block from h to y at f_hz: with z = exp(j 2π f T),
+/// H = z^{−m} Σ_j b_j z^{−j} / (1 + Σ_i a_i z^{−i}) (the recursion of SimulateTremorArx), a =
+/// a_1 … a_l, b = b_0 … b_n, m = delay_m samples, T the sample period (s). Dimensionless (h and
+/// y in rad). Throws std::invalid_argument when T ≤ 0 or b is empty.
+std::complex<double> TremorArxResponse(const Eigen::VectorXd& a, const Eigen::VectorXd& b,
+                                       int delay_m, double sample_period_s, double f_hz);
+
 /// CLI entry "tremor-arx". With ≥ 2 training trials, the orders are chosen by a sweep over
-/// l_P ∈ {2, 4, 8, 12}, n_P ∈ {1, 3, 7}, m_P ∈ {1} (best cross-validation), unless given in
+/// l_P ∈ {2, 4, 8, 12}, n_P ∈ {1, 3, 7, 12}, m_P ∈ {1} (best cross-validation), unless given in
 /// metadata: tremor.poles_l, tremor.zeros_n, tremor.delay_m, tremor.poly_degree, tremor.hz,
 /// tremor.c_agonist_us, tremor.c_antagonist_us, tremor.eps, tremor.sweep (0/1).
 MethodEntry TremorArxMethod();

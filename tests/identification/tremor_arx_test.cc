@@ -195,6 +195,51 @@ TEST(TremorArx, OrderSweepPrefersTheTrueOrderInCrossValidation) {
   EXPECT_GT(sweep[1].cross_validation_best_fit, sweep[0].cross_validation_best_fit);
 }
 
+TEST(TremorArx, FrequencyResponseIsTheSteadySineGainOfTheRecursion) {
+  // y(k) = 0.5 y(k−1) + 0.5 h(k−1) with h = u (β = [0, 1], u_scale 1): H(z) = 0.5 z⁻¹/(1 −
+  // 0.5 z⁻¹), gain 1 at DC and 1/3 at Nyquist; a sine through SimulateTremorArx settles to
+  // |H| times its amplitude with phase arg H.
+  TremorModel m;
+  m.orders = {1, 0, 1, 1};
+  m.u_scale_us = 1.0;
+  m.beta = Eigen::Vector2d(0.0, 1.0);
+  m.a = Eigen::VectorXd::Constant(1, -0.5);
+  m.b = Eigen::VectorXd::Constant(1, 0.5);
+  m.sample_period_s = 0.01;
+  EXPECT_NEAR(std::abs(TremorArxResponse(m.a, m.b, 1, 0.01, 0.0) - 1.0), 0.0, 1e-14);
+  EXPECT_NEAR(std::abs(TremorArxResponse(m.a, m.b, 1, 0.01, 50.0) + 1.0 / 3.0), 0.0, 1e-14);
+  const double f = 7.0, w = 2.0 * M_PI * f * m.sample_period_s;
+  const Eigen::Index n = 4000;
+  Eigen::VectorXd u(n);
+  for (Eigen::Index k = 0; k < n; ++k) u(k) = std::sin(w * k);
+  const Eigen::VectorXd y = SimulateTremorArx(m, u, Eigen::VectorXd::Zero(1));
+  const std::complex<double> h = TremorArxResponse(m.a, m.b, 1, m.sample_period_s, f);
+  for (Eigen::Index k = n - 50; k < n; ++k) {
+    EXPECT_NEAR(y(k), std::abs(h) * std::sin(w * k + std::arg(h)), 1e-12) << k;
+  }
+  EXPECT_THROW(TremorArxResponse(m.a, Eigen::VectorXd(), 1, 0.01, 1.0), std::invalid_argument);
+}
+
+TEST(TremorArx, OrderSweepKeepsDataSetOnesPolynomials) {
+  const TremorModel truth = Planted();
+  const TremorData d = Data(truth, 2, 0.0, kSeed + 4);
+  const auto sweep =
+      SweepTremorOrders(d, Options(truth, truth.tremor_hz), {1, 2}, {1}, {1}, Scale(d));
+  ASSERT_EQ(sweep.size(), 2u);
+  for (const auto& e : sweep) {
+    EXPECT_EQ(e.first_a.size(), e.orders.poles_l);
+    EXPECT_EQ(e.first_b.size(), e.orders.zeros_n + 1);
+  }
+  // The true order's model of data set 1 (noiseless) has the planted response.
+  for (double f : {0.5, 2.0, 5.0}) {
+    const auto planted =
+        TremorArxResponse(truth.a, truth.b, truth.orders.delay_m, truth.sample_period_s, f);
+    const auto fitted =
+        TremorArxResponse(sweep[1].first_a, sweep[1].first_b, 1, truth.sample_period_s, f);
+    EXPECT_LT(std::abs(fitted - planted), 1e-3 * std::abs(planted)) << f;
+  }
+}
+
 TEST(TremorArx, MethodEntryMapsCoactivationAndFitsTwoTrials) {
   const TremorModel truth = Planted();
   const TremorData d = Data(truth, 2, 0.0, kSeed + 6);
