@@ -12,11 +12,13 @@
 #include <mutex>
 #include <set>
 #include <stdexcept>
+#include <tuple>
 
 #include "identification/fullmodel/full_model_fit.h"
 #include "identification/metrics.h"
 #include "identification/shoulder_models.h"
 #include "identification/spectrum.h"
+#include "identification/tremor_arx.h"
 #include "paper_benchmark/paper_values.h"
 #include "paper_benchmark/sections.h"
 #include "render/plot.h"
@@ -503,6 +505,8 @@ struct TremorParticipant {
   double freq = NAN, freq_true = NAN, amp = NAN, amp_true = NAN, test_bf = NAN, truth_bf = NAN;
   Trial heldout, prediction;  ///< the held-out trial and tremor-arx's prediction of it (plots).
   std::string column;         ///< their output column.
+  /// (l, n) → the ARX polynomials (a, b) of the sweep's model of data set 1, m_P = 1.
+  std::map<std::pair<int, int>, std::pair<Eigen::VectorXd, Eigen::VectorXd>> arx;
 };
 
 /// Participant p: tremor-arx on the first reps − 1 trials, tested on the last; the identified
@@ -520,6 +524,16 @@ TremorParticipant FitTremorParticipant(const BenchmarkSection& section, SectionC
                static_cast<int>(e.Find("zeros_n")->AsNumber())}] = {
           e.Find("validation_best_fit_percent")->AsNumber(),
           e.Find("cross_validation_best_fit_percent")->AsNumber()};
+      const Json* a = e.Find("data_set_1_a");
+      const Json* b = e.Find("data_set_1_b");
+      if (a == nullptr || b == nullptr || e.Find("delay_m")->AsNumber() != 1.0) continue;
+      const auto vec = [](const Json& arr) {
+        Eigen::VectorXd v(static_cast<Eigen::Index>(arr.Items().size()));
+        for (Eigen::Index k = 0; k < v.size(); ++k) v(k) = arr.Items()[k].AsNumber();
+        return v;
+      };
+      r.arx[{static_cast<int>(e.Find("poles_l")->AsNumber()),
+             static_cast<int>(e.Find("zeros_n")->AsNumber())}] = {vec(*a), vec(*b)};
     }
   }
   const std::string col = OutputColumn(fit.predictions[0]);
@@ -571,6 +585,9 @@ std::string PaperSweepCell(int l, int n) {
 /// it has the cell; *min_v gets the lowest mean inside the paper's grid (l_P, n_P ∈ 4–12: its
 /// Tables 1–5 and the "all > 50 %" of its §4.3 cover no other orders), *any false when no
 /// participant swept a cell of that grid.
+/// Whether an order (l_P or n_P) lies in [Copur 2016] Tables 1–5's grid, 4–12.
+bool InPaperGrid(int order) { return order >= 4 && order <= 12; }
+
 Json OrderSweepTable(const std::vector<TremorParticipant>& per, double* min_v, bool* any,
                      std::string* md) {
   std::set<int> ls, ns;
@@ -603,7 +620,7 @@ Json OrderSweepTable(const std::vector<TremorParticipant>& per, double* min_v, b
       e.Set("validation_best_fit_percent", MeanFinite(v));
       e.Set("cross_validation_best_fit_percent", MeanFinite(cv));
       sweep.Push(e);
-      if (l >= 4 && l <= 12 && n >= 4 && n <= 12) {
+      if (InPaperGrid(l) && InPaperGrid(n)) {
         *min_v = std::min({*min_v, MeanFinite(v), MeanFinite(cv)});
         *any = true;
       }
@@ -621,13 +638,14 @@ Json OrderSweepTable(const std::vector<TremorParticipant>& per, double* min_v, b
 Json SweepPerParticipant(const std::vector<TremorParticipant>& per, std::string* md) {
   *md +=
       "\nPer participant (paper 001 Tables 1–4, summarised as in its §4.3: mean (sd) over the "
-      "orders; the paper's over l_P, n_P ∈ 4–12, fesim's over the grid above; fesim's virtual "
-      "participants are not the paper's, so the rows are not paired):\n\n"
+      "orders l_P, n_P ∈ 4–12 — fesim's over the cells of its grid in that range; fesim's "
+      "virtual participants are not the paper's, so the rows are not paired):\n\n"
       "| participant | V mean (sd) % | CV mean (sd) % |\n|---|---|---|\n";
   Json out = Json::Array();
   for (std::size_t p = 0; p < per.size(); ++p) {
     std::vector<double> v, cv;
     for (const auto& [orders, fits] : per[p].sweep) {
+      if (!InPaperGrid(orders.first) || !InPaperGrid(orders.second)) continue;
       v.push_back(fits.first);
       cv.push_back(fits.second);
     }
@@ -693,6 +711,152 @@ render::Series AmplitudeSpectrum(const Trial& t, const std::string& col, double 
   s.x = p.f_hz;
   for (double pw : p.power) s.y.push_back(scale * 2.0 * std::sqrt(pw) / v.size());
   return s;
+}
+
+/// The frequency band a trial's input excites: the lowest and highest frequency (Hz) where the
+/// amplitude spectrum of its combined input reaches 10 % of its peak (0.05 Hz to 10 Hz). The
+/// combined input is the first u.* column minus the second (eq. (5): each channel alone is
+/// half-wave rectified and rich in harmonics the input does not have), or the only one.
+std::pair<double, double> ExcitedBand(const Trial& t) {
+  const std::vector<std::string> u = t.NamesWithPrefix("u.");
+  const std::vector<double>& v0 = t.Column(u.at(0));
+  std::vector<double> v = v0;
+  if (u.size() > 1) {
+    const std::vector<double>& v1 = t.Column(u[1]);
+    for (std::size_t i = 0; i < v.size(); ++i) v[i] -= v1[i];
+  }
+  double mean = 0.0;
+  for (double x : v) mean += x / v.size();
+  Eigen::VectorXd x(static_cast<Eigen::Index>(v.size()));
+  for (std::size_t i = 0; i < v.size(); ++i) x[i] = std::isfinite(v[i]) ? v[i] - mean : 0.0;
+  const double dt = t.time[1] - t.time[0];
+  const identification::Periodogram p =
+      identification::SummedPeriodogram({x}, dt, 0.05, std::min(10.0, 0.45 / dt));
+  const double peak = *std::max_element(p.power.begin(), p.power.end());
+  double lo = NAN, hi = NAN;
+  for (std::size_t i = 0; i < p.power.size(); ++i) {
+    if (std::sqrt(p.power[i]) < 0.1 * std::sqrt(peak)) continue;
+    if (std::isnan(lo)) lo = p.f_hz[i];
+    hi = p.f_hz[i];
+  }
+  return {lo, hi};
+}
+
+/// Paper 001 Figs 9–10 on one participant: the magnitudes |H| (dB, TremorArxResponse, each
+/// relative to its own mean over the band) of the sweep's data-set-1 models at the largest l_P
+/// swept, one curve per n_P in the paper's range 4–12, on 200 frequencies of the band the held-out
+/// input excites, and their spread (max − min over n_P) there.
+struct ResponseSpread {
+  int poles_l = 0;
+  std::vector<int> zeros_n;
+  std::vector<double> f_hz;
+  std::vector<std::vector<double>> magnitude_db;  ///< [n index][frequency].
+  double band_lo_hz = NAN, band_hi_hz = NAN, max_spread_db = NAN, median_spread_db = NAN;
+};
+
+ResponseSpread ResponsesOf(const TremorParticipant& r) {
+  ResponseSpread out;
+  if (r.arx.empty()) return out;
+  out.poles_l = r.arx.rbegin()->first.first;
+  std::tie(out.band_lo_hz, out.band_hi_hz) = ExcitedBand(r.heldout);
+  const double dt = r.heldout.time[1] - r.heldout.time[0];
+  constexpr int kPoints = 200;
+  for (int i = 0; i < kPoints; ++i) {
+    out.f_hz.push_back(out.band_lo_hz + (out.band_hi_hz - out.band_lo_hz) * i / (kPoints - 1));
+  }
+  for (const auto& [ln, ab] : r.arx) {
+    if (ln.first != out.poles_l || !InPaperGrid(ln.second)) continue;
+    out.zeros_n.push_back(ln.second);
+    std::vector<double> db;
+    double mean = 0.0;
+    for (double f : out.f_hz) {
+      db.push_back(20.0 * std::log10(std::abs(
+                              identification::TremorArxResponse(ab.first, ab.second, 1, dt, f))));
+      mean += db.back() / kPoints;
+    }
+    // Shapes are compared: the gain between h_IRC and B/A is not identifiable, and fitting fixes
+    // it at DC (P(1) = 1, identification/tremor_arx.h), below most of the band.
+    for (double& d : db) d -= mean;
+    out.magnitude_db.push_back(std::move(db));
+  }
+  std::vector<double> spread;
+  for (std::size_t i = 0; i < out.f_hz.size(); ++i) {
+    double lo = INFINITY, hi = -INFINITY;
+    for (const auto& c : out.magnitude_db) {
+      lo = std::min(lo, c[i]);
+      hi = std::max(hi, c[i]);
+    }
+    spread.push_back(hi - lo);
+  }
+  out.max_spread_db = *std::max_element(spread.begin(), spread.end());
+  std::sort(spread.begin(), spread.end());
+  out.median_spread_db = spread[spread.size() / 2];
+  return out;
+}
+
+/// Paper 001 Figs 9–10: the models of different n_P agree in the band the input excites. A
+/// table per participant, participant 1's magnitudes plotted, results.json
+/// "frequency_responses"; the finding (criterion: within 6 dB, a factor 2, everywhere in the
+/// band — the paper judges its figures by eye) is appended to *findings.
+Json FrequencyResponses(const std::vector<TremorParticipant>& per, SectionContext* ctx,
+                        Json* findings, std::string* md) {
+  Json rows = Json::Array();
+  std::vector<ResponseSpread> spreads;
+  for (const auto& r : per) spreads.push_back(ResponsesOf(r));
+  if (spreads.empty() || spreads[0].zeros_n.size() < 2) return rows;
+  std::string ns;
+  for (int n : spreads[0].zeros_n) ns += (ns.empty() ? "" : ", ") + std::to_string(n);
+  *md +=
+      "Frequency responses (paper 001 Figs 9–10: the models of P1 and P2 for several n_P at "
+      "l_P = 12 are \"similar within the frequency range of the input signal\"; its n_P range "
+      "4–12): |B/A| of the order sweep's models of data set 1 at l_P = " +
+      std::to_string(spreads[0].poles_l) + ", n_P ∈ {" + ns +
+      "}, m_P = 1, in the band the input excites, each relative to its own mean over the band "
+      "(the gain between h_IRC and B/A is not identifiable, and the fit fixes it at DC, P(1) = "
+      "1); spread = largest minus smallest relative magnitude over n_P at a frequency.\n\n"
+      "| participant | band Hz | median spread dB | largest spread "
+      "dB |\n|---|---|---|---|\n";
+  double worst = 0.0;
+  for (std::size_t p = 0; p < spreads.size(); ++p) {
+    const ResponseSpread& s = spreads[p];
+    if (s.zeros_n.size() < 2) continue;
+    worst = std::max(worst, s.max_spread_db);
+    *md += "| p" + std::to_string(p + 1) + " | " + Fixed(s.band_lo_hz, 2) + "–" +
+           Fixed(s.band_hi_hz, 2) + " | " + Fixed(s.median_spread_db, 2) + " | " +
+           Fixed(s.max_spread_db, 2) + " |\n";
+    Json j = Json::Object();
+    j.Set("participant", "p" + std::to_string(p + 1));
+    j.Set("poles_l", s.poles_l);
+    j.Set("band_hz", Json::Array().Push(s.band_lo_hz).Push(s.band_hi_hz));
+    j.Set("median_spread_db", s.median_spread_db);
+    j.Set("max_spread_db", s.max_spread_db);
+    rows.Push(j);
+  }
+  constexpr double kSimilarDb = 6.0;
+  Json f = Finding(
+      "models of different n_P have similar frequency responses in the input's band "
+      "(paper 001 Figs 9–10; here: within " +
+          Fixed(kSimilarDb, 0) + " dB)",
+      worst <= kSimilarDb, "largest spread " + Fixed(worst, 2) + " dB");
+  findings->Push(f);
+  *md += "\n" + FindingLine(f) + "\n";
+  const ResponseSpread& s = spreads[0];
+  std::vector<render::Series> series;
+  for (std::size_t k = 0; k < s.zeros_n.size(); ++k) {
+    series.push_back({"n_P = " + std::to_string(s.zeros_n[k]), s.f_hz, s.magnitude_db[k],
+                      render::PaletteColour(static_cast<int>(k))});
+  }
+  render::Axes ax;
+  ax.title =
+      "Tremor wrist (paper 001 Figs 9-10): |B/A| of participant 1's data-set-1 models, l_P = " +
+      std::to_string(s.poles_l);
+  ax.x_label = "frequency (Hz)";
+  ax.y_label = "magnitude relative to its band mean (dB)";
+  if (ctx->write_outputs) {
+    render::WriteLinePlotPng(ctx->plots_dir + "/tremor_frequency_response.png", ax, series);
+  }
+  *md += "![tremor frequency responses](plots/tremor_frequency_response.png)\n\n";
+  return rows;
 }
 
 /// Plot: amplitude spectra of participant 1's held-out tremor trial, measured and as tremor-arx
@@ -1073,6 +1237,8 @@ SectionResult RunTremorWrist(const BenchmarkSection& section, SectionContext* ct
   md += "\n" + FindingLine(f) + "Tremor amplitude: mean |error| " + Fixed(MeanFinite(aerr), 1) +
         " % of the planted tremor's angle amplitude.\n\n";
   if (!per.empty()) TremorSpectrumPlot(per[0], ctx, &md);
+  out.json.Set("frequency_responses", FrequencyResponses(per, ctx, &findings, &md));
+  out.json.Set("findings", findings);
   out.markdown = md;
   return out;
 }

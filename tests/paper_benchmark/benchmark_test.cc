@@ -113,8 +113,8 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
         "hand_array/independent/truth/hammerstein_unseen_normalised_error",
         "elbow_tests/identification_best_fit_percent", "elbow_tests/validation_best_fit_percent",
         "elbow_tests/cross_validation_best_fit_percent/spline-oe/staircase",
-        "tremor_wrist/order_sweep", "tremor_wrist/tremor", "shoulder/fits", "shoulder/ekf",
-        "reaching/loocv_normalised_rms"}) {
+        "tremor_wrist/order_sweep", "tremor_wrist/tremor", "tremor_wrist/frequency_responses",
+        "shoulder/fits", "shoulder/ekf", "reaching/loocv_normalised_rms"}) {
     EXPECT_NO_THROW(At(At(r, "sections"), key)) << key;
   }
   EXPECT_EQ(At(r, "sections/hand_array/table").Items().size(), 2u);  // two participants
@@ -217,6 +217,7 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
       {"a model fitted on the staircase test predicts the other tests best", false},
       {"every order of the paper's grid", false},
       {"the tremor frequency is identified within 0.1 Hz", true},
+      {"models of different n_P have similar frequency responses", true},
       {"models 1 and 2 fit about equally well", false},
       {"the online EKF tracks at least as well", true},
       {"the EKF's estimates differ from the offline fit's", false},
@@ -245,9 +246,10 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
       EXPECT_TRUE(std::isfinite(c.Find(key)->AsNumber())) << joint << " " << key;
     }
   }
-  for (const char* png : {"hand_array_error.png", "hand_array_prediction.png", "elbow_best_fit.png",
-                          "shoulder_ekf_parameters.png", "reaching_loocv.png",
-                          "tremor_spectrum.png", "shoulder_fit.png"}) {
+  for (const char* png :
+       {"hand_array_error.png", "hand_array_prediction.png", "elbow_best_fit.png",
+        "shoulder_ekf_parameters.png", "reaching_loocv.png", "tremor_spectrum.png",
+        "shoulder_fit.png", "tremor_frequency_response.png"}) {
     EXPECT_TRUE(fs::exists(dir + "/plots/" + png)) << png;
     EXPECT_NE(report.find(std::string("plots/") + png), std::string::npos) << png;
   }
