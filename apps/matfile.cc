@@ -1,31 +1,37 @@
 #include "apps/matfile.h"
 
-#include <matio.h>
 #include <unistd.h>
 
 #include <cctype>
 #include <cstdio>
 #include <functional>
+#include <memory>
 #include <stdexcept>
 #include <vector>
+
+#include "apps/matfile_module.h"
+#include "base/module.h"
 
 namespace fesim {
 namespace {
 
-/// An open MAT 5 file at a temporary path that becomes `path` on Commit (removed otherwise).
+/// An open MAT 5 file at a temporary path that becomes `path` on Commit (removed otherwise),
+/// written through the matio module (apps/matfile_module.h), loaded at the first write.
 class MatWriter {
  public:
   explicit MatWriter(const std::string& path)
       : path_(path), temp_(path + ".tmp." + std::to_string(::getpid()) + "." + TempSuffixHost()) {
+    MatFileFactory* create =
+        ModuleFunction<MatFileFactory>(kMatModuleFile, kMatFactorySymbol, "MAT-file output");
     slot_ = RegisterTempFile(temp_);
-    mat_ = Mat_CreateVer(temp_.c_str(), nullptr, MAT_FT_MAT5);
+    mat_.reset(create(temp_.c_str()));
     if (mat_ == nullptr) {
       UnregisterTempFile(slot_);
       throw std::runtime_error(path + ": cannot create the .mat file");
     }
   }
   ~MatWriter() {
-    if (mat_ != nullptr) Mat_Close(mat_);
+    mat_.reset();
     if (!committed_) std::remove(temp_.c_str());
     UnregisterTempFile(slot_);
   }
@@ -35,21 +41,16 @@ class MatWriter {
   /// A rows × cols double matrix from column-major `data`.
   void Doubles(const std::string& name, std::size_t rows, std::size_t cols,
                const std::vector<double>& data) {
-    Write(Matrix(name.c_str(), rows, cols, data));
+    Check(mat_->Doubles(name, rows, cols, data.data()));
   }
-  void Text(const std::string& name, const std::string& text) { Write(Chars(name.c_str(), text)); }
+  void Text(const std::string& name, const std::string& text) { Check(mat_->Text(name, text)); }
   /// A rows × cols cell of strings from column-major `texts`.
   void Cell(const std::string& name, std::size_t rows, std::size_t cols,
             const std::vector<std::string>& texts) {
-    std::size_t dims[2] = {rows, cols};
-    matvar_t* cell = Mat_VarCreate(name.c_str(), MAT_C_CELL, MAT_T_CELL, 2, dims, nullptr, 0);
-    for (std::size_t k = 0; k < texts.size(); ++k)
-      Mat_VarSetCell(cell, k, Chars(nullptr, texts[k]));
-    Write(cell);
+    Check(mat_->Cell(name, rows, cols, texts));
   }
   void Commit() {
-    Mat_Close(mat_);
-    mat_ = nullptr;
+    mat_->Close();
     if (std::rename(temp_.c_str(), path_.c_str()) != 0) {
       throw std::runtime_error(path_ + ": cannot write the .mat file");
     }
@@ -57,26 +58,13 @@ class MatWriter {
   }
 
  private:
-  static matvar_t* Matrix(const char* name, std::size_t rows, std::size_t cols,
-                          const std::vector<double>& data) {
-    std::size_t dims[2] = {rows, cols};
-    // MAT_F_DONT_COPY_DATA unset: matio copies the data.
-    return Mat_VarCreate(name, MAT_C_DOUBLE, MAT_T_DOUBLE, 2, dims,
-                         const_cast<double*>(data.data()), 0);
-  }
-  static matvar_t* Chars(const char* name, const std::string& text) {
-    std::size_t dims[2] = {1, text.size()};
-    return Mat_VarCreate(name, MAT_C_CHAR, MAT_T_UTF8, 2, dims, const_cast<char*>(text.data()), 0);
-  }
-  void Write(matvar_t* v) {
-    const int rc = v == nullptr ? -1 : Mat_VarWrite(mat_, v, MAT_COMPRESSION_NONE);
-    if (v != nullptr) Mat_VarFree(v);
-    if (rc != 0) throw std::runtime_error(path_ + ": cannot write a variable of the .mat file");
+  void Check(bool ok) const {
+    if (!ok) throw std::runtime_error(path_ + ": cannot write a variable of the .mat file");
   }
 
   std::string path_, temp_;
   int slot_ = -1;
-  mat_t* mat_ = nullptr;
+  std::unique_ptr<MatFileOut> mat_;
   bool committed_ = false;
 };
 

@@ -4,7 +4,6 @@
 #include <array>
 #include <atomic>
 #include <chrono>
-#include <climits>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -12,11 +11,9 @@
 #include <mutex>
 #include <thread>
 
+#include "base/module.h"
 #include "base/parallel.h"
-
-#if FESIM_WITH_MPI
-#include <mpi.h>
-#endif
+#include "cluster/mpi_module.h"
 
 namespace fesim::cluster {
 namespace {
@@ -38,7 +35,6 @@ ItemOutcome RunItem(const ItemFn& fn, std::size_t i, int rank) {
   return o;
 }
 
-#if FESIM_WITH_MPI
 /// The tags of the epoch-th Map: worker → rank 0 [int64 index][uint8 ok][double seconds][payload]
 /// (index −1 on
 /// the first request), and rank 0 → worker the int64 next index (−1 when none is left). Each Map
@@ -50,36 +46,6 @@ int AssignTag(std::uint64_t epoch) { return ResultTag(epoch) + 1; }
 constexpr std::size_t kSecondsAt = sizeof(std::int64_t) + 1;
 constexpr std::size_t kHeaderBytes = kSecondsAt + sizeof(double);
 
-void Check(int rc, const char* what) {
-  if (rc != MPI_SUCCESS) {
-    char msg[MPI_MAX_ERROR_STRING];
-    int len = 0;
-    MPI_Error_string(rc, msg, &len);
-    throw std::runtime_error(std::string("MPI ") + what + ": " + std::string(msg, len));
-  }
-}
-
-/// Waits for a request by polling with growing sleeps (50 µs … 2 ms) instead of MPI's busy wait.
-void Wait(MPI_Request* request) {
-  auto nap = std::chrono::microseconds(50);
-  for (;;) {
-    int flag = 0;
-    Check(MPI_Test(request, &flag, MPI_STATUS_IGNORE), "test");
-    if (flag) return;
-    std::this_thread::sleep_for(nap);
-    nap = std::min(nap * 2, std::chrono::microseconds(2000));
-  }
-}
-
-int CountOf(std::size_t bytes) {
-  if (bytes > static_cast<std::size_t>(INT_MAX)) {
-    throw std::runtime_error("cluster: a work item's result of " + std::to_string(bytes) +
-                             " bytes exceeds MPI's 2 GiB message limit");
-  }
-  return static_cast<int>(bytes);
-}
-#endif
-
 }  // namespace
 
 bool StartedByMpiLauncher() {
@@ -89,25 +55,21 @@ bool StartedByMpiLauncher() {
                      [](const char* v) { return std::getenv(v) != nullptr; });
 }
 
+Cluster::Cluster() = default;
+
 std::unique_ptr<Cluster> Cluster::Single() { return std::unique_ptr<Cluster>(new Cluster()); }
 
 std::unique_ptr<Cluster> Cluster::Start(int* argc, char*** argv) {
   std::unique_ptr<Cluster> c(new Cluster());
   if (!StartedByMpiLauncher()) return c;
 #if FESIM_WITH_MPI
-  int provided = 0;
-  // Rank 0's dispatcher thread makes the MPI calls of a Map while its main thread computes:
-  // one thread at a time, so SERIALIZED suffices.
-  Check(MPI_Init_thread(argc, argv, MPI_THREAD_SERIALIZED, &provided), "init");
-  if (provided < MPI_THREAD_SERIALIZED) {
-    MPI_Finalize();
-    throw std::runtime_error(
-        "cluster: the MPI library does not provide MPI_THREAD_SERIALIZED (needed by rank 0's "
-        "dispatcher thread)");
-  }
-  c->mpi_ = true;
-  Check(MPI_Comm_rank(MPI_COMM_WORLD, &c->rank_), "rank");
-  Check(MPI_Comm_size(MPI_COMM_WORLD, &c->size_), "size");
+  // RTLD_GLOBAL: Open MPI opens its own components, which look for its symbols globally.
+  MpiFactory* start = ModuleFunction<MpiFactory>(kMpiModuleFile, kMpiFactorySymbol,
+                                                 "cluster (MPI, started by mpirun)",
+                                                 /*global=*/true);
+  c->mpi_.reset(start(argc, argv));
+  c->rank_ = c->mpi_->rank();
+  c->size_ = c->mpi_->size();
   return c;
 #else
   (void)argc;
@@ -118,15 +80,7 @@ std::unique_ptr<Cluster> Cluster::Start(int* argc, char*** argv) {
 #endif
 }
 
-Cluster::~Cluster() {
-#if FESIM_WITH_MPI
-  if (mpi_) {
-    int finalized = 0;
-    MPI_Finalized(&finalized);
-    if (!finalized) MPI_Finalize();
-  }
-#endif
-}
+Cluster::~Cluster() = default;  // the transport finalises MPI
 
 std::vector<ItemOutcome> Cluster::Map(std::size_t n, const ItemFn& fn, int threads,
                                       const ItemDone& done) {
@@ -143,7 +97,7 @@ std::vector<ItemOutcome> Cluster::Map(std::size_t n, const ItemFn& fn, int threa
     ParallelFor(n, std::max(threads, 1), [&](std::size_t i) { record(i, RunItem(fn, i, rank_)); });
     return out;
   }
-#if FESIM_WITH_MPI
+  if (mpi_ == nullptr) throw std::logic_error("cluster: more than one rank without MPI");
   const int result_tag = ResultTag(map_epoch_), assign_tag = AssignTag(map_epoch_);
   ++map_epoch_;
   if (rank_ == 0) {
@@ -155,26 +109,18 @@ std::vector<ItemOutcome> Cluster::Map(std::size_t n, const ItemFn& fn, int threa
         std::vector<char> buffer;
         auto nap = std::chrono::microseconds(50);
         while (active > 0) {
-          int flag = 0;
-          MPI_Status status;
-          Check(MPI_Iprobe(MPI_ANY_SOURCE, result_tag, MPI_COMM_WORLD, &flag, &status), "probe");
-          if (!flag) {
+          int source = -1;
+          if (!mpi_->TryReceiveAny(result_tag, &source, &buffer)) {
             std::this_thread::sleep_for(nap);
             nap = std::min(nap * 2, std::chrono::microseconds(2000));
             continue;
           }
           nap = std::chrono::microseconds(50);
-          int count = 0;
-          Check(MPI_Get_count(&status, MPI_BYTE, &count), "count");
-          buffer.resize(static_cast<std::size_t>(count));
-          Check(MPI_Recv(buffer.data(), count, MPI_BYTE, status.MPI_SOURCE, result_tag,
-                         MPI_COMM_WORLD, MPI_STATUS_IGNORE),
-                "receive");
           std::int64_t index = -1;
           std::memcpy(&index, buffer.data(), sizeof index);
           if (index >= 0) {
             ItemOutcome o;
-            o.rank = status.MPI_SOURCE;
+            o.rank = source;
             o.ok = buffer[sizeof index] != 0;
             std::memcpy(&o.seconds, buffer.data() + kSecondsAt, sizeof o.seconds);
             o.payload.assign(buffer.begin() + kHeaderBytes, buffer.end());
@@ -183,9 +129,8 @@ std::vector<ItemOutcome> Cluster::Map(std::size_t n, const ItemFn& fn, int threa
           const std::size_t k = next++;
           std::int64_t assign = k < n ? static_cast<std::int64_t>(k) : -1;
           if (assign < 0) --active;
-          // Eight bytes go eagerly: MPI_Send returns without waiting for the worker.
-          Check(MPI_Send(&assign, 1, MPI_INT64_T, status.MPI_SOURCE, assign_tag, MPI_COMM_WORLD),
-                "send");
+          // Eight bytes go eagerly: the send returns without waiting for the worker.
+          mpi_->SendInt64(assign, source, assign_tag);
         }
       } catch (...) {
         dispatcher_error = std::current_exception();
@@ -201,14 +146,8 @@ std::vector<ItemOutcome> Cluster::Map(std::size_t n, const ItemFn& fn, int threa
   std::int64_t index = -1;
   std::memcpy(message.data(), &index, sizeof index);
   for (;;) {
-    MPI_Request request;
-    Check(MPI_Isend(message.data(), CountOf(message.size()), MPI_BYTE, 0, result_tag,
-                    MPI_COMM_WORLD, &request),
-          "send");
-    Wait(&request);
-    std::int64_t assign = -1;
-    Check(MPI_Irecv(&assign, 1, MPI_INT64_T, 0, assign_tag, MPI_COMM_WORLD, &request), "receive");
-    Wait(&request);
+    mpi_->SendBytes(message.data(), message.size(), 0, result_tag);
+    const std::int64_t assign = mpi_->ReceiveInt64(0, assign_tag);
     if (assign < 0) break;
     const ItemOutcome o = RunItem(fn, static_cast<std::size_t>(assign), rank_);
     message.resize(kHeaderBytes + o.payload.size());
@@ -218,9 +157,6 @@ std::vector<ItemOutcome> Cluster::Map(std::size_t n, const ItemFn& fn, int threa
     std::copy(o.payload.begin(), o.payload.end(), message.begin() + kHeaderBytes);
   }
   return {};
-#else
-  throw std::logic_error("cluster: more than one rank without MPI");
-#endif
 }
 
 std::vector<ItemOutcome> Cluster::MapAll(std::size_t n, const ItemFn& fn, int threads,
@@ -267,65 +203,21 @@ std::vector<ItemOutcome> Cluster::MapAll(std::size_t n, const ItemFn& fn, int th
 
 std::string Cluster::Broadcast(const std::string& value) const {
   if (size_ == 1) return value;
-#if FESIM_WITH_MPI
-  std::uint64_t length = value.size();
-  MPI_Request request;
-  Check(MPI_Ibcast(&length, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD, &request), "broadcast");
-  Wait(&request);
-  std::string out = rank_ == 0 ? value : std::string(length, '\0');
-  Check(MPI_Ibcast(out.data(), CountOf(length), MPI_BYTE, 0, MPI_COMM_WORLD, &request),
-        "broadcast");
-  Wait(&request);
-  return out;
-#else
-  return value;
-#endif
+  return mpi_->Broadcast(value);
 }
 
 std::vector<std::string> Cluster::Gather(const std::string& value) const {
   if (size_ == 1) return {value};
-#if FESIM_WITH_MPI
-  int length = CountOf(value.size());
-  std::vector<int> lengths(rank_ == 0 ? size_ : 0);
-  MPI_Request request;
-  Check(MPI_Igather(&length, 1, MPI_INT, lengths.data(), 1, MPI_INT, 0, MPI_COMM_WORLD, &request),
-        "gather");
-  Wait(&request);
-  std::vector<int> offsets(lengths.size());
-  std::size_t total = 0;
-  for (std::size_t r = 0; r < lengths.size(); ++r) {
-    offsets[r] = CountOf(total);
-    total += static_cast<std::size_t>(lengths[r]);
-  }
-  std::string all(total, '\0');
-  Check(MPI_Igatherv(value.data(), length, MPI_BYTE, all.data(), lengths.data(), offsets.data(),
-                     MPI_BYTE, 0, MPI_COMM_WORLD, &request),
-        "gather");
-  Wait(&request);
-  std::vector<std::string> out;
-  for (std::size_t r = 0; r < lengths.size(); ++r) {
-    out.push_back(
-        all.substr(static_cast<std::size_t>(offsets[r]), static_cast<std::size_t>(lengths[r])));
-  }
-  return out;
-#else
-  return {value};
-#endif
+  return mpi_->Gather(value);
 }
 
 void Cluster::Barrier() const {
   if (size_ == 1) return;
-#if FESIM_WITH_MPI
-  MPI_Request request;
-  Check(MPI_Ibarrier(MPI_COMM_WORLD, &request), "barrier");
-  Wait(&request);
-#endif
+  mpi_->Barrier();
 }
 
 void Cluster::Abort(int code) const {
-#if FESIM_WITH_MPI
-  if (mpi_) MPI_Abort(MPI_COMM_WORLD, code);
-#endif
+  if (mpi_ != nullptr) mpi_->Abort(code);
   std::_Exit(code);
 }
 

@@ -23,6 +23,8 @@
 
 namespace fesim::cluster {
 
+class MpiTransport;  // cluster/mpi_module.h
+
 /// What happened to one work item.
 struct ItemOutcome {
   bool ok = false;
@@ -49,9 +51,10 @@ using ItemFn = std::function<std::string(std::size_t)>;
 class Cluster {
  public:
   /// The processes of this run. Under mpirun/mpiexec (detected from the launcher's environment:
-  /// OMPI_COMM_WORLD_SIZE, PMIX_RANK or PMI_RANK) in a build with FESIM_WITH_MPI, initialises MPI
-  /// and returns the job; otherwise one process. Throws std::runtime_error when started by mpirun
-  /// but built without MPI (every rank would do the whole run).
+  /// OMPI_COMM_WORLD_SIZE, PMIX_RANK or PMI_RANK) in a build with FESIM_WITH_MPI, loads the MPI
+  /// module (cluster/mpi_module.h), initialises MPI and returns the job; otherwise one process.
+  /// Throws std::runtime_error when started by mpirun but built without MPI (every rank would do
+  /// the whole run) or when the module cannot be loaded.
   static std::unique_ptr<Cluster> Start(int* argc, char*** argv);
   /// One process (tests, library users).
   static std::unique_ptr<Cluster> Single();
@@ -63,7 +66,7 @@ class Cluster {
   int rank() const { return rank_; }
   int size() const { return size_; }
   bool is_root() const { return rank_ == 0; }
-  bool is_mpi() const { return mpi_; }
+  bool is_mpi() const { return mpi_ != nullptr; }
 
   /// Runs fn(i) for i in [0, n), each exactly once on some rank (dynamic assignment; one item at
   /// a time per rank; on a single process, `threads` threads). An exception from fn makes that
@@ -88,9 +91,10 @@ class Cluster {
   [[noreturn]] void Abort(int code) const;
 
  private:
-  Cluster() = default;
+  Cluster();
   int rank_ = 0, size_ = 1;
-  bool mpi_ = false;
+  /// The MPI module's transport when Start initialised MPI (loaded only then), else null.
+  std::unique_ptr<MpiTransport> mpi_;
   std::uint64_t map_epoch_ = 0;  ///< Maps so far (every rank calls Map in the same order).
 };
 

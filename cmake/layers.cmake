@@ -15,7 +15,7 @@ set(FESIM_PACKAGE_ITEMS_OSMesa PkgConfig::OSMESA)
 set(FESIM_PACKAGE_ITEMS_zlib ZLIB::ZLIB)
 set(FESIM_PACKAGE_ITEMS_matio PkgConfig::MATIO)
 set(FESIM_PACKAGE_ITEMS_pybind11 pybind11::module pybind11::lto pybind11::windows_extras
-  pybind11::pybind11 pybind11::headers pybind11::python_link_helper)
+  pybind11::pybind11 pybind11::headers pybind11::python_link_helper Python::Module)
 
 # fesim_layer(FOLDER [USES FOLDER... | USES ALL] [PACKAGES PACKAGE...]): the row of FOLDER (a
 # path below the source root). ALL: every folder and package (the tests, benchmarks and fuzzers).
@@ -107,7 +107,7 @@ function(fesim_check_directory_layers dir)
     endif()
     foreach(target IN LISTS targets)
       get_target_property(type ${target} TYPE)
-      if(type MATCHES "^(STATIC_LIBRARY|SHARED_LIBRARY|OBJECT_LIBRARY|EXECUTABLE)$")
+      if(type MATCHES "^(STATIC_LIBRARY|SHARED_LIBRARY|MODULE_LIBRARY|OBJECT_LIBRARY|EXECUTABLE)$")
         fesim_check_target_links(${target} "${row}")
       endif()
     endforeach()

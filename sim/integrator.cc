@@ -109,6 +109,8 @@ struct CvodesContext {
 
   CvodesContext(const UpperLimbModel* m, SimTK::State* s, bool p)
       : model(m), state(s), prescribe(p) {
+    // The activations are eq. (6)'s closed form here (LoadState), never CVODES components.
+    m->SetActivationsInClosedForm(*s, true);
     const int ny = s->getNY();
     const int nm = m->num_muscles();
     activation_index = m->ActivationYIndex(*s);
@@ -839,7 +841,9 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
     stats.rhs_evaluations = ctx.rhs;
     return stats;
   }
-  // Simbody's Runge–Kutta–Merson, restarted at each breakpoint like CVODES.
+  // Simbody's Runge–Kutta–Merson, restarted at each breakpoint like CVODES; it integrates the
+  // activations' ż.
+  model.SetActivationsInClosedForm(*state, false);
   std::unique_ptr<SimTK::RungeKuttaMersonIntegrator> integ;
   // Simbody's exception text (multi-line, no coordinate) becomes one line with the time, the
   // coordinate furthest out of range at the last accepted step and the hint of the CVODES path.

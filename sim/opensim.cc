@@ -1,6 +1,7 @@
 #include "sim/opensim.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -278,15 +279,19 @@ std::string FormatOsimMotion(const Trial& trial, const ModelParams& m, const std
                   "\ninDegrees=yes\nendheader\ntime";
   for (int c = 0; c < kNumCoordinates; ++c) s += "\t" + CoordinateNames()[c];
   s += "\n";
+  // printf's "%.10g" through std::to_chars: its general format with a precision is specified as
+  // printf's in the C locale (the same characters), at a tenth of snprintf's instructions.
   char buf[40];
+  const auto append = [&s, &buf](double v) {
+    s.append(buf, std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, 10).ptr);
+  };
   for (std::size_t i = 0; i < trial.size(); ++i) {
-    std::snprintf(buf, sizeof buf, "%.10g", trial.time[i]);
-    s += buf;
+    append(trial.time[i]);
     for (int c = 0; c < kNumCoordinates; ++c) {
-      std::snprintf(buf, sizeof buf, "\t%.10g", deg[c][i]);
-      s += buf;
+      s += '\t';
+      append(deg[c][i]);
     }
-    s += "\n";
+    s += '\n';
   }
   return s;
 }

@@ -73,16 +73,21 @@ struct MuscleTendonSample {
   double force_n = 0.0, length_m = 0.0, velocity_m_s = 0.0;
   bool clamped = false;
 };
-MuscleTendonSample MuscleTendonForce(const MuscleParams& m, const tendons::MusclePath& path,
-                                     const std::vector<double>& q, const std::vector<double>& qd,
-                                     double a, double active_gain) {
+MuscleTendonSample MuscleTendonForceAt(const MuscleParams& m, double length_m, double velocity_m_s,
+                                       double a, double active_gain) {
   MuscleTendonSample out;
-  out.length_m = tendons::MusculotendonLength(path, q);
-  out.velocity_m_s = tendons::MusculotendonVelocity(path, q, qd);
+  out.length_m = length_m;
+  out.velocity_m_s = velocity_m_s;
   const auto fibre = muscles::FibreFromMusculotendon(m.hill, out.length_m, out.velocity_m_s);
   out.clamped = fibre.clamped;
   out.force_n = muscles::HillTendonForce(m.hill, a, fibre, active_gain);
   return out;
+}
+MuscleTendonSample MuscleTendonForce(const MuscleParams& m, const tendons::MusclePath& path,
+                                     const std::vector<double>& q, const std::vector<double>& qd,
+                                     double a, double active_gain) {
+  return MuscleTendonForceAt(m, tendons::MusculotendonLength(path, q),
+                             tendons::MusculotendonVelocity(path, q, qd), a, active_gain);
 }
 
 /// Passive joint moments on every coordinate and the tremor torque (thin adapter over
@@ -224,6 +229,8 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
     stim_index_ = forces_.allocateDiscreteVariable(
         s, SimTK::Stage::Dynamics,
         new SimTK::Value<Vector>(Vector(static_cast<int>(params_->channels.size()), 0.0)));
+    closed_form_index_ =
+        forces_.allocateDiscreteVariable(s, SimTK::Stage::Dynamics, new SimTK::Value<bool>(false));
   }
 
   /// w = H_IRC(A u) of muscle j for stimulation u (µs).
@@ -234,18 +241,24 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   int ZStart() const { return z_start_; }
 
   void realizeDynamics(const State& s) const override {
-    // ż for every muscle: ȧ, ä of eq. (6) driven by w = H_IRC(A u).
-    const Vector& u = Stimulation(s);
+    // ż for every muscle: ȧ, ä of eq. (6) driven by w = H_IRC(A u) — unless an integrator
+    // advances the activations in closed form (SetActivationsInClosedForm): then nothing reads
+    // them and they are left unwritten — and the fatigue and potentiation states' ż.
+    const bool closed_form = ClosedFormActivations(s);
+    if (closed_form && fitness_offset_ < 0 && potentiation_offset_ < 0) return;
+    const Vector* u = closed_form ? nullptr : &Stimulation(s);
     const Vector& z = forces_.getZ(s);
     Vector& zdot = forces_.updZDot(s);
     const int nm = static_cast<int>(params_->muscles.size());
     for (int j = 0; j < nm; ++j) {
-      const auto& m = params_->muscles[j];
-      const double w = Recruited(u, j);
-      const auto d = muscles::ActivationDerivative(m.activation_omega_rad_s, w,
-                                                   {z[z_start_ + 2 * j], z[z_start_ + 2 * j + 1]});
-      zdot[z_start_ + 2 * j] = d.a;
-      zdot[z_start_ + 2 * j + 1] = d.a_dot;
+      if (!closed_form) {
+        const auto& m = params_->muscles[j];
+        const double w = Recruited(*u, j);
+        const auto d = muscles::ActivationDerivative(
+            m.activation_omega_rad_s, w, {z[z_start_ + 2 * j], z[z_start_ + 2 * j + 1]});
+        zdot[z_start_ + 2 * j] = d.a;
+        zdot[z_start_ + 2 * j + 1] = d.a_dot;
+      }
       const double a = std::clamp(z[z_start_ + 2 * j], 0.0, 1.0);
       if (fitness_offset_ >= 0) {
         const int k = z_start_ + fitness_offset_ + j;
@@ -278,6 +291,9 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
     out.force_n.resize(nm);
     out.length_m.resize(nm);
     out.velocity_m_s.resize(nm);
+    // Each crossing's moment arm once, for the velocity and τ = R f (same bits as per use).
+    const std::vector<double> arms = tendons::CrossingMomentArms(paths_, q);
+    const double* arms_j = arms.data();
     for (int j = 0; j < nm; ++j) {
       out.activation[j] = z[z_start_ + 2 * j];
       double gain = 1.0;
@@ -286,14 +302,16 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
         gain *=
             1.0 + params_->mechanisms.potentiation.gain * z[z_start_ + potentiation_offset_ + j];
       }
-      const MuscleTendonSample m =
-          MuscleTendonForce(params_->muscles[j], paths_[j], q, qd, out.activation[j], gain);
+      const MuscleTendonSample m = MuscleTendonForceAt(
+          params_->muscles[j], tendons::MusculotendonLength(paths_[j], q),
+          tendons::MusculotendonVelocity(paths_[j], arms_j, qd), out.activation[j], gain);
+      arms_j += paths_[j].crossings.size();
       out.any_clamped = out.any_clamped || m.clamped;
       out.force_n[j] = m.force_n;
       out.length_m[j] = m.length_m;
       out.velocity_m_s[j] = m.velocity_m_s;
     }
-    out.joint_torque_nm = tendons::JointTorques(paths_, q, out.force_n);
+    out.joint_torque_nm = tendons::JointTorques(paths_, arms, out.force_n, q.size());
     return out;
   }
 
@@ -302,6 +320,15 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   }
   Vector& UpdStimulation(State& s) const {
     return SimTK::Value<Vector>::updDowncast(forces_.updDiscreteVariable(s, stim_index_));
+  }
+  bool ClosedFormActivations(const State& s) const {
+    return SimTK::Value<bool>::downcast(forces_.getDiscreteVariable(s, closed_form_index_));
+  }
+  void SetClosedFormActivations(State& s, bool closed_form) const {
+    // Written only when it changes: a write invalidates Stage::Dynamics.
+    if (ClosedFormActivations(s) == closed_form) return;
+    SimTK::Value<bool>::updDowncast(forces_.updDiscreteVariable(s, closed_form_index_)) =
+        closed_form;
   }
 
  private:
@@ -315,6 +342,7 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   mutable int fitness_offset_ = -1;       // from z_start_, −1 when fatigue is off
   mutable int potentiation_offset_ = -1;  // from z_start_, −1 when potentiation is off
   mutable SimTK::DiscreteVariableIndex stim_index_;
+  mutable SimTK::DiscreteVariableIndex closed_form_index_;  // bool: activations in closed form
 };
 
 std::vector<double> RecruitedFractions(const ModelParams& params, const muscles::ArrayMatrix& array,
@@ -494,6 +522,10 @@ std::vector<double> UpperLimbModel::RecruitedFractions(const State& s) const {
   std::vector<double> w(num_muscles());
   for (int j = 0; j < num_muscles(); ++j) w[j] = muscle_force_->Recruited(u, j);
   return w;
+}
+
+void UpperLimbModel::SetActivationsInClosedForm(State& state, bool closed_form) const {
+  muscle_force_->SetClosedFormActivations(state, closed_form);
 }
 
 int UpperLimbModel::ActivationYIndex(const State& s) const {

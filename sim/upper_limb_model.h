@@ -99,6 +99,12 @@ class UpperLimbModel {
   /// Index in the state vector Y = [q, u, z] of muscle 0's activation a; muscle j's a and ȧ are
   /// at +2j and +2j+1. Integrators that solve eq. (6) in closed form use it.
   int ActivationYIndex(const SimTK::State& state) const;
+  /// Integrators that advance the activations in closed form (eq. 6; the CVODES integrator) set
+  /// true: realising Stage::Dynamics then leaves the activations' ż unwritten (stale), which
+  /// nothing of theirs reads, and skips the recruitment and eq. (6) per muscle per right-hand
+  /// side. False (a new state's value) for integrators that read ż (Simbody's). A change
+  /// invalidates Stage::Dynamics.
+  void SetActivationsInClosedForm(SimTK::State& state, bool closed_form) const;
   /// Indices in Y of the q and u of every locked coordinate, sorted. They are constant in time
   /// (q̇ = u = 0, u̇ = 0), so integrators may leave them out of the state they advance.
   std::vector<int> LockedYIndices(const SimTK::State& state) const;

@@ -5,11 +5,16 @@
 namespace fesim::tendons {
 namespace {
 
-void CheckJoint(const MusclePath& path, const Crossing& c, std::size_t n) {
-  if (c.joint < 0 || static_cast<std::size_t>(c.joint) >= n) {
-    throw std::invalid_argument("muscle " + path.name + " crosses joint index " +
-                                std::to_string(c.joint) + ", have " + std::to_string(n));
-  }
+[[noreturn]] __attribute__((noinline, cold)) void ThrowBadJoint(const MusclePath& path,
+                                                                const Crossing& c, std::size_t n) {
+  throw std::invalid_argument("muscle " + path.name + " crosses joint index " +
+                              std::to_string(c.joint) + ", have " + std::to_string(n));
+}
+
+/// The comparison inlined and the message built out of line: it runs for every crossing of
+/// every right-hand side.
+inline void CheckJoint(const MusclePath& path, const Crossing& c, std::size_t n) {
+  if (c.joint < 0 || static_cast<std::size_t>(c.joint) >= n) ThrowBadJoint(path, c, n);
 }
 
 }  // namespace
@@ -55,6 +60,47 @@ std::vector<double> JointTorques(const std::vector<MusclePath>& paths, const std
       CheckJoint(paths[m], c, q.size());
       tau[c.joint] += MomentArm(c.arm, q[c.joint] - c.q_ref_rad) * f[m];
     }
+  }
+  return tau;
+}
+
+std::vector<double> CrossingMomentArms(const std::vector<MusclePath>& paths,
+                                       const std::vector<double>& q) {
+  std::size_t crossings = 0;
+  for (const auto& path : paths) crossings += path.crossings.size();
+  std::vector<double> arms;
+  arms.reserve(crossings);
+  for (const auto& path : paths) {
+    for (const auto& c : path.crossings) {
+      CheckJoint(path, c, q.size());
+      arms.push_back(MomentArm(c.arm, q[c.joint] - c.q_ref_rad));
+    }
+  }
+  return arms;
+}
+
+double MusculotendonVelocity(const MusclePath& path, const double* arms,
+                             const std::vector<double>& qdot) {
+  double v = 0.0;
+  for (std::size_t k = 0; k < path.crossings.size(); ++k) {
+    v -= arms[k] * qdot[path.crossings[k].joint];
+  }
+  return v;
+}
+
+std::vector<double> JointTorques(const std::vector<MusclePath>& paths,
+                                 const std::vector<double>& arms, const std::vector<double>& f,
+                                 std::size_t num_joints) {
+  if (f.size() != paths.size()) throw std::invalid_argument("JointTorques: force count mismatch");
+  std::size_t crossings = 0;
+  for (const auto& path : paths) crossings += path.crossings.size();
+  if (arms.size() != crossings) {
+    throw std::invalid_argument("JointTorques: moment arm count mismatch");
+  }
+  std::vector<double> tau(num_joints, 0.0);
+  std::size_t k = 0;
+  for (std::size_t m = 0; m < paths.size(); ++m) {
+    for (const auto& c : paths[m].crossings) tau[c.joint] += arms[k++] * f[m];
   }
   return tau;
 }

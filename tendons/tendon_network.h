@@ -44,4 +44,20 @@ std::vector<double> MomentArmMatrix(const std::vector<MusclePath>& paths,
 std::vector<double> JointTorques(const std::vector<MusclePath>& paths, const std::vector<double>& q,
                                  const std::vector<double>& f);
 
+/// The moment arm r(q) of every crossing, path after path in `crossings` order (m): one
+/// evaluation each, for the overloads below, which give the same bits as the functions above
+/// (the force element evaluates each arm once per right-hand side, not once per use).
+std::vector<double> CrossingMomentArms(const std::vector<MusclePath>& paths,
+                                       const std::vector<double>& q);
+
+/// dl_MT/dt = −Σ_i r_i q̇_i, m/s, with `arms` the path's crossings' r (from CrossingMomentArms,
+/// pointing at the path's first crossing). Joint indices as checked by CrossingMomentArms.
+double MusculotendonVelocity(const MusclePath& path, const double* arms,
+                             const std::vector<double>& qdot);
+
+/// τ = R f (N·m), `num_joints` of them, with `arms` = CrossingMomentArms(paths, q).
+std::vector<double> JointTorques(const std::vector<MusclePath>& paths,
+                                 const std::vector<double>& arms, const std::vector<double>& f,
+                                 std::size_t num_joints);
+
 }  // namespace fesim::tendons

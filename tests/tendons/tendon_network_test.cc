@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <stdexcept>
+#include <vector>
+
 namespace fesim::tendons {
 namespace {
 
@@ -44,6 +47,21 @@ TEST(TendonNetwork, PowerBalance) {
   for (std::size_t i = 0; i < 2; ++i) joint_power += tau[i] * qd[i];
   EXPECT_NEAR(muscle_power, joint_power, 1e-12);
   EXPECT_GT(tau[0], 0.0);  // flexor dominates the first joint: flexion torque
+}
+
+TEST(TendonNetwork, OverloadsOnPrecomputedArmsGiveTheSameBits) {
+  const auto paths = TwoMuscles();
+  const std::vector<double> q = {-0.4, 1.1}, qd = {0.8, -2.0}, f = {120.0, 35.0};
+  const std::vector<double> arms = CrossingMomentArms(paths, q);
+  ASSERT_EQ(arms.size(), 4u);
+  const double* at = arms.data();
+  for (const auto& path : paths) {
+    EXPECT_EQ(MusculotendonVelocity(path, at, qd), MusculotendonVelocity(path, q, qd));
+    at += path.crossings.size();
+  }
+  EXPECT_EQ(JointTorques(paths, arms, f, q.size()), JointTorques(paths, q, f));
+  EXPECT_THROW(JointTorques(paths, std::vector<double>(3), f, q.size()), std::invalid_argument);
+  EXPECT_THROW(CrossingMomentArms(paths, {0.1}), std::invalid_argument);
 }
 
 }  // namespace
