@@ -62,6 +62,7 @@ int RunExport(int argc, char** argv) {
       cli::OutPath(args, "out", slash == std::string::npos ? "." : path.substr(0, slash));
   const Trial trial = ReadTrialCsv(path);
   const std::string stem = Stem(path);
+  if (args.Has("mat")) RequireMatOutput();  // a missing module fails before any file is written
   std::string written;
   if (args.Has("scenario")) {
     const Scenario sc = LoadScenario(args.Get("scenario"));

@@ -69,6 +69,7 @@ int RunIdentify(int argc, char** argv) {
 
   const auto result = method->run(train, test, cli::Progress(cli::ProgressFor(args)));
 
+  if (!result.discrete_models.empty()) RequireMatOutput();  // before the first file
   MakeDirs(out);
   WriteFileAtomic(out + "/model.yaml", result.model_yaml);
   for (std::size_t k = 0; k < result.predictions.size(); ++k) {

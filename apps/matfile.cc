@@ -70,6 +70,10 @@ class MatWriter {
 
 }  // namespace
 
+void RequireMatOutput() {
+  ModuleFunction<MatFileFactory>(kMatModuleFile, kMatFactorySymbol, "MAT-file output");
+}
+
 std::string MatVariableName(const std::string& column) {
   std::string out = column;
   for (char& c : out) {

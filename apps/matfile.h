@@ -26,6 +26,10 @@ void WriteDiscreteModelMat(const identification::DiscreteModel& model, const std
 /// K × 2 cell of key/value strings. NaN stays NaN.
 void WriteTrialMat(const Trial& trial, const std::string& path);
 
+/// Loads the MAT-file module (apps/matfile_module.h) or throws its one-line error. A command
+/// calls it before it writes its first file, so that a missing module leaves no partial output.
+void RequireMatOutput();
+
 /// The MATLAB variable name of a trial column (see WriteTrialMat).
 std::string MatVariableName(const std::string& column);
 
