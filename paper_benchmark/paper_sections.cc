@@ -1341,7 +1341,8 @@ SectionResult RunReaching(const BenchmarkSection& section, SectionContext* ctx) 
     const Json cached =
         CachedJson(ctx, {"reaching-trials", sc.source_text, std::to_string(ctx->seed)}, [&] {
           const auto t0 = std::chrono::steady_clock::now();
-          std::vector<Trial> made = sim::SimulateReaching(sc.model, *sc.reaching, {});
+          std::vector<Trial> made = sim::SimulateReaching(sc.model, *sc.reaching, {},
+                                                          sc.trial.sensors, ctx->seed);
           ctx->timing->Add(
               "simulation",
               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
