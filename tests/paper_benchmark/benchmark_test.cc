@@ -203,9 +203,33 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
       EXPECT_TRUE(std::isfinite(c.Find(key)->AsNumber())) << joint << " " << key;
     }
   }
+  // Paper 004's sparse set (Fig. 5(b), its subject with SCI): 4 trajectories × 3, the paper's
+  // §III values beside fesim's, every semiparametric cell of the table from results.json.
+  const Json& sparse = At(r, "sections/reaching/sparse");
+  EXPECT_EQ(At(sparse, "protocol/unique_trajectories").AsNumber(), 4);
+  EXPECT_EQ(At(sparse, "protocol/reaches").AsNumber(), 12);
+  const std::size_t sparse_at = report.find("### Sparse set (paper 004 Fig. 5(b)");
+  ASSERT_NE(sparse_at, std::string::npos);
+  const std::string sparse_md =
+      report.substr(sparse_at, report.find("\n## ", sparse_at) - sparse_at);
+  const std::string fig5b =
+      "between " +
+      PaperText(kPaper004, "§III text (Fig. 5(b))", "SCI semiparametric", "LOOCV error, from") +
+      " % and " +
+      PaperText(kPaper004, "§III text (Fig. 5(b))", "SCI semiparametric", "LOOCV error, to") +
+      " % of the maximum torque";
+  EXPECT_NE(sparse_md.find(fig5b), std::string::npos) << fig5b;
+  EXPECT_NE(sparse_md.find("paper " + PaperText(kPaper004, "§II.A text", "SCI", "reaches") + ")"),
+            std::string::npos);
+  const Json& sparse_rms = At(sparse, "loocv_normalised_rms");
+  ASSERT_EQ(sparse_rms.Keys().size(), 4u);
+  for (std::size_t k = 0; k < sparse_rms.Keys().size(); ++k) {
+    const Json& folds = *sparse_rms.Items()[k].Find("invdyn-semiparametric");
+    EXPECT_EQ(folds.Items().size(), 4u) << sparse_rms.Keys()[k];  // one per left-out trajectory
+  }
   for (const char* png : {"hand_array_error.png", "hand_array_prediction.png", "elbow_best_fit.png",
                           "shoulder_ekf_parameters.png", "reaching_loocv.png",
-                          "tremor_spectrum.png", "shoulder_fit.png"}) {
+                          "reaching_loocv_sparse.png", "tremor_spectrum.png", "shoulder_fit.png"}) {
     EXPECT_TRUE(fs::exists(dir + "/plots/" + png)) << png;
     EXPECT_NE(report.find(std::string("plots/") + png), std::string::npos) << png;
   }
@@ -215,9 +239,10 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
   const Json again = Results(dir);
   EXPECT_EQ(At(again, "fits_run").AsNumber(), 0);
   EXPECT_EQ(At(again, "trials_simulated").AsNumber(), 0);  // the reaches are cached too
-  for (const char* key : {"hand_array/table", "hand_array/truth/parameter_errors",
-                          "elbow_tests/cross_validation_best_fit_percent", "tremor_wrist/tremor",
-                          "shoulder/fits", "reaching/loocv_normalised_rms"}) {
+  for (const char* key :
+       {"hand_array/table", "hand_array/truth/parameter_errors",
+        "elbow_tests/cross_validation_best_fit_percent", "tremor_wrist/tremor", "shoulder/fits",
+        "reaching/loocv_normalised_rms", "reaching/sparse/loocv_normalised_rms"}) {
     EXPECT_EQ(At(At(again, "sections"), key).Dump(), At(At(r, "sections"), key).Dump()) << key;
   }
 }
