@@ -300,6 +300,10 @@ InvDynCv LeaveOneTrajectoryOut(InvDynKind kind, const ReachingData& data,
     const Eigen::MatrixXd Xtr = Rows(data.X, tr), Ttr = Rows(data.tau, tr);
     const Eigen::MatrixXd Xte = Rows(data.X, te), Tte = Rows(data.tau, te);
     const InvDynModel m = FitInvDyn(kind, data.joints, Xtr, Ttr, options, hyper);
+    for (const Convergence& c : m.hyper_convergence) {
+      ++cv.fold_hyper_fits;
+      if (!c.converged) ++cv.fold_hyper_not_converged;
+    }
     const auto pte = PredictInvDyn(m, Xte, false);
     const auto ptr = PredictInvDyn(m, Xtr, false);
     cv.folds.push_back(data.group_names[static_cast<std::size_t>(g)]);
@@ -367,6 +371,8 @@ Json LoocvJson(const InvDynCv& cv, double cv_s, const std::vector<std::string>& 
   Json folds = Json::Array();
   for (const auto& f : cv.folds) folds.Push(f);
   jcv.Set("folds", std::move(folds));
+  jcv.Set("fold_hyper_fits", cv.fold_hyper_fits);
+  jcv.Set("fold_hyper_not_converged", cv.fold_hyper_not_converged);
   Json per = Json::Object();
   for (std::size_t j = 0; j < joints.size(); ++j) {
     const auto jj = static_cast<Eigen::Index>(j);
@@ -509,6 +515,16 @@ MethodResult RunInvDynMethod(InvDynKind kind, const std::vector<Trial>& train,
                                  "' is not a number in (0, 100]");
       }
       options.semiparametric_length_scale_factor = v;
+    }
+    const auto it_max = train[0].metadata.find("invdyn.max_hyper_iterations");
+    if (it_max != train[0].metadata.end()) {
+      char* end = nullptr;
+      const long v = std::strtol(it_max->second.c_str(), &end, 10);
+      if (end == it_max->second.c_str() || *end != '\0' || v < 1 || v > 10000) {
+        throw std::runtime_error("metadata invdyn.max_hyper_iterations: '" + it_max->second +
+                                 "' is not an integer in [1, 10000]");
+      }
+      options.max_hyper_iterations = static_cast<int>(v);
     }
   }
   if (progress) progress(0.0, "fitting");

@@ -88,7 +88,8 @@ struct InvDynOptions {
   std::size_t max_training_points = 600;  ///< GP training subsample size.
   /// ℓ_d = factor × std(x_d); trial metadata `invdyn.length_scale_factor`, (0, 100].
   double semiparametric_length_scale_factor = 0.5;
-  int max_hyper_iterations = 60;  ///< BFGS iterations per joint.
+  /// BFGS iterations per joint; trial metadata `invdyn.max_hyper_iterations`, [1, 10000].
+  int max_hyper_iterations = 60;
   /// Leave-one-trajectory-out CV: re-optimise the GP hyper-parameters on each fold's training
   /// trajectories ([Schearer 2014] §II.C: each model identified on its training set) instead of
   /// keeping those of the fit on all data, which has seen the left-out trajectory (cheaper: one
@@ -131,6 +132,10 @@ struct InvDynCv {
   Eigen::MatrixXd nrmse;           ///< folds × J, dimensionless
   Eigen::VectorXd training_nrmse;  ///< J: mean training error over folds
   Eigen::VectorXd max_torque;      ///< J, N·m
+  /// With refit_hyper_per_fold: the folds' hyper-parameter optimisations (folds × joints) and
+  /// how many of them stopped without converging (e.g. at max_hyper_iterations).
+  int fold_hyper_fits = 0;
+  int fold_hyper_not_converged = 0;
 };
 InvDynCv LeaveOneTrajectoryOut(InvDynKind kind, const ReachingData& data,
                                const InvDynOptions& options, const InvDynModel& full_fit);
