@@ -97,7 +97,8 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
   // 2. The rerun resumes: cached trials are not simulated again.
   ASSERT_EQ(RunFesim(args, err), 0) << ReadFile(err);
   const Json r = Results(dir);
-  const int total_trials = 49;  // 2×(2+2) hand + 2×4×2 elbow + 2×3 tremor + 2×2 shoulder + 15
+  // 2×(2+2) hand + 2×4×2 elbow + 2×3 tremor + 2×2 shoulder + 15 dense + 12 sparse reaches
+  const int total_trials = 61;
   EXPECT_LT(At(r, "trials_simulated").AsNumber(), total_trials);
   EXPECT_EQ(At(r, "mode").AsString(), "quick");
 
