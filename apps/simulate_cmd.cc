@@ -260,7 +260,8 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
 /// Robot-driven reaching ([Schearer 2014]): one trial per reach, written as <name>_<k>.csv.
 int RunReaching(const Scenario& sc, const std::string& out, long seed) {
   const auto t0 = std::chrono::steady_clock::now();
-  std::vector<Trial> trials = sim::SimulateReaching(sc.model, *sc.reaching, {});
+  std::vector<Trial> trials = sim::SimulateReaching(sc.model, *sc.reaching, {}, sc.trial.sensors,
+                                                    static_cast<std::uint64_t>(seed));
   const std::string hash = Fnv1a64Hex(sc.source_text);
   MakeDirs(out);
   Json files = Json::Array();

@@ -28,6 +28,8 @@ std::string& Dir() {
 void CheckSection(const std::optional<fesim::BenchmarkSection>& s) {
   if (!s) return;
   if (s->methods.empty() || s->study_path.empty() || s->quick_study_path.empty()) std::abort();
+  // A quick sparse scenario only beside a sparse one (reaching).
+  if (s->sparse_path.empty() != s->quick_sparse_path.empty()) std::abort();
 }
 
 void CheckBudget(const fesim::FullModelBudget& m) {
@@ -54,7 +56,8 @@ extern "C" int LLVMFuzzerInitialize(int* /*argc*/, char*** /*argv*/) {
        {"study.yaml", "bench_hand_array.yaml", "bench_hand_array_quick.yaml", "bench_elbow.yaml",
         "bench_elbow_quick.yaml", "bench_tremor.yaml", "bench_tremor_quick.yaml",
         "bench_shoulder.yaml", "bench_shoulder_quick.yaml", "bench_reaching.yaml",
-        "bench_reaching_quick.yaml"}) {
+        "bench_reaching_quick.yaml", "bench_reaching_sparse.yaml",
+        "bench_reaching_sparse_quick.yaml"}) {
     fesim::WriteFileAtomic(Dir() + "/" + name, "# fuzz placeholder\n");
   }
   return 0;

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <map>
 #include <stdexcept>
 
@@ -290,7 +291,7 @@ InvDynCv LeaveOneTrajectoryOut(InvDynKind kind, const ReachingData& data,
   cv.nrmse.resize(G, static_cast<Eigen::Index>(J));
   cv.training_nrmse = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(J));
   const std::vector<SeArdHyperParams>* hyper =
-      kind == InvDynKind::kParametric ? nullptr : &full_fit.hyper;
+      kind == InvDynKind::kParametric || options.refit_hyper_per_fold ? nullptr : &full_fit.hyper;
   for (int g = 0; g < G; ++g) {
     std::vector<Eigen::Index> tr, te;
     for (Eigen::Index i = 0; i < data.X.rows(); ++i) {
@@ -299,6 +300,10 @@ InvDynCv LeaveOneTrajectoryOut(InvDynKind kind, const ReachingData& data,
     const Eigen::MatrixXd Xtr = Rows(data.X, tr), Ttr = Rows(data.tau, tr);
     const Eigen::MatrixXd Xte = Rows(data.X, te), Tte = Rows(data.tau, te);
     const InvDynModel m = FitInvDyn(kind, data.joints, Xtr, Ttr, options, hyper);
+    for (const Convergence& c : m.hyper_convergence) {
+      ++cv.fold_hyper_fits;
+      if (!c.converged) ++cv.fold_hyper_not_converged;
+    }
     const auto pte = PredictInvDyn(m, Xte, false);
     const auto ptr = PredictInvDyn(m, Xtr, false);
     cv.folds.push_back(data.group_names[static_cast<std::size_t>(g)]);
@@ -366,6 +371,8 @@ Json LoocvJson(const InvDynCv& cv, double cv_s, const std::vector<std::string>& 
   Json folds = Json::Array();
   for (const auto& f : cv.folds) folds.Push(f);
   jcv.Set("folds", std::move(folds));
+  jcv.Set("fold_hyper_fits", cv.fold_hyper_fits);
+  jcv.Set("fold_hyper_not_converged", cv.fold_hyper_not_converged);
   Json per = Json::Object();
   for (std::size_t j = 0; j < joints.size(); ++j) {
     const auto jj = static_cast<Eigen::Index>(j);
@@ -489,7 +496,37 @@ MethodResult RunInvDynMethod(InvDynKind kind, const std::vector<Trial>& train,
                              const std::vector<Trial>& test, const ProgressFn& progress) {
   const std::string name = KindName(kind);
   const ReachingData data = ExtractReachingData(train);
-  const InvDynOptions options;
+  InvDynOptions options;
+  if (!train.empty()) {
+    const auto it = train[0].metadata.find("invdyn.fold_hyper");
+    if (it != train[0].metadata.end()) {
+      if (it->second != "refit" && it->second != "full") {
+        throw std::runtime_error("metadata invdyn.fold_hyper: '" + it->second +
+                                 "' is not one of refit|full");
+      }
+      options.refit_hyper_per_fold = it->second == "refit";
+    }
+    const auto ls = train[0].metadata.find("invdyn.length_scale_factor");
+    if (ls != train[0].metadata.end()) {
+      char* end = nullptr;
+      const double v = std::strtod(ls->second.c_str(), &end);
+      if (end == ls->second.c_str() || *end != '\0' || !(v > 0.0 && v <= 100.0)) {
+        throw std::runtime_error("metadata invdyn.length_scale_factor: '" + ls->second +
+                                 "' is not a number in (0, 100]");
+      }
+      options.semiparametric_length_scale_factor = v;
+    }
+    const auto it_max = train[0].metadata.find("invdyn.max_hyper_iterations");
+    if (it_max != train[0].metadata.end()) {
+      char* end = nullptr;
+      const long v = std::strtol(it_max->second.c_str(), &end, 10);
+      if (end == it_max->second.c_str() || *end != '\0' || v < 1 || v > 10000) {
+        throw std::runtime_error("metadata invdyn.max_hyper_iterations: '" + it_max->second +
+                                 "' is not an integer in [1, 10000]");
+      }
+      options.max_hyper_iterations = static_cast<int>(v);
+    }
+  }
   if (progress) progress(0.0, "fitting");
   auto t0 = std::chrono::steady_clock::now();
   const InvDynModel model = FitInvDyn(kind, data.joints, data.X, data.tau, options);
@@ -514,6 +551,7 @@ MethodResult RunInvDynMethod(InvDynKind kind, const std::vector<Trial>& train,
     const double cv_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     result.metrics.Set("loocv", LoocvJson(cv, cv_s, data.joints));
+    result.metrics.Set("loocv_fold_hyper", options.refit_hyper_per_fold ? "refit" : "full");
   }
 
   if (progress) progress(0.9, "predicting");

@@ -17,9 +17,11 @@
 // mean ± 1.96 √v_p for the parametric model (v_p already includes σ_n²).
 //
 // Departures from the paper: the GP training set is subsampled evenly to at most
-// `max_training_points` samples (exact GP cost is O(n³)); in cross-validation the GP
-// hyper-parameters of the fit on all training data are kept and each fold re-conditions the GP
-// (and re-fits the parametric prior) on its training trajectories only.
+// `max_training_points` samples (exact GP cost is O(n³)); in cross-validation, unless
+// `refit_hyper_per_fold` (metadata `invdyn.fold_hyper: refit`), the GP hyper-parameters of the fit
+// on all training data are kept and each fold re-conditions the GP (and re-fits the parametric
+// prior) on its training trajectories only — those hyper-parameters have seen the left-out
+// trajectory.
 //
 // Trial conventions: q.<joint> (rad), qd.<joint> (rad/s), optional qdd.<joint> (rad/s², else
 // central differences of qd.<joint>), tau.<joint> (N·m); the joints are those with a tau.<joint>
@@ -83,9 +85,16 @@ ParametricJointModel FitParametricJoint(const Eigen::VectorXd& theta,
 enum class InvDynKind { kParametric, kGp, kSemiparametric };
 
 struct InvDynOptions {
-  std::size_t max_training_points = 600;            ///< GP training subsample size.
-  double semiparametric_length_scale_factor = 0.5;  ///< ℓ_d = factor × std(x_d).
-  int max_hyper_iterations = 60;                    ///< BFGS iterations per joint.
+  std::size_t max_training_points = 600;  ///< GP training subsample size.
+  /// ℓ_d = factor × std(x_d); trial metadata `invdyn.length_scale_factor`, (0, 100].
+  double semiparametric_length_scale_factor = 0.5;
+  /// BFGS iterations per joint; trial metadata `invdyn.max_hyper_iterations`, [1, 10000].
+  int max_hyper_iterations = 60;
+  /// Leave-one-trajectory-out CV: re-optimise the GP hyper-parameters on each fold's training
+  /// trajectories ([Schearer 2014] §II.C: each model identified on its training set) instead of
+  /// keeping those of the fit on all data, which has seen the left-out trajectory (cheaper: one
+  /// optimisation instead of one per fold). Trial metadata `invdyn.fold_hyper: refit | full`.
+  bool refit_hyper_per_fold = false;
 };
 
 /// A fitted model for all joints.
@@ -123,6 +132,10 @@ struct InvDynCv {
   Eigen::MatrixXd nrmse;           ///< folds × J, dimensionless
   Eigen::VectorXd training_nrmse;  ///< J: mean training error over folds
   Eigen::VectorXd max_torque;      ///< J, N·m
+  /// With refit_hyper_per_fold: the folds' hyper-parameter optimisations (folds × joints) and
+  /// how many of them stopped without converging (e.g. at max_hyper_iterations).
+  int fold_hyper_fits = 0;
+  int fold_hyper_not_converged = 0;
 };
 InvDynCv LeaveOneTrajectoryOut(InvDynKind kind, const ReachingData& data,
                                const InvDynOptions& options, const InvDynModel& full_fit);

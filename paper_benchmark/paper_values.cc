@@ -164,6 +164,26 @@ constexpr PaperValue kValues[] = {
      "% of max |torque|", ""},
     {kPaper004, "§III text (Fig. 5(b))", "SCI semiparametric", "LOOCV error, to", "40",
      "% of max |torque|", ""},
+    // §II.A protocols (line 74, subject without SCI: "The distance from each home position to
+    // each target position varied from 12 cm to 45 cm, and the time to reach from home to target
+    // was a constant two seconds, so the maximum speed of the hand ... varied from 11 cm/s to
+    // 42 cm/s"; line 76, subject with SCI: "16 cm to 36 cm ... a constant three seconds ...
+    // from 10 cm/s to 23 cm/s", "Four randomly selected trajectories ... repeated three times
+    // for a total of 12 trajectories"), and §II.C (line 158): 18 and four training sets.
+    {kPaper004, "§II.A text", "non-SCI", "unique trajectories", "18", "", ""},
+    {kPaper004, "§II.A text", "non-SCI", "reaches", "54", "", ""},
+    {kPaper004, "§II.A text", "non-SCI", "reach duration", "2", "s", ""},
+    {kPaper004, "§II.A text", "non-SCI", "distance from", "12", "cm", ""},
+    {kPaper004, "§II.A text", "non-SCI", "distance to", "45", "cm", ""},
+    {kPaper004, "§II.A text", "non-SCI", "peak hand speed from", "11", "cm/s", ""},
+    {kPaper004, "§II.A text", "non-SCI", "peak hand speed to", "42", "cm/s", ""},
+    {kPaper004, "§II.A text", "SCI", "unique trajectories", "4", "", ""},
+    {kPaper004, "§II.A text", "SCI", "reaches", "12", "", ""},
+    {kPaper004, "§II.A text", "SCI", "reach duration", "3", "s", ""},
+    {kPaper004, "§II.A text", "SCI", "distance from", "16", "cm", ""},
+    {kPaper004, "§II.A text", "SCI", "distance to", "36", "cm", ""},
+    {kPaper004, "§II.A text", "SCI", "peak hand speed from", "10", "cm/s", ""},
+    {kPaper004, "§II.A text", "SCI", "peak hand speed to", "23", "cm/s", ""},
 };
 
 const std::vector<PaperValue>& Values() {

@@ -14,7 +14,9 @@
 //                the identified tremor frequency and amplitude against the planted ones.
 //  shoulder      [Spagnol 2013]: offline fit indices of models 1 and 2, EKF convergence times and
 //                parameter estimates (trajectories plotted).
-//  reaching      [Schearer 2014]: LOOCV normalised RMS torque error per joint of the three models.
+//  reaching      [Schearer 2014]: LOOCV normalised RMS torque error per joint of the three models
+//                on the dense set (Fig. 5(a)) and the sparse set (Fig. 5(b), where the finding is
+//                judged).
 //  truth         what the papers could not do: prediction error of every reduced model against
 //                the noiseless full model on inputs it never saw, parameter errors where a
 //                parameter has a ground-truth counterpart, and (assumptions) how far the cohort's

@@ -1,5 +1,6 @@
 #include "protocols/filters.h"
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <stdexcept>
@@ -70,6 +71,31 @@ std::vector<double> FilterCascade(const std::vector<Biquad>& sections,
     }
   }
   return y;
+}
+
+std::vector<double> FilterZeroPhase(const std::vector<Biquad>& sections,
+                                    const std::vector<double>& x, std::size_t padding) {
+  const std::size_t n = x.size();
+  if (n < 2) return x;
+  const std::size_t pad = std::min(n - 1, padding);
+  std::vector<double> e;
+  e.reserve(n + 2 * pad);
+  for (std::size_t k = pad; k >= 1; --k) e.push_back(2.0 * x.front() - x[k]);
+  e.insert(e.end(), x.begin(), x.end());
+  for (std::size_t k = 1; k <= pad; ++k) e.push_back(2.0 * x.back() - x[n - 1 - k]);
+  // Forward from the first value, backward from the last (unit DC gain: a constant passes).
+  double ref = e.front();
+  for (double& v : e) v -= ref;
+  e = FilterCascade(sections, e);
+  for (double& v : e) v += ref;
+  std::reverse(e.begin(), e.end());
+  ref = e.front();
+  for (double& v : e) v -= ref;
+  e = FilterCascade(sections, e);
+  for (double& v : e) v += ref;
+  std::reverse(e.begin(), e.end());
+  return std::vector<double>(e.begin() + static_cast<std::ptrdiff_t>(pad),
+                             e.begin() + static_cast<std::ptrdiff_t>(pad + n));
 }
 
 double CascadeGain(const std::vector<Biquad>& sections, double frequency_hz,

@@ -29,6 +29,15 @@ std::vector<Biquad> DesignButterworthLowPass(int order, double cutoff_hz, double
 std::vector<double> FilterCascade(const std::vector<Biquad>& sections,
                                   const std::vector<double>& x);
 
+/// Zero-phase filtering (forward–backward, as MATLAB's filtfilt): `x` is extended at each end by
+/// min(padding, n − 1) samples of its odd reflection about the end value (2x₀ − x_k), run through
+/// the cascade forward and then backward, each pass started from its first value (subtracted and
+/// added back, so that a constant passes without a transient), then trimmed to x's samples.
+/// Magnitude response |H|², phase zero. Returns y with y.size() == x.size(); a signal of fewer
+/// than 2 samples is returned unchanged.
+std::vector<double> FilterZeroPhase(const std::vector<Biquad>& sections,
+                                    const std::vector<double>& x, std::size_t padding);
+
 /// |H(e^{j2πf/f_s})| of the cascade at frequency_hz (for tests and documentation).
 double CascadeGain(const std::vector<Biquad>& sections, double frequency_hz, double sample_rate_hz);
 

@@ -300,6 +300,24 @@ void CheckReaching(const ReachingParams& p) {
                                 " is outside [1, 100]");
   }
   CheckRange("ReachingParams.sample_rate_hz", p.sample_rate_hz, 0.0, 10000.0, true, false);
+  for (std::size_t i = 0; i < p.paths.size(); ++i) {
+    const std::string name = "ReachingParams.paths[" + std::to_string(i) + "]";
+    const int h = p.paths[i][0], g = p.paths[i][1];
+    if (h < 0 || h >= static_cast<int>(p.homes_m.size())) {
+      throw std::invalid_argument(name + " home index " + std::to_string(h) + " is outside [0, " +
+                                  std::to_string(p.homes_m.size() - 1) + "]");
+    }
+    if (g < 0 || g >= static_cast<int>(p.targets_m.size())) {
+      throw std::invalid_argument(name + " target index " + std::to_string(g) + " is outside [0, " +
+                                  std::to_string(p.targets_m.size() - 1) + "]");
+    }
+    for (std::size_t k = 0; k < i; ++k) {
+      if (p.paths[k] == p.paths[i]) {
+        throw std::invalid_argument(name + " repeats path [" + std::to_string(h) + ", " +
+                                    std::to_string(g) + "]; each pair at most once");
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -690,18 +708,23 @@ HandPath ReachingProgram(const ReachingParams& params) {
     t += duration;
     here = to;
   };
-  for (std::size_t h = 0; h < params.homes_m.size(); ++h) {
-    const Vec3& home = params.homes_m[h];
-    if (here != home) add(SegmentKind::kTransfer, params.transfer_duration_s, home, -1, -1, -1);
-    for (std::size_t g = 0; g < params.targets_m.size(); ++g) {
-      const Vec3& target = params.targets_m[g];
-      const int hi = static_cast<int>(h), gi = static_cast<int>(g);
-      for (int r = 0; r < params.repetitions; ++r) {
-        add(SegmentKind::kReach, params.reach_duration_s, target, hi, gi, r);
-        add(SegmentKind::kHold, params.hold_s, target, hi, gi, r);
-        add(SegmentKind::kReturn, params.reach_duration_s, home, hi, gi, r);
-        add(SegmentKind::kPause, params.pause_s, home, hi, -1, r);
+  std::vector<std::array<int, 2>> pairs = params.paths;
+  if (pairs.empty()) {
+    for (std::size_t h = 0; h < params.homes_m.size(); ++h) {
+      for (std::size_t g = 0; g < params.targets_m.size(); ++g) {
+        pairs.push_back({static_cast<int>(h), static_cast<int>(g)});
       }
+    }
+  }
+  for (const auto& [hi, gi] : pairs) {
+    const Vec3& home = params.homes_m[static_cast<std::size_t>(hi)];
+    const Vec3& target = params.targets_m[static_cast<std::size_t>(gi)];
+    if (here != home) add(SegmentKind::kTransfer, params.transfer_duration_s, home, -1, -1, -1);
+    for (int r = 0; r < params.repetitions; ++r) {
+      add(SegmentKind::kReach, params.reach_duration_s, target, hi, gi, r);
+      add(SegmentKind::kHold, params.hold_s, target, hi, gi, r);
+      add(SegmentKind::kReturn, params.reach_duration_s, home, hi, gi, r);
+      add(SegmentKind::kPause, params.pause_s, home, hi, -1, r);
     }
   }
   path.duration_s = t;

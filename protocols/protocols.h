@@ -318,6 +318,11 @@ struct ReachingParams {
   double transfer_duration_s = 2.0;  ///< home → next home, s, in (0, 60].
   int repetitions = 3;               ///< each home–target path, 1–100. 004: three times.
   double sample_rate_hz = 100.0;     ///< HandPath samples, Hz, in (0, 10000].
+  /// The home–target pairs run, {home index, target index}, in this order; empty = every home
+  /// with every target (004's subject without SCI, 2 × 9 paths). 004's subject with SCI ran 4
+  /// of them: mouth → high-left, high-right, low-right and shoulder → low-right (§II.A). Each
+  /// pair at most once, indices within homes_m / targets_m.
+  std::vector<std::array<int, 2>> paths;
 };
 
 /// 3×3 planar grid from its four corners (004 §II.A: "the four extreme targets at the corners"),
@@ -327,7 +332,8 @@ std::vector<Vec3> TargetGrid3x3(const Vec3& high_left_m, const Vec3& high_right_
 
 /// 004 §II.A: starting at homes_m[0]; for each home h (a transfer segment moves the hand there
 /// when needed), each target, each repetition: reach (reach_duration_s), hold (hold_s), return
-/// (reach_duration_s), pause (pause_s); zero-length holds/pauses are omitted. Sampled at
+/// (reach_duration_s), pause (pause_s); zero-length holds/pauses are omitted. With `paths` set,
+/// only those pairs, in their order (a transfer whenever the home changes). Sampled at
 /// sample_rate_hz. Throws std::invalid_argument on bad params.
 HandPath ReachingProgram(const ReachingParams& params);
 

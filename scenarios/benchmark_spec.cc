@@ -30,6 +30,10 @@ BenchmarkSection LoadSection(const Node& top, const std::string& key, const std:
     keys.insert("independent");
     keys.insert("quick_independent");
   }
+  if (reaching) {
+    keys.insert("sparse_scenario");
+    keys.insert("quick_sparse_scenario");
+  }
   n.Keys(keys);
   BenchmarkSection s;
   const auto resolve = [&](const std::string& k) {
@@ -44,6 +48,13 @@ BenchmarkSection LoadSection(const Node& top, const std::string& key, const std:
   };
   s.study_path = resolve(file_key);
   s.quick_study_path = n.Has(quick_key) ? resolve(quick_key) : s.study_path;
+  if (reaching && n.Has("sparse_scenario")) {
+    s.sparse_path = resolve("sparse_scenario");
+    s.quick_sparse_path =
+        n.Has("quick_sparse_scenario") ? resolve("quick_sparse_scenario") : s.sparse_path;
+  } else if (reaching && n.Has("quick_sparse_scenario")) {
+    n.FailKey("quick_sparse_scenario", "needs sparse_scenario");
+  }
   const std::vector<std::string>& allowed = BenchmarkSectionMethods().at(key);
   if (n.Has("methods")) {
     for (const auto& m : n.Child("methods").TextList()) {

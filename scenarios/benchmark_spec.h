@@ -9,7 +9,8 @@
 //   elbow_tests:     {study, quick_study, methods, options}        [Le 2010] Tables 1–3
 //   tremor_wrist:    {study, quick_study, methods, options}        [Copur 2016] Table 5
 //   shoulder:        {study, quick_study, methods, options}        [Spagnol 2013]
-//   reaching:        {scenario, quick_scenario, methods, options}  [Schearer 2014]
+//   reaching:        {scenario, quick_scenario, sparse_scenario, quick_sparse_scenario, methods,
+//                     options}                                      [Schearer 2014]
 //   assumptions:     {participants: 1–1000}                        [Hand Hammerstein] Assumptions
 //   1–7
 // Every section is optional (at least one is required). `study`/`quick_study` are study files
@@ -23,6 +24,9 @@
 //    true|false}  (the forward-difference step must be well above the integrator's relative error,
 //    else the Jacobian is integration noise)  (rank once per participant on the first fold, then
 //    fit the same K parameters in every fold; default true)
+// reaching: `scenario` is the dense protocol of paper 004's subject without SCI (Fig. 5(a)),
+// the optional `sparse_scenario` the sparse one of its subject with SCI (Fig. 5(b)), on which
+// the section evaluates the paper's sparse-data finding.
 // The hand_array study's first protocol is the paper's step grid (the cross-validation folds
 // are its repetitions); an optional second protocol is an input the models never see in
 // training, used for the prediction error against the noiseless truth. `independent` (and
@@ -43,6 +47,9 @@ namespace fesim {
 struct BenchmarkSection {
   std::string study_path;        ///< study (or, for reaching, scenario) file, resolved.
   std::string quick_study_path;  ///< for --quick, resolved; empty = same as study_path.
+  /// reaching only: the sparse scenario (paper 004's subject with SCI) and its --quick variant,
+  /// resolved; empty = none.
+  std::string sparse_path, quick_sparse_path;
   std::vector<std::string> methods;
   std::map<std::string, std::string> options;  ///< method options (trial metadata).
 };

@@ -381,7 +381,7 @@ protocols::StimulationProgram LoadProtocol(const Node& n, const sim::ModelParams
 
 protocols::ReachingParams LoadReaching(const Node& n) {
   n.Keys({"repetitions", "reach_duration_s", "hold_s", "pause_s", "transfer_duration_s",
-          "sample_rate_hz", "homes_m", "targets_m"});
+          "sample_rate_hz", "homes_m", "targets_m", "paths"});
   protocols::ReachingParams r;
   if (n.Has("repetitions")) r.repetitions = n.Integer("repetitions", 1, 100);
   n.Number("reach_duration_s", 0.01, 60, &r.reach_duration_s);
@@ -400,6 +400,16 @@ protocols::ReachingParams LoadReaching(const Node& n) {
   };
   if (n.Has("homes_m")) r.homes_m = points("homes_m");
   if (n.Has("targets_m")) r.targets_m = points("targets_m");
+  if (n.Has("paths")) {
+    // Indices are checked against homes_m / targets_m by ReachingProgram (the caller's FailKey).
+    const Node list = n.Child("paths");
+    for (std::size_t i = 0; i < list.Size(); ++i) {
+      const Node item = list.Item(i);
+      item.Keys({"home", "target"});
+      r.paths.push_back({item.Integer("home", 0, 15), item.Integer("target", 0, 999)});
+    }
+    if (r.paths.empty()) n.FailKey("paths", "needs at least one {home, target} pair");
+  }
   return r;
 }
 
@@ -532,7 +542,7 @@ void LoadMechanisms(const Node& n, sim::ModelParams* m) {
 void LoadSensor(const Node& n, const std::string& unit, double scale, sim::SensorParams* s) {
   n.Keys({"rate_hz", "coordinates", "noise_std_" + unit, "offset_drift_" + unit + "_per_s",
           "dropout_probability", "dropout_mean_samples", "outlier_probability",
-          "outlier_std_" + unit, "baseline_window_s"});
+          "outlier_std_" + unit, "baseline_window_s", "lowpass_hz"});
   n.Number("baseline_window_s", 0, 3600, &s->baseline_window_s);
   n.Number("rate_hz", 0.1, 20000, &s->rate_hz);
   n.Number("noise_std_" + unit, 0, 1e3, &s->noise_std, scale);
@@ -548,6 +558,30 @@ void LoadSensor(const Node& n, const std::string& unit, double scale, sim::Senso
       s->coordinates.push_back(Coordinate(n, "coordinates", name));
     }
   }
+}
+
+/// The sensors block of a robot-driven reaching scenario (sim/reaching.h "Measurement"): the
+/// joint angles and the robot's force sensor, each {noise_std_<unit>, lowpass_hz}; the rate is
+/// the path's sample_rate_hz, the cutoff below half of it.
+void LoadReachingSensors(const Node& s, const protocols::ReachingParams& reaching,
+                         sim::SensorSuite* out) {
+  s.Keys({"angles", "force"});
+  const auto load = [&](const char* key, const std::string& unit, double scale,
+                        sim::SensorParams* p) {
+    if (!s.Has(key)) return;
+    const Node n = s.Child(key);
+    n.Keys({"noise_std_" + unit, "lowpass_hz"});
+    n.Number("noise_std_" + unit, 0, 1e3, &p->noise_std, scale);
+    const double nyquist = 0.5 * reaching.sample_rate_hz;
+    n.Number("lowpass_hz", 0, nyquist, &p->lowpass_hz);
+    if (p->lowpass_hz >= nyquist) {
+      n.FailKey("lowpass_hz", internal::Fmt(p->lowpass_hz) + " is outside [0, " +
+                                  internal::Fmt(nyquist) +
+                                  ") (below half of stimulation.reaching.sample_rate_hz)");
+    }
+  };
+  load("angles", "deg", kDeg, &out->angles);
+  load("force", "n", 1.0, &out->force);
 }
 
 /// Bytes per cell of a trial CSV as FormatTrialCsv writes it (17 significant digits, sign,
@@ -656,13 +690,24 @@ static Scenario ParseScenarioText(const std::string& text, const std::string& pa
         .coordinates.push_back(i);
   }
   LoadStimulation(top.Child("stimulation"), path, m, &t, &sc.reaching);
-  if (top.Has("sensors")) {
+  if (sc.reaching) {
+    // Robot-driven reaching: noiseless unless the sensors block says otherwise.
+    t.sensors = sim::SensorSuite{};
+    if (top.Has("sensors")) LoadReachingSensors(top.Child("sensors"), *sc.reaching, &t.sensors);
+  } else if (top.Has("sensors")) {
     const Node s = top.Child("sensors");
     s.Keys({"angles", "velocities", "torques", "truth_rate_hz"});
     if (s.Has("angles")) LoadSensor(s.Child("angles"), "deg", kDeg, &t.sensors.angles);
     if (s.Has("velocities"))
       LoadSensor(s.Child("velocities"), "deg_s", kDeg, &t.sensors.velocities);
     if (s.Has("torques")) LoadSensor(s.Child("torques"), "nm", 1.0, &t.sensors.torques);
+    for (const char* k : {"angles", "velocities", "torques"}) {
+      if (s.Has(k) && s.Child(k).Has("lowpass_hz")) {
+        s.Child(k).FailKey("lowpass_hz",
+                           "only for robot-driven reaching (stimulation type "
+                           "reaching)");
+      }
+    }
     s.Number("truth_rate_hz", 0.1, 20000, &t.sensors.truth_rate_hz);
     if (s.Has("torques")) {
       for (int i : t.sensors.torques.coordinates) {

@@ -43,7 +43,9 @@
 //     protocol: {name: step_grid|ramp|staircase|filtered_noise|prms|multisine|shoulder_steps,
 //                channel(s), u_min_us, u_max_us, u_sum_max_us, seed, …} (protocols/protocols.h)
 //     reaching: {repetitions, reach_duration_s, hold_s, pause_s, transfer_duration_s,
-//                sample_rate_hz, homes_m: [[x, y, z]…], targets_m: [[x, y, z]…]}  ([Schearer 2014])
+//                sample_rate_hz, homes_m: [[x, y, z]…], targets_m: [[x, y, z]…],
+//                paths: [{home: index, target: index}…]}  ([Schearer 2014]; paths: the
+//                home–target pairs run, in order, each at most once; default every pair)
 //   sensors:
 //     angles:     {rate_hz, noise_std_deg, coordinates: [<coordinate>…], offset_drift_deg_per_s,
 //                  dropout_probability, dropout_mean_samples, outlier_probability, outlier_std_deg}
@@ -52,6 +54,12 @@
 //     any sensor: baseline_window_s (subtract the mean of [0, window) — [Le 2010]'s offset
 //                 removal from the rest period)
 //     truth_rate_hz
+//     With stimulation type reaching the block is instead (sim/reaching.h "Measurement"; without
+//     it the reaches are noiseless):
+//     angles: {noise_std_deg, lowpass_hz}   joint angles; lowpass_hz: zero-phase Butterworth
+//                                           cutoff before differentiation, [0, rate/2), 0 = none
+//     force:  {noise_std_n, lowpass_hz}     the robot's force sensor, N per axis; the low-pass
+//                                           filters the joint torques
 //   integrator: {method: cvodes|cvodes-adams|simbody-rkm, tolerance: 1e-12–1e-2}
 //               (defaults: cvodes, and the rig's trial-generation tolerance,
 //               sim::TrialGenerationTolerance: 3e-4; 1e-6 with a tremor or friction)

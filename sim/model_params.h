@@ -145,12 +145,20 @@ struct SensorParams {
   /// the rest period): when > 0, the mean of this sensor's samples in [0, window) is subtracted
   /// from every sample of the measured record, s, ≥ 0.
   double baseline_window_s = 0.0;
+  /// Robot-driven reaching only (sim/reaching.h): cutoff of the zero-phase Butterworth low-pass
+  /// the rig's processing applies to this sensor's recorded signal before velocities and
+  /// accelerations are differentiated ([Schearer 2014] Fig. 4: "filtered joint angles and joint
+  /// torques"), Hz, 0 = none, else below half the sample rate.
+  double lowpass_hz = 0.0;
 };
 
 struct SensorSuite {
-  SensorParams angles;           ///< q.<joint>: camera / hand tracker, rad.
-  SensorParams velocities;       ///< qd.<joint>: IMU gyroscope, rad/s.
-  SensorParams torques;          ///< tau.<joint>: torque sensor on locked coordinates, N·m.
+  SensorParams angles;      ///< q.<joint>: camera / hand tracker, rad.
+  SensorParams velocities;  ///< qd.<joint>: IMU gyroscope, rad/s.
+  SensorParams torques;     ///< tau.<joint>: torque sensor on locked coordinates, N·m.
+  /// f.robot_x/y/z: the robot's end-effector force sensor of robot-driven reaching
+  /// ([Schearer 2014] §II.A, a three-axis force sensor), N per axis; unused by other rigs.
+  SensorParams force;
   double truth_rate_hz = 100.0;  ///< rate of the noiseless truth record, Hz.
 };
 

@@ -5,6 +5,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "protocols/filters.h"
+#include "sim/sensors.h"
+
 namespace fesim::sim {
 
 using protocols::Vec3;
@@ -66,6 +69,42 @@ void SetArmU(const UpperLimbModel& model, State& s, const std::array<double, 4>&
 double Dot(const std::array<double, 3>& a, const Vec3& b) {
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
+
+/// dv/dt by central differences, one-sided at the ends.
+std::vector<double> Differentiate(const std::vector<double>& t, const std::vector<double>& v) {
+  const std::size_t n = v.size();
+  std::vector<double> d(n, 0.0);
+  if (n < 2) return d;
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t lo = k == 0 ? 0 : k - 1, hi = k + 1 == n ? k : k + 1;
+    d[k] = (v[hi] - v[lo]) / (t[hi] - t[lo]);
+  }
+  return d;
+}
+
+/// The rig's processing of one sensor (file comment of sim/reaching.h): active when the sensor
+/// has noise or a low-pass; the zero-phase Butterworth of order kLowpassOrder.
+struct Processing {
+  static constexpr int kLowpassOrder = 2;
+  Processing(const SensorParams& p, double rate_hz, const std::string& name)
+      : active(p.noise_std > 0.0 || p.lowpass_hz > 0.0) {
+    if (p.lowpass_hz <= 0.0) return;
+    if (!(p.lowpass_hz < 0.5 * rate_hz)) {
+      throw std::invalid_argument(name + ".lowpass_hz = " + std::to_string(p.lowpass_hz) +
+                                  " is not below half the reaching sample rate (" +
+                                  std::to_string(0.5 * rate_hz) + " Hz)");
+    }
+    sections = protocols::DesignButterworthLowPass(kLowpassOrder, p.lowpass_hz, rate_hz);
+    // Odd-reflection padding of three periods of the cutoff (the transient's length).
+    padding = static_cast<std::size_t>(std::ceil(3.0 * rate_hz / p.lowpass_hz));
+  }
+  std::vector<double> Filter(const std::vector<double>& x) const {
+    return sections.empty() ? x : protocols::FilterZeroPhase(sections, x, padding);
+  }
+  bool active = false;
+  std::vector<protocols::Biquad> sections;
+  std::size_t padding = 0;
+};
 
 }  // namespace
 
@@ -248,9 +287,9 @@ ReachingSample EvaluateReachingSample(const UpperLimbModel& model, State* state,
     // SensorTorques is what the limb exerts on the rig; the robot applies the opposite.
     out.robot_torque_nm[j] = -tau[kReachingCoordinates[j]];
   }
-  const auto cols = HandleJacobianColumns(model, s, o);
-  out.wrench = WrenchFromJointTorques(cols, out.robot_torque_nm);
-  out.tau_nm = JointTorquesFromWrench(cols, out.wrench);
+  out.jacobian_columns = HandleJacobianColumns(model, s, o);
+  out.wrench = WrenchFromJointTorques(out.jacobian_columns, out.robot_torque_nm);
+  out.tau_nm = JointTorquesFromWrench(out.jacobian_columns, out.wrench);
   const SimTK::Vec3 handle = ToSimTK(o.handle_in_hand_m);
   out.p_GP_m = FromSimTK(Hand(model).findStationLocationInGround(s, handle));
   out.v_GP_m_s = FromSimTK(Hand(model).findStationVelocityInGround(s, handle));
@@ -260,8 +299,11 @@ ReachingSample EvaluateReachingSample(const UpperLimbModel& model, State* state,
 
 std::vector<Trial> SimulateReaching(const ModelParams& base,
                                     const protocols::ReachingParams& reaching,
-                                    const ReachingOptions& o) {
+                                    const ReachingOptions& o, const SensorSuite& sensors,
+                                    std::uint64_t seed) {
   const protocols::HandPath path = protocols::ReachingProgram(reaching);
+  const Processing angle_processing(sensors.angles, reaching.sample_rate_hz, "sensors.angles");
+  const Processing force_processing(sensors.force, reaching.sample_rate_hz, "sensors.force");
   ModelParams free_arm = base;
   for (int c : kReachingCoordinates) {
     free_arm.coordinates[c].mode = CoordinateMode::kFree;
@@ -296,13 +338,23 @@ std::vector<Trial> SimulateReaching(const ModelParams& base,
     trial.metadata["repetition"] = std::to_string(segs[i].repetition);
     trial.metadata["start_time_s"] = std::to_string(t0);
     std::vector<std::vector<double>> cols(4 * 4 + 6);
+    // Per reach, independent streams for the angle and force noise.
+    const std::uint64_t reach = trials.size();
+    GaussianNoise angle_noise(DeriveSeed(seed, 2 * reach + 1));
+    GaussianNoise force_noise(DeriveSeed(seed, 2 * reach + 2));
     for (std::size_t k = 0; k < path.times_s.size(); ++k) {
       const double t = path.times_s[k];
       if (t < t0 - kWindowTolS || t > t1 + kWindowTolS) continue;
-      const ReachingSample r = EvaluateReachingSample(model, &s, t, o);
+      ReachingSample r = EvaluateReachingSample(model, &s, t, o);
       trial.time.push_back(t - t0);
+      if (force_processing.active) {
+        for (double& f : r.wrench.force_n) f += force_noise.Sample(sensors.force.noise_std);
+        r.tau_nm = JointTorquesFromWrench(r.jacobian_columns, r.wrench);
+      }
       for (int j = 0; j < 4; ++j) {
-        cols[j].push_back(r.q[j]);
+        const double q_noise =
+            angle_processing.active ? angle_noise.Sample(sensors.angles.noise_std) : 0.0;
+        cols[j].push_back(r.q[j] + q_noise);
         cols[4 + j].push_back(r.qd[j]);
         cols[8 + j].push_back(r.qdd[j]);
         cols[12 + j].push_back(r.tau_nm[j]);
@@ -311,6 +363,14 @@ std::vector<Trial> SimulateReaching(const ModelParams& base,
         cols[16 + d].push_back(r.wrench.force_n[d]);
         cols[19 + d].push_back(r.wrench.moment_nm[d]);
       }
+    }
+    for (int j = 0; j < 4; ++j) {
+      if (angle_processing.active) {
+        cols[j] = angle_processing.Filter(cols[j]);
+        cols[4 + j] = Differentiate(trial.time, cols[j]);
+        cols[8 + j] = Differentiate(trial.time, cols[4 + j]);
+      }
+      if (force_processing.active) cols[12 + j] = force_processing.Filter(cols[12 + j]);
     }
     const char* prefixes[4] = {"q.", "qd.", "qdd.", "tau."};
     for (int g = 0; g < 4; ++g) {

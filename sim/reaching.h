@@ -33,6 +33,19 @@
 // first, as protocols::JointTorquesFromEndEffectorForce). The recorded W is the least-norm one, W =
 // J₆ (J₆ᵀJ₆)⁻¹ τ_r, and tau.<joint> is J₆ᵀ W computed from the recorded wrench (the paper's
 // conversion of the sensor reading to joint torques).
+// Measurement (SensorSuite, optional; the default suite is noiseless and unfiltered): additive
+// zero-mean Gaussian noise on the recorded joint angles (sensors.angles.noise_std, rad: 004's
+// Optotrak tracking through the RTS smoother, and marker movement, §IV) and on each axis of the
+// robot's force sensor (sensors.force.noise_std, N), seeded per reach (DeriveSeed). The rig's
+// processing then low-pass filters, zero-phase (second-order Butterworth run forward and backward,
+// protocols::FilterZeroPhase), the noisy angles (sensors.angles.lowpass_hz) and the joint torques
+// J₆ᵀ W of the noisy wrench (sensors.force.lowpass_hz) — 004 Fig. 4's "filtered joint angles and
+// joint torques" — and differentiates the filtered angles by central differences (one-sided at
+// the ends) for qd.<joint> and qdd.<joint>. Without angle noise and filter, q, qd and qdd are the
+// exact kinematics; without force noise and filter, tau is J₆ᵀ W of the exact wrench.
+// Departure: 004 estimated q, q̇, q̈ with an extended RTS smoother (§II.A); here a low-pass and
+// differences. The moment columns m.robot_* carry no noise (004's sensor has no moment axes).
+//
 // Departures from 004: the paper's HapticMaster measures a 3-D force through a ball-and-socket
 // joint (wrench [f_m; r_wb × f_m]); a pure force cannot hold the arm's swivel, which the paper's
 // subjects kept by their own passive tissues. Here the swivel is prescribed, so the cast is
@@ -45,6 +58,7 @@
 #include <Simbody.h>
 
 #include <array>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -131,6 +145,7 @@ struct ReachingSample {
   RobotWrench wrench;                                 ///< robot sensor reading.
   std::array<double, 4> tau_nm{};                     ///< J₆ᵀ W from the sensor reading, N·m.
   protocols::Vec3 p_GP_m{}, v_GP_m_s{}, a_GP_m_s2{};  ///< handle position, velocity, acceleration.
+  std::vector<std::array<double, 6>> jacobian_columns;  ///< J₆ (HandleJacobianColumns).
 };
 
 /// Sets `state` (from model.MakeInitialState() of a PrescribedReachingModel) to time t, applies
@@ -144,9 +159,13 @@ ReachingSample EvaluateReachingSample(const UpperLimbModel& model, SimTK::State*
 /// (N·m), in G. Metadata: protocol = reaching, trajectory = "<home>-<target>" (groups the
 /// repetitions of one path, the grouping identification/inverse_dynamics.h's leave-one-trajectory-
 /// out CV expects), repetition, home, target, start_time_s. `model` is the participant (its
-/// arm coordinate modes are overridden).
+/// arm coordinate modes are overridden). `sensors`: the measurement of the file comment (only
+/// angles.noise_std / lowpass_hz and force.noise_std / lowpass_hz are used); `seed` seeds its
+/// noise. Throws std::invalid_argument when a cutoff is not below half the path's sample rate.
 std::vector<Trial> SimulateReaching(const ModelParams& model,
                                     const protocols::ReachingParams& reaching,
-                                    const ReachingOptions& options);
+                                    const ReachingOptions& options,
+                                    const SensorSuite& sensors = SensorSuite{},
+                                    std::uint64_t seed = 1);
 
 }  // namespace fesim::sim

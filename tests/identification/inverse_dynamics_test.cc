@@ -200,6 +200,48 @@ TEST(InverseDynamics, SemiparametricBeatsParametricWhenModelIsIncomplete) {
   }
 }
 
+// [Schearer 2014] §II.C identifies each model on its training set: with refit_hyper_per_fold
+// every fold optimises each joint's hyper-parameters again (folds × joints optimisations), so
+// the fold's model differs from re-conditioning with the all-data hyper-parameters; the
+// method reads the choice from the trial metadata and rejects a bad value in one line.
+TEST(InverseDynamics, FoldHyperParametersAreReidentifiedOnRequest) {
+  Planted p;
+  p.nonlinear = 0.3;
+  p.noise = 0.02;
+  const auto data = ExtractReachingData(ReachingSet(4, 1, p, kSeed + 4));
+  InvDynOptions opt;
+  opt.max_training_points = 150;
+  opt.max_hyper_iterations = 20;
+  const auto full = FitInvDyn(InvDynKind::kGp, data.joints, data.X, data.tau, opt);
+  const auto kept = LeaveOneTrajectoryOut(InvDynKind::kGp, data, opt, full);
+  EXPECT_EQ(kept.fold_hyper_fits, 0);
+  opt.refit_hyper_per_fold = true;
+  const auto refit = LeaveOneTrajectoryOut(InvDynKind::kGp, data, opt, full);
+  EXPECT_EQ(refit.fold_hyper_fits, 4 * static_cast<int>(data.joints.size()));
+  EXPECT_LE(refit.fold_hyper_not_converged, refit.fold_hyper_fits);
+  EXPECT_GT((refit.nrmse - kept.nrmse).cwiseAbs().maxCoeff(), 0.0);
+  auto trials = ReachingSet(4, 1, p, kSeed + 4);
+  for (auto& t : trials) t.metadata["invdyn.fold_hyper"] = "sometimes";
+  std::string what;
+  try {
+    RunInvDynMethod(InvDynKind::kParametric, trials, {}, nullptr);
+  } catch (const std::runtime_error& e) {
+    what = e.what();
+  }
+  EXPECT_EQ(what, "metadata invdyn.fold_hyper: 'sometimes' is not one of refit|full");
+  for (auto& t : trials) {
+    t.metadata.erase("invdyn.fold_hyper");
+    t.metadata["invdyn.length_scale_factor"] = "0";
+  }
+  what.clear();
+  try {
+    RunInvDynMethod(InvDynKind::kParametric, trials, {}, nullptr);
+  } catch (const std::runtime_error& e) {
+    what = e.what();
+  }
+  EXPECT_EQ(what, "metadata invdyn.length_scale_factor: '0' is not a number in (0, 100]");
+}
+
 TEST(InverseDynamics, GpMethodWritesPredictionsWithIntervals) {
   Planted p;
   p.nonlinear = 0.2;

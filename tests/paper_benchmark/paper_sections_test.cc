@@ -6,11 +6,15 @@
 
 #include <cmath>
 #include <complex>
+#include <map>
+#include <set>
 #include <stdexcept>
 #include <string>
 
+#include "identification/inverse_dynamics.h"
 #include "scenarios/scenario.h"
 #include "scenarios/study.h"
+#include "sim/reaching.h"
 
 namespace fesim::paper_benchmark {
 namespace {
@@ -118,6 +122,69 @@ TEST(PaperProtocols, ReachingScenariosRepeatEachPathThreeTimesOnAnArmSupport) {
     EXPECT_FALSE(sc.model.bands.empty()) << file;
     EXPECT_FALSE(sc.model.weight_compensation.empty()) << file;
   }
+}
+
+// Paper 004 §II.A, the subject with SCI: four trajectories (mouth → high-left, high-right,
+// low-right; shoulder → low-right), three times each, 3 s per reach, distances 16–36 cm, peak
+// hand speeds 10–23 cm/s; §II.C: four folds, each leaving out every repetition of one trajectory.
+TEST(PaperProtocols, SparseReachingIsFourTrajectoriesThreeTimesAndFoldsLeaveOutWholeOnes) {
+  constexpr double kPeakSpeedFactor = 1.875;  // max ds/dτ of the minimum-jerk profile
+  constexpr double kRoundingM = 0.005;        // the paper's whole centimetres
+  for (const char* file : {"bench_reaching_sparse.yaml", "bench_reaching_sparse_quick.yaml"}) {
+    const Scenario sc = LoadScenario(std::string(FESIM_SOURCE_DIR_PATH) + "/scenarios/" + file);
+    ASSERT_TRUE(sc.reaching.has_value()) << file;
+    const protocols::ReachingParams& r = *sc.reaching;
+    EXPECT_EQ(r.repetitions, 3) << file;
+    EXPECT_DOUBLE_EQ(r.reach_duration_s, 3.0) << file;
+    ASSERT_EQ(r.paths.size(), 4u) << file;
+    ASSERT_EQ(r.homes_m.size(), 2u) << file;
+    // Three trajectories from the mouth (home 0), one from the shoulder (home 1), to the same
+    // low-right target.
+    EXPECT_EQ(r.paths[2][1], r.paths[3][1]) << file;
+    EXPECT_EQ(r.paths[3][0], 1) << file;
+    for (const auto& [h, g] : r.paths) {
+      double d2 = 0.0;
+      for (int i = 0; i < 3; ++i) d2 += std::pow(r.targets_m[g][i] - r.homes_m[h][i], 2);
+      const double d = std::sqrt(d2), v = kPeakSpeedFactor * d / r.reach_duration_s;
+      EXPECT_GE(d, 0.16 - kRoundingM) << file;
+      EXPECT_LE(d, 0.36 + kRoundingM) << file;
+      EXPECT_GE(v, 0.10 - kRoundingM) << file;
+      EXPECT_LE(v, 0.23 + kRoundingM) << file;
+    }
+    EXPECT_FALSE(sc.model.bands.empty()) << file;
+    EXPECT_GT(sc.trial.sensors.force.noise_std, 0.0) << file;
+    EXPECT_GT(sc.trial.sensors.angles.noise_std, 0.0) << file;
+  }
+  const Scenario sc = LoadScenario(std::string(FESIM_SOURCE_DIR_PATH) +
+                                   "/scenarios/bench_reaching_sparse_quick.yaml");
+  const std::vector<Trial> trials =
+      sim::SimulateReaching(sc.model, *sc.reaching, {}, sc.trial.sensors, 1);
+  ASSERT_EQ(trials.size(), 12u);
+  std::map<std::string, std::set<std::string>> repetitions;
+  for (const Trial& t : trials) {
+    repetitions[t.metadata.at("trajectory")].insert(t.metadata.at("repetition"));
+  }
+  ASSERT_EQ(repetitions.size(), 4u);
+  for (const auto& [id, reps] : repetitions) EXPECT_EQ(reps.size(), 3u) << id;
+  const identification::ReachingData data = identification::ExtractReachingData(trials);
+  ASSERT_EQ(data.group_names.size(), 4u);
+  // Every sample of a trial is in its trajectory's group.
+  for (std::size_t k = 0; k < trials.size(); ++k) {
+    const int g = data.group[static_cast<std::size_t>(data.trial_begin[k])];
+    EXPECT_EQ(data.group_names[static_cast<std::size_t>(g)], trials[k].metadata.at("trajectory"));
+    for (auto i = data.trial_begin[k]; i < data.trial_begin[k + 1]; ++i) {
+      EXPECT_EQ(data.group[static_cast<std::size_t>(i)], g);
+    }
+  }
+  // Leave-one-trajectory-out: 4 folds, one per trajectory, each leaving out its 3 reaches.
+  const identification::InvDynOptions options;
+  const identification::InvDynModel full = identification::FitInvDyn(
+      identification::InvDynKind::kParametric, data.joints, data.X, data.tau, options);
+  const identification::InvDynCv cv = identification::LeaveOneTrajectoryOut(
+      identification::InvDynKind::kParametric, data, options, full);
+  ASSERT_EQ(cv.folds.size(), 4u);
+  EXPECT_EQ(std::set<std::string>(cv.folds.begin(), cv.folds.end()).size(), 4u);
+  for (const auto& id : cv.folds) EXPECT_EQ(repetitions.count(id), 1u) << id;
 }
 
 TEST(PaperProtocols, TremorStudyTrialsLastThreeMinutes) {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <map>
@@ -360,6 +361,25 @@ TEST(ButterworthLowPass, UnitDcGainHalfPowerAtCutoffAndMonotone) {
   EXPECT_THROW(DesignButterworthLowPass(0, 1.0, 40.0), std::invalid_argument);
 }
 
+// Forward–backward filtering: a constant passes unchanged (no start-up transient), a sinusoid is
+// scaled by |H|² and not shifted (zero phase), and the result has x's length.
+TEST(ButterworthLowPass, ZeroPhaseFilterKeepsConstantsAndPhaseAndSquaresTheGain) {
+  constexpr double kFs = 25.0, kFc = 2.0, kF = 1.0;
+  const auto s = DesignButterworthLowPass(2, kFc, kFs);
+  const std::vector<double> c = FilterZeroPhase(s, std::vector<double>(50, 3.5), 40);
+  ASSERT_EQ(c.size(), 50u);
+  for (double v : c) EXPECT_NEAR(v, 3.5, 1e-12);
+  const double kPi = std::acos(-1.0);
+  std::vector<double> x(500);
+  for (std::size_t k = 0; k < x.size(); ++k) x[k] = std::sin(2.0 * kPi * kF * k / kFs);
+  const std::vector<double> y = FilterZeroPhase(s, x, 75);
+  ASSERT_EQ(y.size(), x.size());
+  const double g2 = std::pow(CascadeGain(s, kF, kFs), 2);
+  // Away from the ends (where the reflection stands in for the unseen signal): y = |H|² x.
+  for (std::size_t k = 100; k + 100 < x.size(); ++k) EXPECT_NEAR(y[k], g2 * x[k], 1e-6) << k;
+  EXPECT_EQ(FilterZeroPhase(s, {1.0}, 10), std::vector<double>{1.0});
+}
+
 TEST(FilteredRandomNoise, SpectrumBelowCutoffAndRangeSpanned) {
   for (std::uint64_t seed : {1u, 2u, 3u, 4u, 5u, 6u, 7u, 8u}) {
     FilteredRandomNoiseParams params;
@@ -698,6 +718,27 @@ TEST(JointTorquesFromEndEffectorForce, LeverArmsOfAHingeAndPowerBalance) {
     power += m[i] * (J[0][i + 3] * qd[0] + J[1][i + 3] * qd[1]);
   }
   EXPECT_NEAR(t2[0] * qd[0] + t2[1] * qd[1], power, 1e-12);
+}
+
+// [Schearer 2014] §II.A, the subject with SCI: only the listed home–target pairs, in order, each
+// repetitions times, with a transfer whenever the home changes.
+TEST(ReachingProgram, ExplicitPathsRunOnlyThoseInOrder) {
+  ReachingParams params;
+  params.paths = {{0, 0}, {0, 2}, {0, 8}, {1, 8}};
+  const HandPath path = ReachingProgram(params);
+  std::vector<std::array<int, 2>> reached;
+  int transfers = 0;
+  for (const HandSegment& s : path.segments) {
+    if (s.kind == SegmentKind::kReach) reached.push_back({s.home_index, s.target_index});
+    transfers += s.kind == SegmentKind::kTransfer;
+  }
+  ASSERT_EQ(reached.size(), 12u);
+  for (std::size_t k = 0; k < reached.size(); ++k) EXPECT_EQ(reached[k], params.paths[k / 3]);
+  EXPECT_EQ(transfers, 1);  // home 0 → home 1 before the last path
+  params.paths = {{0, 9}};
+  EXPECT_NE(
+      ErrorOf([&] { ReachingProgram(params); }).find("ReachingParams.paths[0] target index 9"),
+      std::string::npos);
 }
 
 TEST(ReachingProgram, RejectsBadParams) {

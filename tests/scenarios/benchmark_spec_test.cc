@@ -47,6 +47,10 @@ TEST(BenchmarkSpec, DefaultStudyHasEverySection) {
   EXPECT_EQ(s.quick_independent.seed, s.independent.seed);  // inherited
   EXPECT_EQ(s.tremor_wrist->options.at("tremor.eps"), "1.0e-5");
   EXPECT_EQ(s.assumption_participants, 2);
+  // Paper 004's two subjects (issue 27): the dense and the sparse reaching scenarios.
+  EXPECT_EQ(s.reaching->sparse_path, kScenarios + "bench_reaching_sparse.yaml");
+  EXPECT_EQ(s.reaching->quick_sparse_path, kScenarios + "bench_reaching_sparse_quick.yaml");
+  EXPECT_EQ(s.reaching->options.at("invdyn.length_scale_factor"), "2");
 }
 
 TEST(BenchmarkSpec, BadInputNamesFileKeyAndRange) {
@@ -80,6 +84,14 @@ TEST(BenchmarkSpec, BadInputNamesFileKeyAndRange) {
       {"option",
        base + "tremor_wrist: {study: " + kScenarios + "bench_tremor.yaml, options: {eps: 1}}\n",
        "tremor_wrist.options.eps: expected <method prefix>.<option>"},
+      {"sparse_only_quick",
+       base + "reaching: {scenario: " + kScenarios +
+           "bench_reaching.yaml, quick_sparse_scenario: " + kScenarios +
+           "bench_reaching_sparse_quick.yaml}\n",
+       "reaching.quick_sparse_scenario: needs sparse_scenario"},
+      {"sparse_in_study",
+       base + "shoulder: {study: " + kScenarios + "bench_shoulder.yaml, sparse_scenario: x.yaml}\n",
+       "shoulder.sparse_scenario: unknown key"},
       {"assumptions",
        base + "shoulder: {study: " + kScenarios +
            "bench_shoulder.yaml}\nassumptions: "

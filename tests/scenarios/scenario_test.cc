@@ -182,6 +182,40 @@ stimulation: {type: protocol, protocol: {name: ramp, channel: bic, u_max_us: 200
   EXPECT_EQ(reach.reaching->repetitions, 1);
   EXPECT_EQ(ErrorOf("name: r\nstimulation: {type: reaching, reaching: {homes_m: [[0, 1]]}}\n"),
             "s.yaml: stimulation.reaching.homes_m[0]: expected a list of 3 numbers");
+  // Issue 27: explicit paths ([Schearer 2014]'s subject with SCI) and the reaching sensors.
+  const Scenario paths = ParseScenario(
+      "name: r\nstimulation: {type: reaching, reaching: {paths: [{home: 1, target: 8}, "
+      "{home: 0, target: 2}]}}\nsensors: {angles: {noise_std_deg: 0.5, lowpass_hz: 2}, "
+      "force: {noise_std_n: 0.2}}\n",
+      "s.yaml");
+  ASSERT_EQ(paths.reaching->paths.size(), 2u);
+  EXPECT_EQ(paths.reaching->paths[0], (std::array<int, 2>{1, 8}));
+  EXPECT_NEAR(paths.trial.sensors.angles.noise_std, 0.5 * M_PI / 180.0, 1e-15);
+  EXPECT_EQ(paths.trial.sensors.angles.lowpass_hz, 2.0);
+  EXPECT_EQ(paths.trial.sensors.force.noise_std, 0.2);
+  EXPECT_EQ(paths.trial.sensors.force.lowpass_hz, 0.0);
+  EXPECT_EQ(reach.trial.sensors.angles.noise_std, 0.0);  // reaching without sensors: noiseless
+  EXPECT_EQ(ErrorOf("name: r\nstimulation: {type: reaching, reaching: {paths: [{home: 2, "
+                    "target: 0}]}}\n"),
+            "s.yaml: stimulation.reaching: ReachingParams.paths[0] home index 2 is outside [0, 1]");
+  EXPECT_EQ(ErrorOf("name: r\nstimulation: {type: reaching, reaching: {paths: [{home: 0, "
+                    "target: 0}, {home: 0, target: 0}]}}\n"),
+            "s.yaml: stimulation.reaching: ReachingParams.paths[1] repeats path [0, 0]; each pair "
+            "at most once");
+  EXPECT_EQ(ErrorOf("name: r\nstimulation: {type: reaching, reaching: {sample_rate_hz: 10}}\n"
+                    "sensors: {angles: {lowpass_hz: 5}}\n"),
+            "s.yaml: sensors.angles.lowpass_hz: 5 is outside [0, 5) (below half of "
+            "stimulation.reaching.sample_rate_hz)");
+  EXPECT_EQ(ErrorOf("name: r\nstimulation: {type: reaching}\nsensors: {angles: {rate_hz: 5}}\n"),
+            "s.yaml: sensors.angles.rate_hz: unknown key (allowed: lowpass_hz, noise_std_deg)");
+  EXPECT_EQ(ErrorOf("name: c\nstimulation: {type: constant, duration_s: 1, values_us: {}}\n"
+                    "sensors: {force: {noise_std_n: 1}}\n"),
+            "s.yaml: sensors.force: unknown key (allowed: angles, torques, truth_rate_hz, "
+            "velocities)");
+  EXPECT_EQ(ErrorOf("name: c\nstimulation: {type: constant, duration_s: 1, values_us: {}}\n"
+                    "sensors: {angles: {lowpass_hz: 1}}\n"),
+            "s.yaml: sensors.angles.lowpass_hz: only for robot-driven reaching (stimulation type "
+            "reaching)");
   EXPECT_EQ(ErrorOf("name: p\nstimulation: {type: protocol, protocol: {name: chirp}}\n"),
             "s.yaml: stimulation.protocol.name: 'chirp' is not one of filtered_noise|multisine|"
             "prms|ramp|shoulder_steps|staircase|step_grid");
@@ -216,7 +250,8 @@ TEST(Scenario, EveryShippedScenarioLoadsAndSimulates) {
       sc.reaching->homes_m.resize(1);
       sc.reaching->targets_m.resize(1);
       sc.reaching->repetitions = 1;
-      const auto trials = sim::SimulateReaching(sc.model, *sc.reaching, {});
+      sc.reaching->paths.clear();
+      const auto trials = sim::SimulateReaching(sc.model, *sc.reaching, {}, sc.trial.sensors);
       ASSERT_EQ(trials.size(), 1u) << f;
       EXPECT_TRUE(trials[0].Has("f.robot_x")) << f;
       ++count;

@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "identification/inverse_dynamics.h"
+#include "protocols/filters.h"
 #include "sim/default_model.h"
 
 namespace fesim::sim {
@@ -232,6 +233,122 @@ TEST(Reaching, FiftyFourTrajectoriesFeedInvDynParametricWhichRecoversElbowStiffn
       identification::RunInvDynMethod(identification::InvDynKind::kParametric, trials, {}, nullptr);
   EXPECT_NE(r.model_yaml.find("elbow_flexion"), std::string::npos);
   EXPECT_EQ(r.predictions.size(), trials.size());
+}
+
+/// Standard deviation of a − b (sample, n − 1).
+double ResidualStd(const std::vector<double>& a, const std::vector<double>& b) {
+  double mean = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) mean += (a[i] - b[i]) / a.size();
+  double ss = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) ss += (a[i] - b[i] - mean) * (a[i] - b[i] - mean);
+  return std::sqrt(ss / (a.size() - 1));
+}
+
+constexpr double kNoiseStdRelTol = 0.08;  // ≈ 4 standard errors of a std from ≥ 1500 samples
+
+// The measurement of sim/reaching.h: the joint angles carry their configured noise, and the
+// joint torques that of the force sensor through the handle Jacobian: τ − τ_clean = J_fᵀ Δf with
+// J_f the Jacobian's linear rows, so std(τ_j − τ_clean,j) = σ_f √(mean_k |J_f,k,j|²).
+TEST(Reaching, AngleAndForceSensorNoiseArePresentAtTheConfiguredLevel) {
+  const ModelParams base = DefaultModelParams();
+  const ReachingOptions options;
+  protocols::ReachingParams reaching = ShortReaching(2);
+  reaching.repetitions = 2;
+  SensorSuite sensors;
+  sensors.angles.noise_std = 0.01;  // rad
+  sensors.force.noise_std = 0.5;    // N
+  const std::vector<Trial> clean = SimulateReaching(base, reaching, options);
+  const std::vector<Trial> noisy = SimulateReaching(base, reaching, options, sensors, 7);
+  ASSERT_EQ(clean.size(), noisy.size());
+  // Jacobians at the same samples (time from each reach's start_time_s).
+  const Rig rig = MakeRig(base, reaching, options);
+  SimTK::State st = rig.model->MakeInitialState();
+  const auto& names = CoordinateNames();
+  for (int j = 0; j < 4; ++j) {
+    const std::string joint = names[kReachingCoordinates[j]];
+    std::vector<double> qa, qb, ta, tb;
+    double jf2 = 0.0;
+    std::size_t n = 0;
+    for (std::size_t k = 0; k < clean.size(); ++k) {
+      const double t0 = std::stod(clean[k].metadata.at("start_time_s"));
+      for (std::size_t i = 0; i < clean[k].size(); ++i) {
+        qa.push_back(noisy[k].Column("q." + joint)[i]);
+        qb.push_back(clean[k].Column("q." + joint)[i]);
+        ta.push_back(noisy[k].Column("tau." + joint)[i]);
+        tb.push_back(clean[k].Column("tau." + joint)[i]);
+        const ReachingSample r =
+            EvaluateReachingSample(*rig.model, &st, t0 + clean[k].time[i], options);
+        for (int d = 0; d < 3; ++d) jf2 += r.jacobian_columns[j][d] * r.jacobian_columns[j][d];
+        ++n;
+      }
+    }
+    ASSERT_GT(n, 1500u);
+    EXPECT_NEAR(ResidualStd(qa, qb), sensors.angles.noise_std,
+                kNoiseStdRelTol * sensors.angles.noise_std)
+        << joint;
+    const double expected = sensors.force.noise_std * std::sqrt(jf2 / n);
+    EXPECT_NEAR(ResidualStd(ta, tb), expected, kNoiseStdRelTol * expected) << joint;
+  }
+  // The force sensor's own columns carry σ_f per axis.
+  std::vector<double> fa, fb;
+  for (std::size_t k = 0; k < clean.size(); ++k) {
+    for (const char* c : {"f.robot_x", "f.robot_y", "f.robot_z"}) {
+      fa.insert(fa.end(), noisy[k].Column(c).begin(), noisy[k].Column(c).end());
+      fb.insert(fb.end(), clean[k].Column(c).begin(), clean[k].Column(c).end());
+    }
+  }
+  EXPECT_NEAR(ResidualStd(fa, fb), sensors.force.noise_std,
+              kNoiseStdRelTol * sensors.force.noise_std);
+}
+
+// With the low-pass on, the recorded noise is the white noise through the zero-phase filter:
+// std = σ √(Σ g_n²), g the filter's impulse response (|H|², computed by filtering an impulse);
+// the filter being linear, noisy − clean (both filtered) is exactly the filtered noise.
+// Velocities are differences of the filtered angles, so qd of the noiseless run is near the exact
+// rate (the zero-phase filter does not delay the motion).
+TEST(Reaching, FilteredNoiseHasTheFiltersNoiseGainAndRatesAreNotDelayed) {
+  const ModelParams base = DefaultModelParams();
+  const ReachingOptions options;
+  protocols::ReachingParams reaching = ShortReaching(2);
+  reaching.repetitions = 3;
+  reaching.sample_rate_hz = 25.0;
+  SensorSuite filtered;
+  filtered.angles.lowpass_hz = 2.0;
+  filtered.force.lowpass_hz = 2.0;
+  SensorSuite noisy = filtered;
+  noisy.angles.noise_std = 0.01;
+  const std::vector<Trial> a = SimulateReaching(base, reaching, options, noisy, 3);
+  const std::vector<Trial> b = SimulateReaching(base, reaching, options, filtered, 3);
+  const std::vector<Trial> exact = SimulateReaching(base, reaching, options);
+  // Noise gain of the zero-phase second-order Butterworth at 2 Hz / 25 Hz.
+  const auto sections = protocols::DesignButterworthLowPass(2, 2.0, 25.0);
+  std::vector<double> impulse(401, 0.0);
+  impulse[200] = 1.0;
+  const std::vector<double> g = protocols::FilterZeroPhase(sections, impulse, 400);
+  double g2 = 0.0;
+  for (double v : g) g2 += v * v;
+  std::vector<double> qa, qb;
+  double worst_rate = 0.0, peak_rate = 0.0;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    for (const auto& name : a[k].NamesWithPrefix("q.")) {
+      // Away from the trial's ends, where the reflection padding stands in for unseen samples.
+      const auto& x = a[k].Column(name);
+      const auto& y = b[k].Column(name);
+      for (std::size_t i = 10; i + 10 < x.size(); ++i) qa.push_back(x[i]), qb.push_back(y[i]);
+      const std::string rate = "qd." + name.substr(2);
+      for (std::size_t i = 0; i < x.size(); ++i) {
+        worst_rate =
+            std::max(worst_rate, std::abs(b[k].Column(rate)[i] - exact[k].Column(rate)[i]));
+        peak_rate = std::max(peak_rate, std::abs(exact[k].Column(rate)[i]));
+      }
+    }
+  }
+  const double expected = noisy.angles.noise_std * std::sqrt(g2);
+  ASSERT_GT(qa.size(), 1000u);
+  EXPECT_NEAR(ResidualStd(qa, qb), expected, 0.1 * expected);
+  EXPECT_LT(expected, 0.5 * noisy.angles.noise_std);  // the filter removes most of white noise
+  // Central differences of the filtered angles at 25 Hz: within 10 % of the peak joint rate.
+  EXPECT_LT(worst_rate, 0.1 * peak_rate);
 }
 
 }  // namespace
