@@ -698,18 +698,23 @@ Json TremorAgainstPlanted(const std::vector<TremorParticipant>& per, int nr,
   return tremor;
 }
 
+/// Periodogram of samples v (sample period dt, s) with their mean removed and non-finite samples
+/// as 0, on f_lo … min(f_hi, 0.45/dt) Hz (identification::SummedPeriodogram).
+identification::Periodogram CentredPeriodogram(const std::vector<double>& v, double dt,
+                                               double f_lo_hz, double f_hi_hz) {
+  double mean = 0.0;
+  for (double x : v) mean += x / v.size();
+  Eigen::VectorXd x(static_cast<Eigen::Index>(v.size()));
+  for (std::size_t i = 0; i < v.size(); ++i) x[i] = std::isfinite(v[i]) ? v[i] - mean : 0.0;
+  return identification::SummedPeriodogram({x}, dt, f_lo_hz, std::min(f_hi_hz, 0.45 / dt));
+}
+
 /// Amplitude spectrum 2·|X(f)|/N of column col of a trial, degrees when col is an angle (q.*) in
 /// rad, on 0.5–15 Hz (mean removed). Plot only: the tremor figures come from tremor-arx.
 render::Series AmplitudeSpectrum(const Trial& t, const std::string& col, double f_hi_hz) {
   const std::vector<double>& v = t.Column(col);
   const double scale = col.rfind("q.", 0) == 0 ? 180.0 / M_PI : 1.0;
-  double mean = 0.0;
-  for (double x : v) mean += x / v.size();
-  Eigen::VectorXd x(static_cast<Eigen::Index>(v.size()));
-  for (std::size_t i = 0; i < v.size(); ++i) x[i] = std::isfinite(v[i]) ? v[i] - mean : 0.0;
-  const double dt = t.time[1] - t.time[0];
-  const identification::Periodogram p =
-      identification::SummedPeriodogram({x}, dt, 0.5, std::min(f_hi_hz, 0.45 / dt));
+  const identification::Periodogram p = CentredPeriodogram(v, t.time[1] - t.time[0], 0.5, f_hi_hz);
   render::Series s;
   s.x = p.f_hz;
   for (double pw : p.power) s.y.push_back(scale * 2.0 * std::sqrt(pw) / v.size());
@@ -728,13 +733,7 @@ std::pair<double, double> ExcitedBand(const Trial& t) {
     const std::vector<double>& v1 = t.Column(u[1]);
     for (std::size_t i = 0; i < v.size(); ++i) v[i] -= v1[i];
   }
-  double mean = 0.0;
-  for (double x : v) mean += x / v.size();
-  Eigen::VectorXd x(static_cast<Eigen::Index>(v.size()));
-  for (std::size_t i = 0; i < v.size(); ++i) x[i] = std::isfinite(v[i]) ? v[i] - mean : 0.0;
-  const double dt = t.time[1] - t.time[0];
-  const identification::Periodogram p =
-      identification::SummedPeriodogram({x}, dt, 0.05, std::min(10.0, 0.45 / dt));
+  const identification::Periodogram p = CentredPeriodogram(v, t.time[1] - t.time[0], 0.05, 10.0);
   const double peak = *std::max_element(p.power.begin(), p.power.end());
   double lo = NAN, hi = NAN;
   for (std::size_t i = 0; i < p.power.size(); ++i) {
