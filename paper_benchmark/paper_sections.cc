@@ -1709,6 +1709,131 @@ std::string FoldConvergence(const ReachingSet& set, std::size_t nm) {
   return out;
 }
 
+/// The sparse set's subsection (paper 004 Fig. 5(b)): protocol, table, the paper's §III range
+/// beside fesim's semiparametric medians, and the sensitivity fit (`semi`: the semiparametric
+/// method's index, −1 when not run); results.json "sparse".
+Json SparseReachingSection(const BenchmarkSection& section, const ReachingSet& sparse,
+                           std::size_t nm, int semi, SectionContext* ctx, std::string* md) {
+  Json sparse_json = Json::Object();
+  *md += "### Sparse set (paper 004 Fig. 5(b), subject with SCI)\n\n";
+  Json protocol = Json::Object();
+  *md += ReachingProtocolLine(sparse, "SCI", &protocol) +
+         " Four folds (paper 004 §II.C), each training on the other three trajectories with "
+         "every model, GP hyper-parameters included, re-identified on them." +
+         (FoldConvergence(sparse, nm).empty()
+              ? std::string()
+              : " Fold hyper-parameter optimisations that stopped unconverged (iteration "
+                "limit): " +
+                    FoldConvergence(sparse, nm) + ".") +
+         "\n\n";
+  sparse_json.Set("scenario", sparse.sc.name);
+  sparse_json.Set("protocol", protocol);
+  sparse_json.Set(
+      "loocv_normalised_rms",
+      ReachingTable(sparse, nm, "reaching_loocv_sparse.png",
+                    "Reaching (paper 004 Fig. 5(b), sparse): LOOCV RMS torque error", ctx, md));
+  if (semi >= 0) {
+    double lo = INFINITY, hi = -INFINITY;
+    for (const auto& v : sparse.folds[semi]) {
+      const double med = render::ComputeBoxStats(v).median;
+      lo = std::min(lo, med), hi = std::max(hi, med);
+    }
+    *md +=
+        "Paper 004 §III on Fig. 5(b) (4 test trajectories): the semiparametric model's "
+        "errors were between " +
+        PaperText(kPaper004, "§III text (Fig. 5(b))", "SCI semiparametric", "LOOCV error, from") +
+        " % and " +
+        PaperText(kPaper004, "§III text (Fig. 5(b))", "SCI semiparametric", "LOOCV error, to") +
+        " % of the maximum torque, and the nonparametric GP did poorly on test inputs unlike "
+        "the training ones; fesim's semiparametric medians: " +
+        Fixed(100.0 * lo, 1) + "–" + Fixed(100.0 * hi, 1) + " %.\n\n";
+    Json sensitivity = Json::Object();
+    sensitivity.Set("length_scale_factor", SensitivityLengthScaleFactor(section.options))
+        .Set("mean_median", sparse.mean_median[nm]);
+    sparse_json.Set("semiparametric_sensitivity", sensitivity);
+    *md += "Sensitivity: the semiparametric model with a-priori length scales " +
+           SensitivityLengthScaleFactor(section.options) +
+           " × each input's std (the table: " + LengthScaleFactor(section.options) +
+           " ×) has a mean of the joints' medians of " + Fixed(sparse.mean_median[nm], 3) +
+           " on the sparse set (table: " + Fixed(sparse.mean_median[semi], 3) + ").\n\n";
+  }
+  return sparse_json;
+}
+
+/// Paper 004's finding, judged on the sparse set when there is one (where the paper draws it),
+/// else on the dense one; its margin carries the ranking of both sets and, when it fails on the
+/// sparse set, the measured cause. Appends its line to *md; results.json "findings".
+Json ReachingFinding(const BenchmarkSection& section, const ReachingSet& dense,
+                     const std::optional<ReachingSet>& sparse, std::size_t nm, int semi,
+                     std::string* md) {
+  const ReachingSet& judged = sparse ? *sparse : dense;
+  int best = 0;
+  for (std::size_t m = 1; m < nm; ++m) {
+    if (judged.mean_median[m] < judged.mean_median[best]) best = static_cast<int>(m);
+  }
+  const bool holds = semi >= 0 && best == semi;
+  std::string margin = std::string(sparse ? "sparse set" : "dense set (no sparse set given)") +
+                       ", mean of the joints' medians: " + ReachingRanking(judged, nm);
+  if (sparse) margin += "; dense set: " + ReachingRanking(dense, nm);
+  const int par = MethodIndex(judged, nm, "invdyn-parametric");
+  if (!holds && semi >= 0 && sparse) {
+    // Cause, from the measured numbers: what the semiparametric model gains on its parametric
+    // mean (and where that mean is worst), how the plain GP's per-fold identification went,
+    // what other a-priori length scales give, and the set's sampling.
+    margin += "; cause: ";
+    if (par >= 0) {
+      const double gain =
+          (judged.mean_median[par] - judged.mean_median[semi]) / judged.mean_median[par];
+      std::size_t worst = 0;
+      for (std::size_t jj = 1; jj < judged.joints.size(); ++jj) {
+        if (render::ComputeBoxStats(judged.folds[par][jj]).median >
+            render::ComputeBoxStats(judged.folds[par][worst]).median) {
+          worst = jj;
+        }
+      }
+      margin += (gain < 0.1 ? "the semiparametric GP predicts the left-out trajectories like "
+                              "its parametric mean (" +
+                                  Fixed(100.0 * gain, 1) + " % better: "
+                            : "the semiparametric GP improves on its parametric mean by " +
+                                  Fixed(100.0 * gain, 1) + " % (") +
+                Fixed(judged.mean_median[semi], 3) + " vs " + Fixed(judged.mean_median[par], 3) +
+                "), whose per-joint stiffness/damping form misses what the other joints' "
+                "posture adds to a joint's torque on the arm support (worst: " +
+                judged.joints[worst] + ", median " +
+                Fixed(render::ComputeBoxStats(judged.folds[par][worst]).median, 3) +
+                "), while the plain GP, re-identified on the three training trajectories of "
+                "each fold, still generalises to the left-out one (" +
+                Fixed(judged.mean_median[best], 3) + ")";
+    }
+    const double sens = judged.mean_median[nm];
+    const protocols::ReachingParams& r = *judged.sc.reaching;
+    margin += "; with length scales " + SensitivityLengthScaleFactor(section.options) +
+              " × std the semiparametric model scores " + Fixed(sens, 3) +
+              (sens < judged.mean_median[best] ? " and ranks first" : "") +
+              "; the paper gives neither its length scales nor its sampling rate (here " +
+              Fixed(r.sample_rate_hz, 0) + " Hz, " +
+              Fixed(static_cast<double>(judged.trials.empty() ? 0 : judged.trials[0].size()), 0) +
+              " samples per reach)";
+  }
+  if (holds && sparse) {
+    // What the judged ranking rests on: the sensitivity fit, and whether the plain GP's
+    // per-fold identification stopped early (docs/papers.md reruns it with 5× the iterations).
+    margin +=
+        "; with length scales " + SensitivityLengthScaleFactor(section.options) +
+        " × std the semiparametric model scores " + Fixed(judged.mean_median[nm], 3) +
+        (FoldConvergence(judged, nm).empty()
+             ? std::string()
+             : "; fold hyper-parameter optimisations unconverged: " + FoldConvergence(judged, nm) +
+                   " (docs/papers.md reruns the sparse GP with 5× the iterations)");
+  }
+  Json f = Finding(
+      "the semiparametric GP has the lowest LOOCV error on sparse data (paper 004 §III, "
+      "Fig. 5(b))",
+      holds, margin);
+  *md += FindingLine(f) + "\n";
+  return Json::Array().Push(f);
+}
+
 }  // namespace
 
 SectionResult RunReaching(const BenchmarkSection& section, SectionContext* ctx) {
@@ -1778,124 +1903,12 @@ SectionResult RunReaching(const BenchmarkSection& section, SectionContext* ctx) 
                    ReachingTableOne(dense.fits[m].model_yaml, dense.joints, &md));
     }
   }
-  Json sparse_json = Json::Object();
-  if (sparse) {
-    md += "### Sparse set (paper 004 Fig. 5(b), subject with SCI)\n\n";
-    Json protocol = Json::Object();
-    md += ReachingProtocolLine(*sparse, "SCI", &protocol) +
-          " Four folds (paper 004 §II.C), each training on the other three trajectories with "
-          "every model, GP hyper-parameters included, re-identified on them." +
-          (FoldConvergence(*sparse, nm).empty()
-               ? std::string()
-               : " Fold hyper-parameter optimisations that stopped unconverged (iteration "
-                 "limit): " +
-                     FoldConvergence(*sparse, nm) + ".") +
-          "\n\n";
-    sparse_json.Set("scenario", sparse->sc.name);
-    sparse_json.Set("protocol", protocol);
-    sparse_json.Set(
-        "loocv_normalised_rms",
-        ReachingTable(*sparse, nm, "reaching_loocv_sparse.png",
-                      "Reaching (paper 004 Fig. 5(b), sparse): LOOCV RMS torque error", ctx, &md));
-    std::vector<double> lo_hi;
-    if (semi >= 0) {
-      double lo = INFINITY, hi = -INFINITY;
-      for (const auto& v : sparse->folds[semi]) {
-        const double med = render::ComputeBoxStats(v).median;
-        lo = std::min(lo, med), hi = std::max(hi, med);
-      }
-      md +=
-          "Paper 004 §III on Fig. 5(b) (4 test trajectories): the semiparametric model's "
-          "errors were between " +
-          PaperText(kPaper004, "§III text (Fig. 5(b))", "SCI semiparametric", "LOOCV error, from") +
-          " % and " +
-          PaperText(kPaper004, "§III text (Fig. 5(b))", "SCI semiparametric", "LOOCV error, to") +
-          " % of the maximum torque, and the nonparametric GP did poorly on test inputs unlike "
-          "the training ones; fesim's semiparametric medians: " +
-          Fixed(100.0 * lo, 1) + "–" + Fixed(100.0 * hi, 1) + " %.\n\n";
-      Json sensitivity = Json::Object();
-      sensitivity.Set("length_scale_factor", SensitivityLengthScaleFactor(section.options))
-          .Set("mean_median", sparse->mean_median[nm]);
-      sparse_json.Set("semiparametric_sensitivity", sensitivity);
-      md += "Sensitivity: the semiparametric model with a-priori length scales " +
-            SensitivityLengthScaleFactor(section.options) +
-            " × each input's std (the table: " + LengthScaleFactor(section.options) +
-            " ×) has a mean of the joints' medians of " + Fixed(sparse->mean_median[nm], 3) +
-            " on the sparse set (table: " + Fixed(sparse->mean_median[semi], 3) + ").\n\n";
-    }
-  }
+  const Json sparse_json =
+      sparse ? SparseReachingSection(section, *sparse, nm, semi, ctx, &md) : Json::Object();
   out.json.Set("sparse", sparse_json);
   out.json.Set("paper", PaperJson(kPaper004));
 
-  // The finding: on the sparse set when there is one (where paper 004 draws it), else the dense.
-  const ReachingSet& judged = sparse ? *sparse : dense;
-  Json findings = Json::Array();
-  int best = 0;
-  for (std::size_t m = 1; m < nm; ++m) {
-    if (judged.mean_median[m] < judged.mean_median[best]) best = static_cast<int>(m);
-  }
-  const bool holds = semi >= 0 && best == semi;
-  std::string margin = std::string(sparse ? "sparse set" : "dense set (no sparse set given)") +
-                       ", mean of the joints' medians: " + ReachingRanking(judged, nm);
-  if (sparse) margin += "; dense set: " + ReachingRanking(dense, nm);
-  const int par = MethodIndex(judged, nm, "invdyn-parametric");
-  if (!holds && semi >= 0 && sparse) {
-    // Cause, from the measured numbers: what the semiparametric model gains on its parametric
-    // mean (and where that mean is worst), how the plain GP's per-fold identification went,
-    // what other a-priori length scales give, and the set's sampling.
-    margin += "; cause: ";
-    if (par >= 0) {
-      const double gain =
-          (judged.mean_median[par] - judged.mean_median[semi]) / judged.mean_median[par];
-      std::size_t worst = 0;
-      for (std::size_t jj = 1; jj < judged.joints.size(); ++jj) {
-        if (render::ComputeBoxStats(judged.folds[par][jj]).median >
-            render::ComputeBoxStats(judged.folds[par][worst]).median) {
-          worst = jj;
-        }
-      }
-      margin += (gain < 0.1 ? "the semiparametric GP predicts the left-out trajectories like "
-                              "its parametric mean (" +
-                                  Fixed(100.0 * gain, 1) + " % better: "
-                            : "the semiparametric GP improves on its parametric mean by " +
-                                  Fixed(100.0 * gain, 1) + " % (") +
-                Fixed(judged.mean_median[semi], 3) + " vs " + Fixed(judged.mean_median[par], 3) +
-                "), whose per-joint stiffness/damping form misses what the other joints' "
-                "posture adds to a joint's torque on the arm support (worst: " +
-                judged.joints[worst] + ", median " +
-                Fixed(render::ComputeBoxStats(judged.folds[par][worst]).median, 3) +
-                "), while the plain GP, re-identified on the three training trajectories of "
-                "each fold, still generalises to the left-out one (" +
-                Fixed(judged.mean_median[best], 3) + ")";
-    }
-    const double sens = judged.mean_median[nm];
-    const protocols::ReachingParams& r = *judged.sc.reaching;
-    margin += "; with length scales " + SensitivityLengthScaleFactor(section.options) +
-              " × std the semiparametric model scores " + Fixed(sens, 3) +
-              (sens < judged.mean_median[best] ? " and ranks first" : "") +
-              "; the paper gives neither its length scales nor its sampling rate (here " +
-              Fixed(r.sample_rate_hz, 0) + " Hz, " +
-              Fixed(static_cast<double>(judged.trials.empty() ? 0 : judged.trials[0].size()), 0) +
-              " samples per reach)";
-  }
-  if (holds && sparse) {
-    // What the judged ranking rests on: the sensitivity fit, and whether the plain GP's
-    // per-fold identification stopped early (docs/papers.md reruns it with 5× the iterations).
-    margin +=
-        "; with length scales " + SensitivityLengthScaleFactor(section.options) +
-        " × std the semiparametric model scores " + Fixed(judged.mean_median[nm], 3) +
-        (FoldConvergence(judged, nm).empty()
-             ? std::string()
-             : "; fold hyper-parameter optimisations unconverged: " + FoldConvergence(judged, nm) +
-                   " (docs/papers.md reruns the sparse GP with 5× the iterations)");
-  }
-  Json f = Finding(
-      "the semiparametric GP has the lowest LOOCV error on sparse data (paper 004 §III, "
-      "Fig. 5(b))",
-      holds, margin);
-  findings.Push(f);
-  md += FindingLine(f) + "\n";
-  out.json.Set("findings", findings);
+  out.json.Set("findings", ReachingFinding(section, dense, sparse, nm, semi, &md));
   out.markdown = md;
   return out;
 }
