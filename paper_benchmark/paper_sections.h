@@ -48,8 +48,8 @@ struct ElbowJobFigures {
 /// The Best Fit values behind the elbow tables, gathered from every job in job order (so the
 /// means do not depend on which job finished first).
 struct ElbowBestFits {
-  /// ident[m][a] / valid[m][a]: identification (the fitted trial) and validation (the other
-  /// trials of protocol a).
+  /// ident[m][a] / valid[m][a]: identification (the fitted trial) and validation (every trial
+  /// of protocol a, the fitted one included: paper 002 §6).
   std::vector<std::vector<std::vector<double>>> ident, valid;
   /// cross[m][a][b]: fitted on every trial of a, evaluated on the trials of b.
   std::vector<std::vector<std::vector<std::vector<double>>>> cross;

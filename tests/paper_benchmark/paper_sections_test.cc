@@ -240,9 +240,10 @@ TEST(PaperSections, ElbowBestFitsGoToIdentificationValidationAndCrossValidation)
     }
   }
   const ElbowBestFits b = GatherElbowBestFits(jobs, figures, 1, 2);
-  // Identification: the fitted trial itself (+50); validation: the other trial.
+  // Identification: the fitted trial itself (+50); validation: every trial of the protocol, the
+  // fitted one included (paper 002 §6: "all the trials in the same type of the tests").
   EXPECT_EQ(b.ident[0][1], (std::vector<double>{60.0, 61.0}));
-  EXPECT_EQ(b.valid[0][1], (std::vector<double>{11.0, 10.0}));
+  EXPECT_EQ(b.valid[0][1], (std::vector<double>{60.0, 11.0, 10.0, 61.0}));
   EXPECT_EQ(b.cross[0][0][1], (std::vector<double>{10.0, 11.0}));
   EXPECT_EQ(b.cross[0][1][0], (std::vector<double>{100.0, 101.0}));
   EXPECT_EQ(b.cross_truth[0][0], (std::vector<double>{1001.0, 1001.0}));  // other protocol only
