@@ -124,7 +124,10 @@ struct CvodesContext {
     if (y_index.empty()) {
       y_index = all;  // everything locked: CVODES needs at least one component
     } else {
-      tolerance_scale = std::sqrt(static_cast<double>(all.size()) / y_index.size());
+      // A welded coordinate (ModelBuildOptions::weld_locked) counts as the locked q and u it
+      // stands for, so that welded and locked models see the same error norm.
+      const std::size_t with_locked = all.size() + 2 * static_cast<std::size_t>(m->NumWelded());
+      tolerance_scale = std::sqrt(static_cast<double>(with_locked) / y_index.size());
     }
     for (const auto& mu : m->params().muscles) omega.push_back(mu.activation_omega_rad_s);
   }
@@ -909,8 +912,9 @@ IntegrationStats IntegrateTrialSensitivities(
   for (int i = 0; i < d.n; ++i) {
     const int yi = ctx.y_index[i];
     for (int c = 0; c < kNumCoordinates; ++c) {
-      if (yi == model.CoordinateBody(c).getFirstQIndex(*state)) d.q_component[c] = i;
-      if (yi == nq + model.CoordinateBody(c).getFirstUIndex(*state)) u_component_of[c] = i;
+      if (model.Welded(c)) continue;
+      if (yi == model.QIndex(c)) d.q_component[c] = i;
+      if (yi == nq + model.UIndex(c)) u_component_of[c] = i;
     }
   }
   for (int c = 0; c < kNumCoordinates; ++c) {
@@ -920,7 +924,7 @@ IntegrationStats IntegrateTrialSensitivities(
                                   " is not integrated");
     }
     d.free_coordinates.push_back(c);
-    d.free_u_slot.push_back(model.CoordinateBody(c).getFirstUIndex(*state));
+    d.free_u_slot.push_back(model.UIndex(c));
     d.u_component.push_back(u_component_of[c]);
   }
   for (const auto& m : base.muscles) d.paths.push_back(m.path);
@@ -954,7 +958,7 @@ IntegrationStats IntegrateTrialSensitivities(
           q.moves_omega || m.activation_omega_rad_s != base.muscles[j].activation_omega_rad_s;
     }
     if (BodyInertiaDiffers(pp.params, base)) {
-      q.body = std::make_shared<const UpperLimbModel>(pp.params);
+      q.body = std::make_shared<const UpperLimbModel>(pp.params, model.build_options());
       q.body_state = std::make_shared<SimTK::State>(q.body->MakeInitialState());
       if (q.body_state->getNY() != state->getNY()) {
         throw std::invalid_argument("sensitivities: perturbed model has another state layout");

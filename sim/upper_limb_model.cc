@@ -24,7 +24,8 @@ using SimTK::Vector;
 /// is realised (the layout is fixed from then on) and shared read-only with the force elements,
 /// which read q, u and add mobility forces by index instead of through MobilizedBody handles.
 struct CoordinateSlots {
-  std::vector<int> q, u;
+  std::vector<int> q, u;         ///< −1 for a welded coordinate (ModelBuildOptions::weld_locked).
+  std::vector<double> welded_q;  ///< a welded coordinate's angle, rad (unused otherwise).
 };
 
 namespace {
@@ -48,14 +49,16 @@ SimTK::Body::Rigid RigidBody(const SegmentParams& s) {
 std::vector<double> QsOf(const CoordinateSlots& slots, const State& s) {
   const Vector& q = s.getQ();
   std::vector<double> out(slots.q.size());
-  for (std::size_t i = 0; i < out.size(); ++i) out[i] = q[slots.q[i]];
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    out[i] = slots.q[i] >= 0 ? q[slots.q[i]] : slots.welded_q[i];
+  }
   return out;
 }
 
 std::vector<double> UsOf(const CoordinateSlots& slots, const State& s) {
   const Vector& u = s.getU();
   std::vector<double> out(slots.u.size());
-  for (std::size_t i = 0; i < out.size(); ++i) out[i] = u[slots.u[i]];
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = slots.u[i] >= 0 ? u[slots.u[i]] : 0.0;
   return out;
 }
 
@@ -104,19 +107,20 @@ class PassiveJointForce : public SimTK::Force::Custom::Implementation {
     const Vector& q = s.getQ();
     const Vector& u = s.getU();
     for (int i = 0; i < kNumCoordinates; ++i) {
+      if (slots_->u[i] < 0) continue;  // welded: the weld takes every moment
       mobility_forces[slots_->u[i]] +=
           PassiveJointTorque(params_->coordinates[i].passive, q[slots_->q[i]], u[slots_->u[i]]);
     }
     const TremorParams& tremor = params_->mechanisms.tremor;
-    if (tremor.enabled) {
+    if (tremor.enabled && slots_->u[tremor.coordinate] >= 0) {
       mobility_forces[slots_->u[tremor.coordinate]] += TremorTorque(tremor, s.getTime());
     }
   }
   Real calcPotentialEnergy(const State& s) const override {
-    const Vector& q = s.getQ();
+    const std::vector<double> q = QsOf(*slots_, s);
     double v = 0.0;
     for (int i = 0; i < kNumCoordinates; ++i) {
-      v += PassiveJointPotential(params_->coordinates[i].passive, q[slots_->q[i]]);
+      v += PassiveJointPotential(params_->coordinates[i].passive, q[i]);
     }
     return v;
   }
@@ -140,8 +144,11 @@ class ArmSupportForce : public SimTK::Force::Custom::Implementation {
   void calcForce(const State& s, SimTK::Vector_<SimTK::SpatialVec>& body_forces,
                  SimTK::Vector_<Vec3>& /*particle_forces*/,
                  Vector& /*mobility_forces*/) const override {
+    // A segment welded to the ground end of the chain (ModelBuildOptions::weld_locked) is the
+    // ground here: what acts on it is held by the ground.
     for (const auto& band : params_->bands) {
       const auto& mobod = matter_.getMobilizedBody(segments_[band.segment]);
+      if (mobod.isGround()) continue;
       const Vec3 p_B = ToVec3(band.cuff_in_segment_m);
       const Vec3 p_G = mobod.findStationLocationInGround(s, p_B);
       const Vec3d f = BandForce(band, {p_G[0], p_G[1], p_G[2]});
@@ -149,6 +156,7 @@ class ArmSupportForce : public SimTK::Force::Custom::Implementation {
     }
     for (const auto& w : params_->weight_compensation) {
       const auto& mobod = matter_.getMobilizedBody(segments_[w.segment]);
+      if (mobod.isGround()) continue;
       mobod.applyForceToBodyPoint(s, ToVec3(w.cuff_in_segment_m), w.force_n * up_, body_forces);
     }
   }
@@ -276,7 +284,7 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
                  Vector& mobility_forces) const override {
     const MuscleSnapshot snap = Compute(s);
     for (int i = 0; i < kNumCoordinates; ++i) {
-      mobility_forces[slots_->u[i]] += snap.joint_torque_nm[i];
+      if (slots_->u[i] >= 0) mobility_forces[slots_->u[i]] += snap.joint_torque_nm[i];
     }
   }
   Real calcPotentialEnergy(const State& /*s*/) const override { return 0.0; }
@@ -394,8 +402,9 @@ std::vector<double> TorquePerActivation(const ModelParams& params,
   return out;
 }
 
-UpperLimbModel::UpperLimbModel(ModelParams params)
+UpperLimbModel::UpperLimbModel(ModelParams params, ModelBuildOptions options)
     : params_(std::make_shared<const ModelParams>(std::move(params))),
+      build_options_(options),
       array_(std::make_shared<const muscles::ArrayMatrix>(BuildElectrodeMatrix(*params_))),
       system_(std::make_unique<SimTK::MultibodySystem>()),
       matter_(std::make_unique<SimTK::SimbodyMatterSubsystem>(*system_)),
@@ -412,29 +421,51 @@ UpperLimbModel::UpperLimbModel(ModelParams params)
   }
   const Vec3 X(1, 0, 0), Y(0, 1, 0), Z(0, 0, 1), O(0, 0, 0);
   const auto& seg = p.segments;
-  SimTK::MobilizedBody& ground = matter_->updGround();
+  // Coordinate c's mobilizer: a pin about `axis` at `offset` in the parent (X_PF = pending ·
+  // PinFrame, `pending` the welds folded in since the last body) or, welded
+  // (ModelBuildOptions::weld_locked), the pin's pose at the locked angle (a pin's X_FM is the
+  // rotation by q about the frames' common Z, X_PB = X_PF · X_FM · X_MB). Welds of the chain's
+  // ground end are folded into the next mobilizer's inboard frame, so their bodies (whose weight
+  // the ground carries) are not in the system at all: their coordinate's and segment's body is
+  // then the ground. A weld below a mobile body keeps its body, mass included.
+  SimTK::Transform pending;  // identity
+  const auto joint = [&](const SimTK::MobilizedBody& parent, int c, const Vec3& axis,
+                         const Vec3& offset, const SimTK::Body& body) -> SimTK::MobilizedBody {
+    const SimTK::Transform X_PF = pending * PinFrame(axis, offset);
+    pending = SimTK::Transform();
+    auto& mobile_parent = matter_->updMobilizedBody(parent.getMobilizedBodyIndex());
+    if (options.weld_locked && p.coordinates[c].mode == CoordinateMode::kLocked) {
+      const SimTK::Transform X_FM(SimTK::Rotation(p.coordinates[c].initial_rad, SimTK::ZAxis));
+      if (parent.isGround()) {
+        pending = X_PF * X_FM * ~PinFrame(axis, O);
+        return parent;
+      }
+      return SimTK::MobilizedBody::Weld(mobile_parent, X_PF * X_FM, body, PinFrame(axis, O));
+    }
+    return SimTK::MobilizedBody::Pin(mobile_parent, X_PF, body, PinFrame(axis, O));
+  };
 
   // Shoulder: Y (plane) – −X (elevation) – Y (axial rotation), [Schearer 2014] Y-X-Y sequence.
-  SimTK::MobilizedBody::Pin plane(ground, PinFrame(Y, ToVec3(p.shoulder_in_ground_m)),
-                                  SimTK::Body::Massless(), PinFrame(Y, O));
-  SimTK::MobilizedBody::Pin elevation(plane, PinFrame(-X, O), SimTK::Body::Massless(),
-                                      PinFrame(-X, O));
-  SimTK::MobilizedBody::Pin humerus(elevation, PinFrame(Y, O), RigidBody(seg[kHumerus]),
-                                    PinFrame(Y, O));
-  SimTK::MobilizedBody::Pin forearm(humerus, PinFrame(Z, Vec3(0, -seg[kHumerus].length_m, 0)),
-                                    RigidBody(seg[kForearm]), PinFrame(Z, O));
-  SimTK::MobilizedBody::Pin radius(forearm, PinFrame(Y, Vec3(0, -seg[kForearm].length_m, 0)),
-                                   SimTK::Body::Massless(), PinFrame(Y, O));
-  SimTK::MobilizedBody::Pin carpal(radius, PinFrame(X, O), SimTK::Body::Massless(), PinFrame(X, O));
-  SimTK::MobilizedBody::Pin hand(carpal, PinFrame(Z, O), RigidBody(seg[kHand]), PinFrame(Z, O));
-  SimTK::MobilizedBody::Pin proximal(
-      hand, PinFrame(X, Vec3(p.index_mcp_offset_m, -seg[kHand].length_m, 0)),
-      RigidBody(seg[kProximalPhalanx]), PinFrame(X, O));
-  SimTK::MobilizedBody::Pin middle(proximal,
-                                   PinFrame(X, Vec3(0, -seg[kProximalPhalanx].length_m, 0)),
-                                   RigidBody(seg[kMiddlePhalanx]), PinFrame(X, O));
-  SimTK::MobilizedBody::Pin distal(middle, PinFrame(X, Vec3(0, -seg[kMiddlePhalanx].length_m, 0)),
-                                   RigidBody(seg[kDistalPhalanx]), PinFrame(X, O));
+  SimTK::MobilizedBody plane = joint(matter_->getGround(), kShoulderElvPlane, Y,
+                                     ToVec3(p.shoulder_in_ground_m), SimTK::Body::Massless());
+  SimTK::MobilizedBody elevation = joint(plane, kShoulderElevation, -X, O, SimTK::Body::Massless());
+  SimTK::MobilizedBody humerus =
+      joint(elevation, kShoulderRotation, Y, O, RigidBody(seg[kHumerus]));
+  SimTK::MobilizedBody forearm = joint(
+      humerus, kElbowFlexion, Z, Vec3(0, -seg[kHumerus].length_m, 0), RigidBody(seg[kForearm]));
+  SimTK::MobilizedBody radius =
+      joint(forearm, kProSup, Y, Vec3(0, -seg[kForearm].length_m, 0), SimTK::Body::Massless());
+  SimTK::MobilizedBody carpal = joint(radius, kWristFlexion, X, O, SimTK::Body::Massless());
+  SimTK::MobilizedBody hand = joint(carpal, kWristDeviation, Z, O, RigidBody(seg[kHand]));
+  SimTK::MobilizedBody proximal =
+      joint(hand, kMcpFlexion, X, Vec3(p.index_mcp_offset_m, -seg[kHand].length_m, 0),
+            RigidBody(seg[kProximalPhalanx]));
+  SimTK::MobilizedBody middle =
+      joint(proximal, kPipFlexion, X, Vec3(0, -seg[kProximalPhalanx].length_m, 0),
+            RigidBody(seg[kMiddlePhalanx]));
+  SimTK::MobilizedBody distal =
+      joint(middle, kDipFlexion, X, Vec3(0, -seg[kMiddlePhalanx].length_m, 0),
+            RigidBody(seg[kDistalPhalanx]));
   coordinate_bodies_ = {plane.getMobilizedBodyIndex(),   elevation.getMobilizedBodyIndex(),
                         humerus.getMobilizedBodyIndex(), forearm.getMobilizedBodyIndex(),
                         radius.getMobilizedBodyIndex(),  carpal.getMobilizedBodyIndex(),
@@ -471,11 +502,22 @@ UpperLimbModel::UpperLimbModel(ModelParams params)
   system_->realizeTopology();
   const State& s = system_->getDefaultState();
   for (int i = 0; i < kNumCoordinates; ++i) {
-    slots->q.push_back(CoordinateBody(i).getFirstQIndex(s));
-    slots->u.push_back(CoordinateBody(i).getFirstUIndex(s));
+    const bool welded = CoordinateBody(i).getNumQ(s) == 0;
+    slots->q.push_back(welded ? -1 : static_cast<int>(CoordinateBody(i).getFirstQIndex(s)));
+    slots->u.push_back(welded ? -1 : static_cast<int>(CoordinateBody(i).getFirstUIndex(s)));
+    slots->welded_q.push_back(welded ? p.coordinates[i].initial_rad : 0.0);
   }
   slots_ = slots;
 }
+
+bool UpperLimbModel::Welded(int coordinate) const { return slots_->q.at(coordinate) < 0; }
+
+int UpperLimbModel::NumWelded() const {
+  return static_cast<int>(std::count(slots_->q.begin(), slots_->q.end(), -1));
+}
+
+int UpperLimbModel::QIndex(int coordinate) const { return slots_->q.at(coordinate); }
+int UpperLimbModel::UIndex(int coordinate) const { return slots_->u.at(coordinate); }
 
 UpperLimbModel::~UpperLimbModel() = default;
 
@@ -483,6 +525,7 @@ State UpperLimbModel::MakeInitialState() const {
   State s = system_->getDefaultState();
   for (int i = 0; i < kNumCoordinates; ++i) {
     const auto& c = params_->coordinates[i];
+    if (Welded(i)) continue;
     const auto& mobod = matter_->getMobilizedBody(coordinate_bodies_[i]);
     mobod.setOneQ(s, 0, c.initial_rad);
     mobod.setOneU(s, 0, c.mode == CoordinateMode::kFree ? c.initial_speed_rad_s : 0.0);
@@ -512,6 +555,7 @@ std::vector<double> UpperLimbModel::GetStimulation(const State& state) const {
 }
 
 double UpperLimbModel::GetQ(const State& state, int coordinate) const {
+  if (Welded(coordinate)) return slots_->welded_q[coordinate];
   return CoordinateBody(coordinate).getOneQ(state, 0);
 }
 std::vector<double> UpperLimbModel::GetQs(const State& s) const { return QsOf(*slots_, s); }
@@ -536,7 +580,7 @@ int UpperLimbModel::ActivationYIndex(const State& s) const {
 std::vector<int> UpperLimbModel::LockedYIndices(const State& s) const {
   std::vector<int> out;
   for (int i = 0; i < kNumCoordinates; ++i) {
-    if (params_->coordinates[i].mode != CoordinateMode::kLocked) continue;
+    if (params_->coordinates[i].mode != CoordinateMode::kLocked || Welded(i)) continue;
     out.push_back(slots_->q[i]);
     out.push_back(s.getNQ() + slots_->u[i]);
   }
@@ -556,11 +600,14 @@ std::vector<double> UpperLimbModel::MuscleMobilityForces(const State& s) const {
   forces_->getForce(muscle_force_index_)
       .calcForceContribution(s, body_forces, particle_forces, mobility);
   std::vector<double> out(kNumCoordinates);
-  for (int i = 0; i < kNumCoordinates; ++i) out[i] = mobility[CoordinateBody(i).getFirstUIndex(s)];
+  for (int i = 0; i < kNumCoordinates; ++i) out[i] = Welded(i) ? 0.0 : mobility[slots_->u[i]];
   return out;
 }
 
 std::vector<double> UpperLimbModel::SensorTorques(const State& s) const {
+  if (NumWelded() > 0) {
+    throw std::logic_error("SensorTorques: the model welds its locked coordinates (weld_locked)");
+  }
   Vector motion_forces;
   matter_->findMotionForces(s, motion_forces);
   std::vector<double> tau(kNumCoordinates, std::nan(""));

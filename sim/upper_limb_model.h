@@ -66,15 +66,41 @@ std::vector<double> TorquePerActivation(const ModelParams& params,
 
 struct CoordinateSlots;  // where each coordinate's q and u sit in the state (upper_limb_model.cc)
 
+/// How the Simbody system of an UpperLimbModel is built; not a model parameter (the same
+/// ModelParams give the same dynamics either way).
+struct ModelBuildOptions {
+  /// Each locked coordinate becomes a weld at its initial angle instead of a pin held by
+  /// Simbody's lock, so the system has mobilities only for the free and prescribed coordinates
+  /// (the hand rig: 5 of 10). Welds at the ground end of the chain are folded into the first
+  /// mobile joint, their bodies left out (the hand rig's humerus and forearm: the ground is their
+  /// CoordinateBody and SegmentBody, and arm-support forces on them are the ground's); a weld
+  /// below a mobile body keeps its body and mass. A welded coordinate keeps its angle (GetQ,
+  /// GetQs) but has no state slot (QIndex −1), reads no sensor torque (SensorTorques throws) and
+  /// cannot be moved. For runs that read only the free coordinates: the fits' simulations
+  /// (identification/fullmodel SimulateLike); −23 % instructions per hand-rig simulation
+  /// (docs/performance.md "`fesim diagnose` wall time"). Same dynamics to round-off, same
+  /// integrator steps: UpperLimbModel.WeldedLockedCoordinatesGiveTheSameDynamics,
+  /// Integrator.WeldedLockedCoordinatesIntegrateTheSameTrajectoryAndSensitivities.
+  bool weld_locked = false;
+};
+
 class UpperLimbModel {
  public:
   /// Builds and realises the topology. Throws std::invalid_argument on inconsistent params.
-  explicit UpperLimbModel(ModelParams params);
+  explicit UpperLimbModel(ModelParams params, ModelBuildOptions options = {});
   UpperLimbModel(const UpperLimbModel&) = delete;
   UpperLimbModel& operator=(const UpperLimbModel&) = delete;
   ~UpperLimbModel();
 
   const ModelParams& params() const { return *params_; }
+  const ModelBuildOptions& build_options() const { return build_options_; }
+  /// True when `coordinate` is a Weld (ModelBuildOptions::weld_locked): no q or u in the state.
+  bool Welded(int coordinate) const;
+  /// Number of welded coordinates.
+  int NumWelded() const;
+  /// Index of the coordinate's q in the state's Q (u in U); −1 when it is welded.
+  int QIndex(int coordinate) const;
+  int UIndex(int coordinate) const;
   const SimTK::MultibodySystem& system() const { return *system_; }
   const SimTK::SimbodyMatterSubsystem& matter() const { return *matter_; }
   int num_muscles() const { return static_cast<int>(params_->muscles.size()); }
@@ -105,8 +131,8 @@ class UpperLimbModel {
   /// side. False (a new state's value) for integrators that read ż (Simbody's). A change
   /// invalidates Stage::Dynamics.
   void SetActivationsInClosedForm(SimTK::State& state, bool closed_form) const;
-  /// Indices in Y of the q and u of every locked coordinate, sorted. They are constant in time
-  /// (q̇ = u = 0, u̇ = 0), so integrators may leave them out of the state they advance.
+  /// Indices in Y of the q and u of every locked (not welded) coordinate, sorted. They are constant
+  /// in time (q̇ = u = 0, u̇ = 0), so integrators may leave them out of the state they advance.
   std::vector<int> LockedYIndices(const SimTK::State& state) const;
 
   /// Muscle quantities. Reads only the state variables (q, u, activation states), so a state
@@ -133,6 +159,7 @@ class UpperLimbModel {
 
  private:
   std::shared_ptr<const ModelParams> params_;
+  ModelBuildOptions build_options_;
   std::shared_ptr<const muscles::ArrayMatrix> array_;
   std::unique_ptr<SimTK::MultibodySystem> system_;
   std::unique_ptr<SimTK::SimbodyMatterSubsystem> matter_;

@@ -32,6 +32,10 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+/// The fits read only the angles of the trial's joints: locked coordinates are welded
+/// (sim::ModelBuildOptions::weld_locked): on the hand rig Simbody realises 5 mobilities, not 10.
+constexpr sim::ModelBuildOptions kFitBuild{true};
+
 double Seconds(Clock::time_point since) {
   return std::chrono::duration<double>(Clock::now() - since).count();
 }
@@ -145,7 +149,7 @@ sim::StimulationSchedule DelayedSchedule(const sim::ModelParams& model, const Si
 /// and truth records.
 std::vector<std::vector<double>> SimulatePlan(const sim::ModelParams& model, const SimPlan& plan,
                                               const sim::IntegratorParams& integrator) {
-  const sim::UpperLimbModel limb(model);
+  const sim::UpperLimbModel limb(model, kFitBuild);
   const sim::StimulationSchedule delayed = DelayedSchedule(model, plan);
   SimTK::State state = limb.MakeInitialState();
   std::vector<std::vector<double>> q(plan.coords.size());
@@ -344,7 +348,7 @@ Eigen::MatrixXd ParallelJacobian(const sim::ModelParams& base,
 std::vector<std::vector<double>> PlanSensitivities(
     const sim::ModelParams& model, const std::vector<sim::ParameterPerturbation>& perturbed,
     const SimPlan& plan, double tolerance) {
-  const sim::UpperLimbModel limb(model);
+  const sim::UpperLimbModel limb(model, kFitBuild);
   const sim::StimulationSchedule delayed = DelayedSchedule(model, plan);
   sim::IntegratorParams integrator;
   integrator.tolerance = tolerance;
@@ -681,7 +685,7 @@ SimulationSensitivities SimulateLikeSensitivities(
     const std::vector<sim::ParameterPerturbation>& perturbed,
     const sim::IntegratorParams& integrator) {
   const SimPlan plan = PlanFor(model, trial);
-  const sim::UpperLimbModel limb(model);
+  const sim::UpperLimbModel limb(model, kFitBuild);
   const sim::StimulationSchedule delayed = DelayedSchedule(model, plan);
   SimTK::State state = limb.MakeInitialState();
   const std::size_t p = perturbed.size(), nq = plan.coords.size();

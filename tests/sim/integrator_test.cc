@@ -125,6 +125,58 @@ int MuscleNamed(const ModelParams& p, const std::string& name) {
   throw std::invalid_argument("no muscle " + name);
 }
 
+TEST(Integrator, WeldedLockedCoordinatesIntegrateTheSameTrajectoryAndSensitivities) {
+  // The fits' models weld the hand rig's locked coordinates (ModelBuildOptions::weld_locked):
+  // CVODES must see the same error norm (the welds count as the locked q and u they replace), so
+  // the two models take the same steps and their angles and sensitivities agree to round-off.
+  ModelParams base = DefaultModelParams();
+  for (int c : {kShoulderElvPlane, kShoulderElevation, kShoulderRotation, kElbowFlexion, kProSup}) {
+    base.coordinates[c].mode = CoordinateMode::kLocked;
+  }
+  ParameterPerturbation k_wrist{base, 0.0, 1.0}, mass_hand{base, 0.0, 1.0};
+  double& k = k_wrist.params.coordinates[kWristFlexion].passive.stiffness_nm_per_rad;
+  k_wrist.scale = std::abs(k);
+  k_wrist.step = 1e-7 * k_wrist.scale;
+  k += k_wrist.step;
+  mass_hand.scale = base.segments[kHand].mass_kg;
+  mass_hand.step = 1e-7 * mass_hand.scale;
+  mass_hand.params.segments[kHand].mass_kg += mass_hand.step;
+  StimulationSchedule stim;
+  stim.times = {0.0, 0.4, 1.2};
+  stim.values = {{0, 0, 0, 0, 0, 0}, {180, 60, 0, 0, 0, 0}, {70, 220, 0, 0, 0, 0}};
+  const auto times = Times(2.0, 0.05);
+  const IntegratorParams integrator{IntegratorParams::Method::kCvodes, 1e-6};
+  std::vector<std::vector<double>> q[2], sens[2];
+  IntegrationStats stats[2];
+  for (int w = 0; w < 2; ++w) {
+    const UpperLimbModel model(base, ModelBuildOptions{w == 1});
+    SimTK::State s = model.MakeInitialState();
+    stats[w] =
+        IntegrateTrialSensitivities(model, integrator, stim, times, {k_wrist, mass_hand}, &s,
+                                    [&](const SimTK::State& x, const std::vector<double>& dq) {
+                                      q[w].push_back(model.GetQs(x));
+                                      sens[w].push_back(dq);
+                                    });
+  }
+  EXPECT_EQ(stats[0].steps, stats[1].steps);
+  ASSERT_EQ(q[0].size(), times.size());
+  ASSERT_EQ(q[1].size(), times.size());
+  double largest = 0.0, worst = 0.0, largest_s = 0.0, worst_s = 0.0;
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    for (int c = 0; c < kNumCoordinates; ++c) {
+      largest = std::max(largest, std::abs(q[0][i][c] - q[0][0][c]));
+      worst = std::max(worst, std::abs(q[1][i][c] - q[0][i][c]));
+    }
+    for (std::size_t j = 0; j < sens[0][i].size(); ++j) {
+      largest_s = std::max(largest_s, std::abs(sens[0][i][j]));
+      worst_s = std::max(worst_s, std::abs(sens[1][i][j] - sens[0][i][j]));
+    }
+  }
+  EXPECT_GT(largest, 0.1);  // the wrist and fingers really move
+  EXPECT_LT(worst, 1e-9);
+  EXPECT_LT(worst_s, 1e-7 * largest_s);
+}
+
 TEST(Integrator, ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) {
   // Hand rig (shoulder, elbow, pro/supination locked), both array channels stepped. Parameters of
   // every kind the sensitivity right-hand side re-evaluates: passive stiffness (direct torque),

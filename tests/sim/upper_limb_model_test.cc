@@ -212,6 +212,67 @@ TEST(UpperLimbModel, PrescribedCoordinateFollowsItsTrajectory) {
   });
 }
 
+TEST(UpperLimbModel, WeldedLockedCoordinatesGiveTheSameDynamics) {
+  // Hand rig (shoulder, elbow, pro/supination locked) with DIP locked too: the first five are
+  // folded into the ground (ModelBuildOptions::weld_locked), DIP stays a weld below a mobile
+  // body with its mass. A band on the (welded) forearm acts on the ground or the locked body
+  // alike. At one state with every free coordinate moving and muscles active, the free
+  // coordinates' accelerations and mass matrix must equal the locked model's to round-off.
+  constexpr double kAccelerationTol = 1e-9;  // rad/s², relative to the largest
+  ModelParams p = DefaultModelParams();
+  for (int c : {kShoulderElvPlane, kShoulderElevation, kShoulderRotation, kElbowFlexion, kProSup,
+                kDipFlexion}) {
+    p.coordinates[c].mode = CoordinateMode::kLocked;
+  }
+  p.coordinates[kDipFlexion].initial_rad = 0.3;
+  BandParams band;
+  band.segment = kForearm;
+  band.cuff_in_segment_m = {0.0, -0.1, 0.0};
+  band.anchor_in_ground_m = {0.0, 0.5, 0.0};
+  band.stiffness_n_per_m = 200.0;
+  p.bands.push_back(band);
+  const UpperLimbModel locked(p), welded(p, ModelBuildOptions{true});
+  EXPECT_EQ(locked.NumWelded(), 0);
+  EXPECT_EQ(welded.NumWelded(), 6);
+  EXPECT_EQ(welded.QIndex(kElbowFlexion), -1);
+  EXPECT_GE(welded.QIndex(kWristFlexion), 0);
+  const std::vector<int> free = {kWristFlexion, kWristDeviation, kMcpFlexion, kPipFlexion};
+  SimTK::State sl = locked.MakeInitialState(), sw = welded.MakeInitialState();
+  EXPECT_EQ(sw.getNQ(), static_cast<int>(free.size()));
+  for (SimTK::State* s : {&sl, &sw}) {
+    const UpperLimbModel& m = s == &sl ? locked : welded;
+    for (std::size_t k = 0; k < free.size(); ++k) {
+      m.CoordinateBody(free[k]).setOneQ(*s, 0, 0.2 - 0.15 * static_cast<double>(k));
+      m.CoordinateBody(free[k]).setOneU(*s, 0, 1.0 + 0.5 * static_cast<double>(k));
+    }
+    m.SetStimulation(*s, {150, 90, 0, 0, 0, 0});
+    const int a0 = m.ActivationYIndex(*s);
+    for (int j = 0; j < m.num_muscles(); ++j) s->updY()[a0 + 2 * j] = 0.3 + 0.02 * j;
+    m.system().realize(*s, SimTK::Stage::Acceleration);
+  }
+  EXPECT_DOUBLE_EQ(welded.GetQ(sw, kDipFlexion), 0.3);
+  EXPECT_DOUBLE_EQ(welded.GetQ(sw, kElbowFlexion), p.coordinates[kElbowFlexion].initial_rad);
+  EXPECT_EQ(welded.GetQs(sw), locked.GetQs(sl));
+  double largest = 0.0;
+  for (int c : free) largest = std::max(largest, std::abs(sl.getUDot()[locked.UIndex(c)]));
+  EXPECT_GT(largest, 1.0);
+  for (int c : free) {
+    EXPECT_NEAR(sw.getUDot()[welded.UIndex(c)], sl.getUDot()[locked.UIndex(c)],
+                kAccelerationTol * largest)
+        << CoordinateNames()[c];
+  }
+  SimTK::Matrix ml, mw;
+  locked.matter().calcM(sl, ml);
+  welded.matter().calcM(sw, mw);
+  for (int r : free) {
+    for (int c : free) {
+      EXPECT_NEAR(mw(welded.UIndex(r), welded.UIndex(c)), ml(locked.UIndex(r), locked.UIndex(c)),
+                  1e-12);
+    }
+  }
+  EXPECT_THROW(welded.SensorTorques(sw), std::logic_error);
+}
+
 TEST(UpperLimbModel, StimulationIsClippedToPulseWidthLimits) {
   const UpperLimbModel model(DefaultModelParams());
   SimTK::State s = model.MakeInitialState();
