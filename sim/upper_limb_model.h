@@ -76,10 +76,11 @@ struct ModelBuildOptions {
   /// CoordinateBody and SegmentBody, and arm-support forces on them are the ground's); a weld
   /// below a mobile body keeps its body and mass. A welded coordinate keeps its angle (GetQ,
   /// GetQs) but has no state slot (QIndex −1), reads no sensor torque (SensorTorques throws) nor
-  /// muscle torque (MuscleMobilityForces gives 0 there; the weld takes it), and cannot be moved. For runs that read only the free coordinates: the fits' simulations
-  /// (identification/fullmodel SimulateLike); −23 % instructions per hand-rig simulation
-  /// (docs/performance.md "`fesim diagnose` wall time"). Same dynamics to round-off, same
-  /// integrator steps: UpperLimbModel.WeldedLockedCoordinatesGiveTheSameDynamics,
+  /// muscle torque (MuscleMobilityForces gives 0 there; the weld takes it), and cannot be moved.
+  /// For runs that read only the free coordinates: the fits' simulations (identification/fullmodel
+  /// SimulateLike); −23 % instructions per hand-rig simulation (docs/performance.md "`fesim
+  /// diagnose` wall time"). Same dynamics to round-off, same integrator steps:
+  /// UpperLimbModel.WeldedLockedCoordinatesGiveTheSameDynamics,
   /// Integrator.WeldedLockedCoordinatesIntegrateTheSameTrajectoryAndSensitivities.
   bool weld_locked = false;
 };
