@@ -40,10 +40,13 @@ fesim::diagnosis::PlantedDataset Data(const std::string& mechanism) {
 // One 60 s trial of the benchmark's data set simulated like a diagnosis does, at tolerance
 // 10^−range(0) and speed time scale range(1) ms (sim::IntegratorParams::speed_time_scale_s; 0:
 // speeds held to the angles' absolute tolerance). Counter: the largest q error against the same
-// simulation at tolerance 1e-9 (rad).
-void SimulateLike(benchmark::State& state, const fesim::sim::ModelParams& model) {
+// simulation at tolerance 1e-9 (rad). `simbody_rhs`: sim::IntegratorParams::
+// simbody_right_hand_side (the diagnosis's choice, diagnosis::FitOptions).
+void SimulateLike(benchmark::State& state, const fesim::sim::ModelParams& model,
+                  bool simbody_rhs = true) {
   const auto data = Data("");
   fesim::sim::IntegratorParams integrator;
+  integrator.simbody_right_hand_side = simbody_rhs;
   integrator.tolerance = std::pow(10.0, -static_cast<double>(state.range(0)));
   integrator.speed_time_scale_s = 1e-3 * static_cast<double>(state.range(1));
   fesim::Trial out;
@@ -60,6 +63,10 @@ void SimulateLike(benchmark::State& state, const fesim::sim::ModelParams& model)
   state.counters["max_q_error_rad"] = worst;
 }
 void BM_SimulateLike60s(benchmark::State& state) { SimulateLike(state, Rig().model); }
+// The same with the articulated-body right-hand side (UpperLimbModel::CalcYDot).
+void BM_SimulateLike60sChainRhs(benchmark::State& state) {
+  SimulateLike(state, Rig().model, false);
+}
 // The same with the wrist tremor that BM_DiagnoseTremor3x60s's fits put in the model
 // (0.12 N·m at 5.35 Hz): the oscillation limits the step size.
 void BM_SimulateLikeTremor60s(benchmark::State& state) {
@@ -78,6 +85,7 @@ BENCHMARK(BM_SimulateLikeTremor60s)
     ->ArgsProduct({{4, 5, 6}, {0, 100}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+BENCHMARK(BM_SimulateLike60sChainRhs)->Args({4, 0})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 /// The benchmark's data: foreign person 7, three 60 s trials, `effect` at the noise RMS.
 fesim::foreign::Dataset ForeignData(const std::string& effect) {
@@ -88,8 +96,12 @@ fesim::foreign::Dataset ForeignData(const std::string& effect) {
   return fesim::foreign::MakeDataset(spec);
 }
 
-void Diagnose(benchmark::State& state, const std::string& mechanism) {
+// `simbody_rhs`: diagnosis::FitOptions::simbody_right_hand_side (true, the default, or the
+// articulated-body right-hand side for the side-by-side figure).
+void Diagnose(benchmark::State& state, const std::string& mechanism, bool simbody_rhs = true) {
   const auto data = ForeignData(mechanism);
+  fesim::diagnosis::DiagnoseSettings settings;
+  settings.fit.simbody_right_hand_side = simbody_rhs;
   fesim::diagnosis::DiagnoseExecution e;
   e.threads = 2;
   int simulations = 0;
@@ -103,7 +115,7 @@ void Diagnose(benchmark::State& state, const std::string& mechanism) {
                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                    100 * f, stage.c_str());
     };
-    const auto d = fesim::diagnosis::Diagnose(Rig().model, data.trials, {}, e);
+    const auto d = fesim::diagnosis::Diagnose(Rig().model, data.trials, settings, e);
     simulations = d.simulations;
     if (stages) {
       for (const auto& cr : d.candidates) {
@@ -123,6 +135,12 @@ void BM_DiagnoseFatigue3x60s(benchmark::State& state) { Diagnose(state, "fatigue
 BENCHMARK(BM_DiagnoseClean3x60s)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(1);
 BENCHMARK(BM_DiagnoseTremor3x60s)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(1);
 BENCHMARK(BM_DiagnoseFatigue3x60s)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(1);
+void BM_DiagnoseClean3x60sChainRhs(benchmark::State& state) { Diagnose(state, "", false); }
+void BM_DiagnoseTremor3x60sChainRhs(benchmark::State& state) { Diagnose(state, "tremor", false); }
+void BM_DiagnoseFatigue3x60sChainRhs(benchmark::State& state) { Diagnose(state, "fatigue", false); }
+BENCHMARK(BM_DiagnoseClean3x60sChainRhs)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(1);
+BENCHMARK(BM_DiagnoseTremor3x60sChainRhs)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(1);
+BENCHMARK(BM_DiagnoseFatigue3x60sChainRhs)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(1);
 
 }  // namespace
 

@@ -151,7 +151,10 @@ std::string DiagnoseSettings::KeyText() const {
                       refit_iterations, fit.max_iterations}) {
     s += std::to_string(v) + ",";
   }
-  return s + (fit.sensitivities ? "sens," : "fd,") + model;
+  // The right-hand side enters only when it is not the default, so that caches written before
+  // the choice existed (all Simbody's) keep their keys.
+  return s + (fit.sensitivities ? "sens," : "fd,") + (fit.simbody_right_hand_side ? "" : "chain,") +
+         model;
 }
 
 Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measured,

@@ -87,6 +87,7 @@ sim::IntegratorParams Integrator(const FitOptions& options, const Trial& trial, 
   sim::IntegratorParams integrator;
   integrator.tolerance = std::min(1e-2, options.tolerance * factor);
   integrator.speed_time_scale_s = options.speed_time_scale_s;
+  integrator.simbody_right_hand_side = options.simbody_right_hand_side;
   const double duration = trial.time.empty() ? 0.0 : trial.time.back();
   integrator.max_steps =
       options.max_steps_per_s > 0.0

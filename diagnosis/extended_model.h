@@ -191,6 +191,12 @@ struct FitOptions {
   /// The sensitivity integrations run at this multiple of `tolerance` (≥ 1): LM needs the
   /// Jacobian for its step direction only (as FullModelFitOptions::jacobian_tolerance_factor).
   double jacobian_tolerance_factor = 10.0;
+  /// sim::IntegratorParams::simbody_right_hand_side of every fit simulation. True: Simbody's
+  /// realisation, although UpperLimbModel::CalcYDot gives the same dynamics to round-off ≈ 2.4×
+  /// faster — the verdicts on foreign data turn on round-off: with CalcYDot 3 of the 8 foreign
+  /// quick-slice tests of tests/diagnosis/diagnose_test.cc changed verdict (docs/diagnosis.md
+  /// "Known limits", "Verdicts that turn on round-off").
+  bool simbody_right_hand_side = true;
   /// The simulation. Empty: the full model (12) by identification/fullmodel's SimulateLike;
   /// `fesim diagnose --model NAME` sets a reduced model (reduced_model.h).
   TrialSimulator simulator;

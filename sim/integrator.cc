@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "muscles/activation.h"
+#include "sim/chain_dynamics.h"
 #include "sim/upper_limb_model.h"
 
 namespace fesim::sim {
@@ -106,9 +107,15 @@ struct CvodesContext {
   double t0 = 0.0;                           // interval start, s
   double activations_time = NAN;             // t of the activations in the state (LoadState)
   SensitivityData* sens = nullptr;           // forward sensitivities, when integrated
+  // Right-hand sides by UpperLimbModel::CalcYDot instead of Simbody's realisation (no
+  // prescribed coordinate): its scratch and the whole Ẏ.
+  bool fast = false;
+  ChainWorkspace chain;
+  std::vector<double> ydot;
 
-  CvodesContext(const UpperLimbModel* m, SimTK::State* s, bool p)
-      : model(m), state(s), prescribe(p) {
+  /// `simbody_rhs`: IntegratorParams::simbody_right_hand_side.
+  CvodesContext(const UpperLimbModel* m, SimTK::State* s, bool p, bool simbody_rhs)
+      : model(m), state(s), prescribe(p), fast(!p && !simbody_rhs && m->HasFastDerivatives()) {
     // The activations are eq. (6)'s closed form here (LoadState), never CVODES components.
     m->SetActivationsInClosedForm(*s, true);
     const int ny = s->getNY();
@@ -162,7 +169,7 @@ void LoadState(CvodesContext* c, double t, const double* y,
   const int nq = s.getNQ(), nu = s.getNU();
   bool q_differs = false, u_differs = false, z_differs = false;
   {
-    const SimTK::Vector& Y = s.getY();
+    const double* Y = s.getY().getContiguousScalarData();
     for (std::size_t i = 0; i < c->y_index.size(); ++i) {
       const int yi = c->y_index[i];
       if (SameBits(Y[yi], y[i])) continue;
@@ -172,20 +179,20 @@ void LoadState(CvodesContext* c, double t, const double* y,
   const bool new_time = !SameBits(s.getTime(), t);
   const bool new_activations = new_time || !SameBits(c->activations_time, t);
   if (q_differs) {
-    SimTK::Vector& q = s.updQ();
+    double* q = s.updQ().updContiguousScalarData();
     for (std::size_t i = 0; i < c->y_index.size(); ++i) {
       if (c->y_index[i] < nq) q[c->y_index[i]] = y[i];
     }
   }
   if (u_differs) {
-    SimTK::Vector& u = s.updU();
+    double* u = s.updU().updContiguousScalarData();
     for (std::size_t i = 0; i < c->y_index.size(); ++i) {
       const int yi = c->y_index[i];
       if (yi >= nq && yi < nq + nu) u[yi - nq] = y[i];
     }
   }
   if (z_differs || new_activations) {
-    SimTK::Vector& z = s.updZ();
+    double* z = s.updZ().updContiguousScalarData();
     for (std::size_t i = 0; i < c->y_index.size(); ++i) {
       const int yi = c->y_index[i];
       if (yi >= nq + nu) z[yi - nq - nu] = y[i];
@@ -204,14 +211,25 @@ void LoadState(CvodesContext* c, double t, const double* y,
 }
 
 /// ẏ at (t, y) into out; 0, or 1 (recoverable: CVODES retries with a smaller step) on failure.
+/// Without prescribed coordinates by UpperLimbModel::CalcYDot on the loaded state variables
+/// (Simbody's Ẏ to round-off, UpperLimbModel.FastDerivativesMatchSimbody), otherwise by
+/// Simbody's realize(Acceleration).
 int EvaluateRhs(CvodesContext* c, double t, const double* y, double* out) {
   ++c->rhs;
+  const double* yd = nullptr;
   try {
-    LoadState(c, t, y);
+    if (c->fast) {
+      LoadState(c, t, y, SimTK::Stage::Model);
+      c->ydot.resize(static_cast<std::size_t>(c->state->getNY()));
+      c->model->CalcYDot(*c->state, &c->chain, c->ydot.data());
+      yd = c->ydot.data();
+    } else {
+      LoadState(c, t, y);
+      yd = &c->state->getYDot()[0];
+    }
   } catch (const std::exception&) {
     return 1;
   }
-  const SimTK::Vector& yd = c->state->getYDot();
   for (std::size_t i = 0; i < c->y_index.size(); ++i) {
     out[i] = yd[c->y_index[i]];
     if (!std::isfinite(out[i])) return 1;
@@ -416,22 +434,31 @@ std::vector<double> PerturbedTorques(const SensitivityData::Parameter& pk, const
 }
 
 /// M_ff⁻¹-free direct term of a parameter that moves a segment's inertia: the free u rows of
-/// (f_k(t, y) − f(t, y)) / step into `udot`, with f_k the Simbody right-hand side of the model of
-/// pk.params realised at the state the context loaded (same q, u, activations), `ydot` = f(t, y).
-/// Returns 0, or 1 (recoverable) when that realisation fails.
+/// (f_k(t, y) − f(t, y)) / step into `udot`, with f_k the right-hand side of the model of
+/// pk.params (the same kind as EvaluateRhs's) at the state the context loaded (same q, u,
+/// activations), `ydot` = f(t, y). Returns 0, or 1 (recoverable) when that evaluation fails.
 int BodyRhsDifference(const SensitivityData& d, const SensitivityData::Parameter& pk, double t,
                       const double* ydot, std::vector<double>* udot) {
   const CvodesContext& c = *d.ctx;
   SimTK::State& s = *pk.body_state;
   s.updY() = c.state->getY();
   s.setTime(t);
+  std::vector<double> fast_ydot;
+  const double* yd = nullptr;
   try {
-    if (c.prescribe) pk.body->system().prescribe(s);
-    pk.body->system().realize(s, SimTK::Stage::Acceleration);
+    if (c.fast) {  // the same right-hand side as f(t, y): CalcYDot
+      ChainWorkspace ws;
+      fast_ydot.resize(static_cast<std::size_t>(s.getNY()));
+      pk.body->CalcYDot(s, &ws, fast_ydot.data());
+      yd = fast_ydot.data();
+    } else {
+      if (c.prescribe) pk.body->system().prescribe(s);
+      pk.body->system().realize(s, SimTK::Stage::Acceleration);
+      yd = &s.getYDot()[0];
+    }
   } catch (const std::exception&) {
     return 1;
   }
-  const SimTK::Vector& yd = s.getYDot();
   for (std::size_t f = 0; f < d.u_component.size(); ++f) {
     const int i = d.u_component[f];
     (*udot)[f] = (yd[c.y_index[i]] - ydot[i]) / pk.step;
@@ -827,7 +854,7 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
   const IntegratorParams params = WithTolerance(integrator, model.params());
   IntegrationStats stats;
   if (params.method != IntegratorParams::Method::kSimbodyRkMerson) {
-    CvodesContext ctx(&model, state, HasPrescribed(model.params()));
+    CvodesContext ctx(&model, state, HasPrescribed(model.params()), params.simbody_right_hand_side);
     Cvodes cv(static_cast<int>(ctx.y_index.size()), *params.tolerance * ctx.tolerance_scale,
               AbsoluteTolerances(ctx, params),
               params.method == IntegratorParams::Method::kCvodesAdams, &ctx);
@@ -902,7 +929,7 @@ IntegrationStats IntegrateTrialSensitivities(
   if (base.mechanisms.fatigue.enabled || base.mechanisms.potentiation.enabled) {
     throw std::invalid_argument("sensitivities: fatigue and potentiation states are not supported");
   }
-  CvodesContext ctx(&model, state, HasPrescribed(base));
+  CvodesContext ctx(&model, state, HasPrescribed(base), params.simbody_right_hand_side);
   SensitivityData d;
   d.ctx = &ctx;
   d.n = static_cast<int>(ctx.y_index.size());

@@ -183,6 +183,11 @@ struct IntegratorParams {
   /// trial point makes the integration crawl then loses that simulation after a bounded amount of
   /// work (a diagnosis fit once waited 20 minutes on one without it).
   long max_steps = 0;
+  /// CVODES methods: evaluate every right-hand side by Simbody's realize(Acceleration) instead
+  /// of UpperLimbModel::CalcYDot (the articulated-body algorithm over the same force functions;
+  /// the default whenever no coordinate is prescribed). The same dynamics to round-off; for
+  /// cross-checks and the benchmarks' side-by-side figures.
+  bool simbody_right_hand_side = false;
 };
 
 /// Everything that defines one virtual participant on one rig.

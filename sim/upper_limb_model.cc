@@ -8,6 +8,7 @@
 #include "muscles/hill.h"
 #include "muscles/recruitment.h"
 #include "sim/arm_support.h"
+#include "sim/chain_dynamics.h"
 #include "sim/mechanisms.h"
 #include "sim/passive_joint.h"
 #include "sim/prescribed_motion.h"
@@ -47,7 +48,7 @@ SimTK::Body::Rigid RigidBody(const SegmentParams& s) {
 }
 
 std::vector<double> QsOf(const CoordinateSlots& slots, const State& s) {
-  const Vector& q = s.getQ();
+  const double* q = s.getNQ() > 0 ? s.getQ().getContiguousScalarData() : nullptr;
   std::vector<double> out(slots.q.size());
   for (std::size_t i = 0; i < out.size(); ++i) {
     out[i] = slots.q[i] >= 0 ? q[slots.q[i]] : slots.welded_q[i];
@@ -56,7 +57,7 @@ std::vector<double> QsOf(const CoordinateSlots& slots, const State& s) {
 }
 
 std::vector<double> UsOf(const CoordinateSlots& slots, const State& s) {
-  const Vector& u = s.getU();
+  const double* u = s.getNU() > 0 ? s.getU().getContiguousScalarData() : nullptr;
   std::vector<double> out(slots.u.size());
   for (std::size_t i = 0; i < out.size(); ++i) out[i] = slots.u[i] >= 0 ? u[slots.u[i]] : 0.0;
   return out;
@@ -93,8 +94,52 @@ MuscleTendonSample MuscleTendonForce(const MuscleParams& m, const tendons::Muscl
                              tendons::MusculotendonVelocity(path, q, qd), a, active_gain);
 }
 
+/// Adds the passive joint moments (eq. 14 and range limits) of every coordinate that has a
+/// mobility and the tremor torque at time t (s) to `mobility` (N·m, U layout) for Simbody's Q
+/// and U. Both right-hand sides apply exactly this (PassiveJointForce and
+/// UpperLimbModel::CalcYDot).
+void AddPassiveMobilityForces(const CoordinateSlots& slots, const ModelParams& params,
+                              const double* q, const double* u, double t, double* mobility) {
+  for (int i = 0; i < kNumCoordinates; ++i) {
+    if (slots.u[i] < 0) continue;  // welded: the weld takes every moment
+    mobility[slots.u[i]] +=
+        PassiveJointTorque(params.coordinates[i].passive, q[slots.q[i]], u[slots.u[i]]);
+  }
+  const TremorParams& tremor = params.mechanisms.tremor;
+  if (tremor.enabled && slots.u[tremor.coordinate] >= 0) {
+    mobility[slots.u[tremor.coordinate]] += TremorTorque(tremor, t);
+  }
+}
+
+/// The direction opposite to gravity (weight compensation's force direction); +Y without gravity.
+Vec3 UpDirection(const ModelParams& params) {
+  const Vec3 g = ToVec3(params.gravity_m_s2);
+  return g.norm() > 0 ? Vec3(-g / g.norm()) : Vec3(0, 1, 0);
+}
+
+/// Calls apply(segment, p_B, f_G) for every cuff of the arm support: each band's force (N, in G,
+/// arm_support.h) at its cuff p_B (m, in the segment) located in G by station(segment, p_B), and
+/// each weight compensation's F_w · up. Segments with on_ground(segment) are skipped: a segment
+/// welded to the ground end of the chain (ModelBuildOptions::weld_locked) is the ground, and what
+/// acts on it is held by the ground.
+template <class OnGround, class Station, class Apply>
+void ForEachSupportForce(const ModelParams& params, const Vec3& up, OnGround on_ground,
+                         Station station, Apply apply) {
+  for (const auto& band : params.bands) {
+    if (on_ground(band.segment)) continue;
+    const Vec3 p_B = ToVec3(band.cuff_in_segment_m);
+    const Vec3 p_G = station(band.segment, p_B);
+    const Vec3d f = BandForce(band, {p_G[0], p_G[1], p_G[2]});
+    apply(band.segment, p_B, Vec3(f[0], f[1], f[2]));
+  }
+  for (const auto& w : params.weight_compensation) {
+    if (on_ground(w.segment)) continue;
+    apply(w.segment, ToVec3(w.cuff_in_segment_m), w.force_n * up);
+  }
+}
+
 /// Passive joint moments on every coordinate and the tremor torque (thin adapter over
-/// passive_joint.h and mechanisms.h).
+/// AddPassiveMobilityForces).
 class PassiveJointForce : public SimTK::Force::Custom::Implementation {
  public:
   PassiveJointForce(std::shared_ptr<const CoordinateSlots> slots,
@@ -104,17 +149,9 @@ class PassiveJointForce : public SimTK::Force::Custom::Implementation {
   void calcForce(const State& s, SimTK::Vector_<SimTK::SpatialVec>& /*body_forces*/,
                  SimTK::Vector_<Vec3>& /*particle_forces*/,
                  Vector& mobility_forces) const override {
-    const Vector& q = s.getQ();
-    const Vector& u = s.getU();
-    for (int i = 0; i < kNumCoordinates; ++i) {
-      if (slots_->u[i] < 0) continue;  // welded: the weld takes every moment
-      mobility_forces[slots_->u[i]] +=
-          PassiveJointTorque(params_->coordinates[i].passive, q[slots_->q[i]], u[slots_->u[i]]);
-    }
-    const TremorParams& tremor = params_->mechanisms.tremor;
-    if (tremor.enabled && slots_->u[tremor.coordinate] >= 0) {
-      mobility_forces[slots_->u[tremor.coordinate]] += TremorTorque(tremor, s.getTime());
-    }
+    if (mobility_forces.size() == 0) return;
+    AddPassiveMobilityForces(*slots_, *params_, s.getQ().getContiguousScalarData(),
+                             s.getU().getContiguousScalarData(), s.getTime(), &mobility_forces[0]);
   }
   Real calcPotentialEnergy(const State& s) const override {
     const std::vector<double> q = QsOf(*slots_, s);
@@ -136,29 +173,22 @@ class ArmSupportForce : public SimTK::Force::Custom::Implementation {
   ArmSupportForce(const SimTK::SimbodyMatterSubsystem& matter,
                   std::vector<SimTK::MobilizedBodyIndex> segments,
                   std::shared_ptr<const ModelParams> params)
-      : matter_(matter), segments_(std::move(segments)), params_(std::move(params)) {
-    const Vec3 g = ToVec3(params_->gravity_m_s2);
-    up_ = g.norm() > 0 ? Vec3(-g / g.norm()) : Vec3(0, 1, 0);
-  }
+      : matter_(matter),
+        segments_(std::move(segments)),
+        params_(std::move(params)),
+        up_(UpDirection(*params_)) {}
 
   void calcForce(const State& s, SimTK::Vector_<SimTK::SpatialVec>& body_forces,
                  SimTK::Vector_<Vec3>& /*particle_forces*/,
                  Vector& /*mobility_forces*/) const override {
-    // A segment welded to the ground end of the chain (ModelBuildOptions::weld_locked) is the
-    // ground here: what acts on it is held by the ground.
-    for (const auto& band : params_->bands) {
-      const auto& mobod = matter_.getMobilizedBody(segments_[band.segment]);
-      if (mobod.isGround()) continue;
-      const Vec3 p_B = ToVec3(band.cuff_in_segment_m);
-      const Vec3 p_G = mobod.findStationLocationInGround(s, p_B);
-      const Vec3d f = BandForce(band, {p_G[0], p_G[1], p_G[2]});
-      mobod.applyForceToBodyPoint(s, p_B, Vec3(f[0], f[1], f[2]), body_forces);
-    }
-    for (const auto& w : params_->weight_compensation) {
-      const auto& mobod = matter_.getMobilizedBody(segments_[w.segment]);
-      if (mobod.isGround()) continue;
-      mobod.applyForceToBodyPoint(s, ToVec3(w.cuff_in_segment_m), w.force_n * up_, body_forces);
-    }
+    ForEachSupportForce(
+        *params_, up_, [&](int segment) { return Segment(segment).isGround(); },
+        [&](int segment, const Vec3& p_B) {
+          return Segment(segment).findStationLocationInGround(s, p_B);
+        },
+        [&](int segment, const Vec3& p_B, const Vec3& f_G) {
+          Segment(segment).applyForceToBodyPoint(s, p_B, f_G, body_forces);
+        });
   }
   Real calcPotentialEnergy(const State& s) const override {
     double v = 0.0;
@@ -176,6 +206,9 @@ class ArmSupportForce : public SimTK::Force::Custom::Implementation {
   }
 
  private:
+  const SimTK::MobilizedBody& Segment(int segment) const {
+    return matter_.getMobilizedBody(segments_[segment]);
+  }
   const SimTK::SimbodyMatterSubsystem& matter_;
   std::vector<SimTK::MobilizedBodyIndex> segments_;
   std::shared_ptr<const ModelParams> params_;
@@ -249,31 +282,38 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   int ZStart() const { return z_start_; }
 
   void realizeDynamics(const State& s) const override {
-    // ż for every muscle: ȧ, ä of eq. (6) driven by w = H_IRC(A u) — unless an integrator
-    // advances the activations in closed form (SetActivationsInClosedForm): then nothing reads
-    // them and they are left unwritten — and the fatigue and potentiation states' ż.
-    const bool closed_form = ClosedFormActivations(s);
-    if (closed_form && fitness_offset_ < 0 && potentiation_offset_ < 0) return;
-    const Vector* u = closed_form ? nullptr : &Stimulation(s);
-    const Vector& z = forces_.getZ(s);
+    if (params_->muscles.empty()) return;
+    if (fitness_offset_ < 0 && potentiation_offset_ < 0 && ClosedFormActivations(s)) return;
     Vector& zdot = forces_.updZDot(s);
+    ZDot(s, &zdot[z_start_]);
+  }
+
+  /// ż of this element's z block (from ZStart) into zdot[0…]: ȧ, ä of eq. (6) driven by
+  /// w = H_IRC(A u) — unless an integrator advances the activations in closed form
+  /// (SetActivationsInClosedForm): then nothing reads them and they are left unwritten — and the
+  /// fatigue and potentiation states' ż. Reads only state variables (no stage needed).
+  void ZDot(const State& s, double* zdot) const {
     const int nm = static_cast<int>(params_->muscles.size());
+    if (nm == 0) return;
+    const bool closed_form = ClosedFormActivations(s);
+    const Vector* u = closed_form ? nullptr : &Stimulation(s);
+    const double* z = &forces_.getZ(s)[z_start_];
     for (int j = 0; j < nm; ++j) {
       if (!closed_form) {
         const auto& m = params_->muscles[j];
         const double w = Recruited(*u, j);
-        const auto d = muscles::ActivationDerivative(
-            m.activation_omega_rad_s, w, {z[z_start_ + 2 * j], z[z_start_ + 2 * j + 1]});
-        zdot[z_start_ + 2 * j] = d.a;
-        zdot[z_start_ + 2 * j + 1] = d.a_dot;
+        const auto d =
+            muscles::ActivationDerivative(m.activation_omega_rad_s, w, {z[2 * j], z[2 * j + 1]});
+        zdot[2 * j] = d.a;
+        zdot[2 * j + 1] = d.a_dot;
       }
-      const double a = std::clamp(z[z_start_ + 2 * j], 0.0, 1.0);
+      const double a = std::clamp(z[2 * j], 0.0, 1.0);
       if (fitness_offset_ >= 0) {
-        const int k = z_start_ + fitness_offset_ + j;
+        const int k = fitness_offset_ + j;
         zdot[k] = FitnessDerivative(params_->mechanisms.fatigue, a, z[k]);
       }
       if (potentiation_offset_ >= 0) {
-        const int k = z_start_ + potentiation_offset_ + j;
+        const int k = potentiation_offset_ + j;
         zdot[k] = PotentiationDerivative(params_->mechanisms.potentiation, a, z[k]);
       }
     }
@@ -508,6 +548,81 @@ UpperLimbModel::UpperLimbModel(ModelParams params, ModelBuildOptions options)
     slots->welded_q.push_back(welded ? p.coordinates[i].initial_rad : 0.0);
   }
   slots_ = slots;
+  up_ = UpDirection(p);
+  if (std::none_of(p.coordinates.begin(), p.coordinates.end(), [](const CoordinateParams& c) {
+        return c.mode == CoordinateMode::kPrescribed;
+      })) {
+    chain_ = std::make_unique<const ChainDynamics>(ReadChain(s), ToVec3(p.gravity_m_s2));
+    for (int k = 0; k < kNumSegments; ++k) {
+      segment_chain_.push_back(static_cast<int>(SegmentBody(k).getMobilizedBodyIndex()) - 1);
+    }
+  }
+}
+
+std::vector<ChainBody> UpperLimbModel::ReadChain(const State& s) const {
+  // Mobilized body b ≥ 1 is chain body b − 1 (Simbody numbers parents before children). Every
+  // mobilizer is a Pin (one q) or a Weld (none); a locked coordinate's pin is held.
+  std::vector<bool> held(static_cast<std::size_t>(matter_->getNumBodies()), false);
+  for (int i = 0; i < kNumCoordinates; ++i) {
+    if (params_->coordinates[i].mode == CoordinateMode::kLocked && !Welded(i)) {
+      held[CoordinateBody(i).getMobilizedBodyIndex()] = true;
+    }
+  }
+  std::vector<ChainBody> chain;
+  for (int b = 1; b < matter_->getNumBodies(); ++b) {
+    const SimTK::MobilizedBody& mobod = matter_->getMobilizedBody(SimTK::MobilizedBodyIndex(b));
+    const int nq = mobod.getNumQ(s);
+    if (nq > 1 || mobod.getNumU(s) != nq) {
+      throw std::logic_error("UpperLimbModel: mobilized body " + std::to_string(b) +
+                             " is neither a pin nor a weld");
+    }
+    ChainBody body;
+    body.parent = static_cast<int>(mobod.getParentMobilizedBody().getMobilizedBodyIndex()) - 1;
+    body.X_PF = mobod.getDefaultInboardFrame();
+    body.X_BM = mobod.getDefaultOutboardFrame();
+    const SimTK::MassProperties& mp = mobod.getBody().getDefaultRigidBodyMassProperties();
+    body.mass_kg = mp.getMass();
+    body.com_m = mp.getMassCenter();
+    body.inertia_o = mp.calcInertia().toMat33();
+    if (nq == 1) {
+      body.q = mobod.getFirstQIndex(s);
+      body.u = mobod.getFirstUIndex(s);
+      body.held = held[b];
+    }
+    chain.push_back(body);
+  }
+  return chain;
+}
+
+void UpperLimbModel::CalcYDot(const State& s, ChainWorkspace* ws, double* ydot) const {
+  if (!chain_) throw std::logic_error("UpperLimbModel::CalcYDot: a coordinate is prescribed");
+  const int nq = s.getNQ(), nu = s.getNU(), nz = s.getNZ();
+  const double* q = nq > 0 ? s.getQ().getContiguousScalarData() : nullptr;
+  const double* u = nu > 0 ? s.getU().getContiguousScalarData() : nullptr;
+  chain_->Kinematics(q, ws);
+  ForEachSupportForce(
+      *params_, up_, [&](int segment) { return segment_chain_[segment] < 0; },
+      [&](int segment, const Vec3& p_B) {
+        return chain_->StationInGround(*ws, segment_chain_[segment], p_B);
+      },
+      [&](int segment, const Vec3& p_B, const Vec3& f_G) {
+        chain_->ApplyForceAtStation(ws, segment_chain_[segment], p_B, f_G);
+      });
+  std::fill(ydot, ydot + nq + nu + nz, 0.0);
+  double* tau = ydot + nq;  // τ first, then u̇ in its place
+  AddPassiveMobilityForces(*slots_, *params_, q, u, s.getTime(), tau);
+  const MuscleSnapshot muscles = muscle_force_->Compute(s);
+  for (int i = 0; i < kNumCoordinates; ++i) {
+    if (slots_->u[i] >= 0) tau[slots_->u[i]] += muscles.joint_torque_nm[i];
+  }
+  ws->tau.assign(tau, tau + nu);
+  chain_->Accelerations(u, ws->tau.data(), ws, tau);
+  for (int b = 0; b < chain_->num_bodies(); ++b) {
+    const ChainBody& body = chain_->body(b);
+    if (body.q >= 0) ydot[body.q] = body.held ? 0.0 : u[body.u];  // a pin's q̇ = u
+  }
+  muscle_force_->ZDot(
+      s, ydot + nq + nu + s.getZStart(forces_->getMySubsystemIndex()) + muscle_force_->ZStart());
 }
 
 bool UpperLimbModel::Welded(int coordinate) const { return slots_->q.at(coordinate) < 0; }

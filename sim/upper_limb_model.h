@@ -65,6 +65,9 @@ std::vector<double> TorquePerActivation(const ModelParams& params,
                                         const std::vector<double>& a);
 
 struct CoordinateSlots;  // where each coordinate's q and u sit in the state (upper_limb_model.cc)
+class ChainDynamics;
+struct ChainBody;
+struct ChainWorkspace;
 
 /// How the Simbody system of an UpperLimbModel is built; not a model parameter (the same
 /// ModelParams give the same dynamics either way).
@@ -154,11 +157,27 @@ class UpperLimbModel {
   const SimTK::MobilizedBody& CoordinateBody(int coordinate) const;
   const SimTK::MobilizedBody& SegmentBody(int segment) const;
 
+  /// True when CalcYDot may be used: no coordinate is prescribed.
+  bool HasFastDerivatives() const { return chain_ != nullptr; }
+  /// Ẏ = [q̇, u̇, ż] in Simbody's Y layout (NY values into ydot) at the state's time and
+  /// variables: the force elements' own functions (muscles, passive joints, tremor, arm support,
+  /// fatigue and potentiation) with gravity, through the articulated-body algorithm of
+  /// ChainDynamics instead of Simbody's realisation — Simbody's getYDot() after
+  /// realize(Acceleration) to round-off (UpperLimbModel.FastDerivativesMatchSimbody), at a
+  /// fraction of the cost (docs/performance.md "Default model real-time factor"). Reads state
+  /// variables only, so the state need not be realised past Stage::Model. A locked coordinate's
+  /// q̇ and u̇ are 0; activation ż are left unwritten when the activations are in closed form
+  /// (SetActivationsInClosedForm). `ws` is the caller's scratch (one per thread). Throws
+  /// std::logic_error when !HasFastDerivatives().
+  void CalcYDot(const SimTK::State& state, ChainWorkspace* ws, double* ydot) const;
+
   /// Total mechanical energy (kinetic + gravity + passive springs/limits + bands + weight
   /// compensation), J. Needs Stage::Velocity.
   double MechanicalEnergy(const SimTK::State& state) const;
 
  private:
+  std::vector<ChainBody> ReadChain(const SimTK::State& s) const;
+
   std::shared_ptr<const ModelParams> params_;
   ModelBuildOptions build_options_;
   std::shared_ptr<const muscles::ArrayMatrix> array_;
@@ -171,6 +190,9 @@ class UpperLimbModel {
   std::shared_ptr<const CoordinateSlots> slots_;
   const MuscleForce* muscle_force_ = nullptr;  // owned by forces_
   SimTK::ForceIndex muscle_force_index_;
+  std::unique_ptr<const ChainDynamics> chain_;  // CalcYDot's; null with prescribed coordinates
+  std::vector<int> segment_chain_;              // chain body of each segment, −1 = the ground
+  SimTK::Vec3 up_;                              // weight compensation's direction, unit
 };
 
 }  // namespace fesim::sim

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "sim/chain_dynamics.h"
 #include "sim/default_model.h"
 #include "sim/integrator.h"
 #include "tendons/tendon_network.h"
@@ -212,6 +213,21 @@ TEST(UpperLimbModel, PrescribedCoordinateFollowsItsTrajectory) {
   });
 }
 
+/// The hand rig's locks (shoulder, elbow, pro/supination) plus DIP, and an elastic band on the
+/// forearm (locked: its force acts on a locked or welded body).
+void LockHandRigAndDipWithABandOnTheForearm(ModelParams* p) {
+  for (int c : {kShoulderElvPlane, kShoulderElevation, kShoulderRotation, kElbowFlexion, kProSup,
+                kDipFlexion}) {
+    p->coordinates[c].mode = CoordinateMode::kLocked;
+  }
+  BandParams band;
+  band.segment = kForearm;
+  band.cuff_in_segment_m = {0.0, -0.1, 0.0};
+  band.anchor_in_ground_m = {0.0, 0.5, 0.0};
+  band.stiffness_n_per_m = 200.0;
+  p->bands.push_back(band);
+}
+
 TEST(UpperLimbModel, WeldedLockedCoordinatesGiveTheSameDynamics) {
   // Hand rig (shoulder, elbow, pro/supination locked) with DIP locked too: the first five are
   // folded into the ground (ModelBuildOptions::weld_locked), DIP stays a weld below a mobile
@@ -220,17 +236,8 @@ TEST(UpperLimbModel, WeldedLockedCoordinatesGiveTheSameDynamics) {
   // coordinates' accelerations and mass matrix must equal the locked model's to round-off.
   constexpr double kAccelerationTol = 1e-9;  // rad/s², relative to the largest
   ModelParams p = DefaultModelParams();
-  for (int c : {kShoulderElvPlane, kShoulderElevation, kShoulderRotation, kElbowFlexion, kProSup,
-                kDipFlexion}) {
-    p.coordinates[c].mode = CoordinateMode::kLocked;
-  }
+  LockHandRigAndDipWithABandOnTheForearm(&p);
   p.coordinates[kDipFlexion].initial_rad = 0.3;
-  BandParams band;
-  band.segment = kForearm;
-  band.cuff_in_segment_m = {0.0, -0.1, 0.0};
-  band.anchor_in_ground_m = {0.0, 0.5, 0.0};
-  band.stiffness_n_per_m = 200.0;
-  p.bands.push_back(band);
   const UpperLimbModel locked(p), welded(p, ModelBuildOptions{true});
   EXPECT_EQ(locked.NumWelded(), 0);
   EXPECT_EQ(welded.NumWelded(), 6);
@@ -271,6 +278,72 @@ TEST(UpperLimbModel, WeldedLockedCoordinatesGiveTheSameDynamics) {
     }
   }
   EXPECT_THROW(welded.SensorTorques(sw), std::logic_error);
+}
+
+/// Simbody's Ẏ after realize(Acceleration) against UpperLimbModel::CalcYDot at one state of
+/// `model` with every mobile coordinate displaced and moving, muscles stimulated and active.
+void ExpectFastDerivativesMatchSimbody(const UpperLimbModel& model, double t, bool closed_form) {
+  constexpr double kRelativeTol = 1e-10;  // of the largest |Ẏ| component
+  ASSERT_TRUE(model.HasFastDerivatives());
+  SimTK::State s = model.MakeInitialState();
+  for (int c = 0; c < kNumCoordinates; ++c) {
+    if (model.Welded(c) || model.params().coordinates[c].mode != CoordinateMode::kFree) continue;
+    const auto& passive = model.params().coordinates[c].passive;
+    const double mid = 0.5 * (passive.min_angle_rad + passive.max_angle_rad);
+    const double half = 0.5 * (passive.max_angle_rad - passive.min_angle_rad);
+    model.CoordinateBody(c).setOneQ(s, 0, mid + half * 0.6 * std::sin(1.7 * c + 0.3));
+    model.CoordinateBody(c).setOneU(s, 0, 1.5 * std::cos(2.3 * c));
+  }
+  model.SetStimulation(s, {150, 90, 60, 200, 120, 30});
+  model.SetActivationsInClosedForm(s, closed_form);
+  const int a0 = model.ActivationYIndex(s);
+  for (int j = 0; j < model.num_muscles(); ++j) {
+    s.updY()[a0 + 2 * j] = 0.2 + 0.04 * j;
+    s.updY()[a0 + 2 * j + 1] = 0.5 - 0.1 * j;
+  }
+  for (int k = a0 + 2 * model.num_muscles(); k < s.getNY(); ++k) s.updY()[k] = 0.4 + 0.01 * k;
+  s.setTime(t);
+  model.system().realize(s, SimTK::Stage::Acceleration);
+  const SimTK::Vector& expected = s.getYDot();
+  SimTK::State fresh = s;  // the fast path needs no realised stage past Model
+  fresh.invalidateAllCacheAtOrAbove(SimTK::Stage::Time);
+  ChainWorkspace ws;
+  std::vector<double> ydot(s.getNY(), NAN);
+  model.CalcYDot(fresh, &ws, ydot.data());
+  const int activations_end = closed_form ? a0 + 2 * model.num_muscles() : a0;
+  double largest = 0.0;
+  for (int k = 0; k < s.getNY(); ++k) largest = std::max(largest, std::abs(expected[k]));
+  ASSERT_GT(largest, 1.0);
+  for (int k = 0; k < s.getNY(); ++k) {
+    if (k >= a0 && k < activations_end) continue;  // stale in closed form: nothing reads them
+    EXPECT_NEAR(ydot[k], expected[k], kRelativeTol * largest) << "Y index " << k;
+  }
+}
+
+TEST(UpperLimbModel, FastDerivativesMatchSimbody) {
+  // The default model (ten free coordinates, the support's bands and cuffs), then with fatigue,
+  // potentiation and a tremor (extra z), then the hand rig locked by Simbody's lock and welded
+  // (ModelBuildOptions::weld_locked) with a band on the welded forearm and a cuff on the hand.
+  ModelParams p = DefaultModelParams();
+  ExpectFastDerivativesMatchSimbody(UpperLimbModel(p), 0.0, false);
+  ExpectFastDerivativesMatchSimbody(UpperLimbModel(p), 0.0, true);
+  p.mechanisms.fatigue.enabled = true;
+  p.mechanisms.potentiation.enabled = true;
+  p.mechanisms.tremor.enabled = true;
+  p.mechanisms.tremor.amplitude_nm = 0.3;
+  ExpectFastDerivativesMatchSimbody(UpperLimbModel(p), 0.37, true);
+  LockHandRigAndDipWithABandOnTheForearm(&p);
+  p.weight_compensation.push_back({kHand, {0.01, -0.03, 0.0}, 2.0});
+  ExpectFastDerivativesMatchSimbody(UpperLimbModel(p), 0.37, true);
+  ExpectFastDerivativesMatchSimbody(UpperLimbModel(p, ModelBuildOptions{true}), 0.37, true);
+  // Prescribed coordinates have no fast path.
+  p.coordinates[kElbowFlexion].mode = CoordinateMode::kPrescribed;
+  const UpperLimbModel prescribed(p);
+  EXPECT_FALSE(prescribed.HasFastDerivatives());
+  ChainWorkspace ws;
+  std::vector<double> ydot(prescribed.MakeInitialState().getNY());
+  EXPECT_THROW(prescribed.CalcYDot(prescribed.MakeInitialState(), &ws, ydot.data()),
+               std::logic_error);
 }
 
 TEST(UpperLimbModel, StimulationIsClippedToPulseWidthLimits) {

@@ -140,7 +140,11 @@ double RelativeError(const FullModelFit& fit, const PlantedProblem& p, const std
 TEST(FullModelFitTest, SimulateLikeReproducesTheTrialRunner) {
   // SimulateLike integrates without sim::RunTrial's sensor bookkeeping; on a noiseless trial
   // recorded by RunTrial at the same tolerance it must give the same angles (same report times,
-  // same integrator path, same electromechanical delay).
+  // same electromechanical delay) to the integration's accuracy: SimulateLike welds the locked
+  // coordinates (sim::ModelBuildOptions::weld_locked) where RunTrial locks them, so the two
+  // right-hand sides differ by round-off, and round-off moves CVODES' step sequence
+  // (Integrator.WeldedLockedCoordinatesIntegrateTheSameTrajectoryAndSensitivities). Seen:
+  // ≤ 8.9e-8 rad at tolerance 1e-7.
   const sim::ModelParams rig = DefaultHandRig();
   const Trial trial = MakeTrial(rig, Staircase(rig), 7.0, 0.0, 1);
   const Trial sim = SimulateLike(rig, trial, kIntegratorTol);
@@ -150,7 +154,7 @@ TEST(FullModelFitTest, SimulateLikeReproducesTheTrialRunner) {
     const auto& b = sim.Column(name);
     double worst = 0.0;
     for (std::size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::abs(a[i] - b[i]));
-    EXPECT_LT(worst, 1e-12) << name;
+    EXPECT_LT(worst, 10.0 * kIntegratorTol) << name;
   }
   EXPECT_EQ(sim.Column("u.ext"), trial.Column("u.ext"));
 }

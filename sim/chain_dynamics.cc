@@ -1,0 +1,229 @@
+#include "sim/chain_dynamics.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace fesim::sim {
+
+using SimTK::Mat33;
+using SimTK::SpatialVec;
+using SimTK::Vec3;
+
+namespace {
+
+// Small dense products written out so that they inline (SimTK's generic ones do not here).
+inline Vec3 Mul(const Mat33& m, const Vec3& v) {
+  return {m(0, 0) * v[0] + m(0, 1) * v[1] + m(0, 2) * v[2],
+          m(1, 0) * v[0] + m(1, 1) * v[1] + m(1, 2) * v[2],
+          m(2, 0) * v[0] + m(2, 1) * v[1] + m(2, 2) * v[2]};
+}
+/// mᵀ v.
+inline Vec3 MulT(const Mat33& m, const Vec3& v) {
+  return {m(0, 0) * v[0] + m(1, 0) * v[1] + m(2, 0) * v[2],
+          m(0, 1) * v[0] + m(1, 1) * v[1] + m(2, 1) * v[2],
+          m(0, 2) * v[0] + m(1, 2) * v[1] + m(2, 2) * v[2]};
+}
+inline Mat33 Mul(const Mat33& a, const Mat33& b) {
+  Mat33 r;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) r(i, j) = a(i, 0) * b(0, j) + a(i, 1) * b(1, j) + a(i, 2) * b(2, j);
+  }
+  return r;
+}
+/// a bᵀ.
+inline Mat33 MulTransposed(const Mat33& a, const Mat33& b) {
+  Mat33 r;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) r(i, j) = a(i, 0) * b(j, 0) + a(i, 1) * b(j, 1) + a(i, 2) * b(j, 2);
+  }
+  return r;
+}
+/// a − s · u wᵀ.
+inline Mat33 MinusOuter(const Mat33& a, double s, const Vec3& u, const Vec3& w) {
+  Mat33 r;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) r(i, j) = a(i, j) - s * u[i] * w[j];
+  }
+  return r;
+}
+inline double Dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+inline double Dot(const SpatialVec& a, const SpatialVec& b) {
+  return Dot(a[0], b[0]) + Dot(a[1], b[1]);
+}
+
+/// I m for the spatial matrix [[A, B], [Bᵀ, C]].
+inline SpatialVec MulInertia(const Mat33& A, const Mat33& B, const Mat33& C, const SpatialVec& m) {
+  return {Mul(A, m[0]) + Mul(B, m[1]), MulT(B, m[0]) + Mul(C, m[1])};
+}
+
+/// v ×ₘ m ([Featherstone 2008] eq. 2.31): the motion cross product.
+inline SpatialVec CrossMotion(const SpatialVec& v, const SpatialVec& m) {
+  return {v[0] % m[0], v[0] % m[1] + v[1] % m[0]};
+}
+
+/// v ×* f (eq. 2.32): the force cross product.
+inline SpatialVec CrossForce(const SpatialVec& v, const SpatialVec& f) {
+  return {v[0] % f[0] + v[1] % f[1], v[0] % f[1]};
+}
+
+/// d · 1.
+Mat33 Diagonal(double d) { return {d, 0, 0, 0, d, 0, 0, 0, d}; }
+
+}  // namespace
+
+ChainDynamics::ChainDynamics(std::vector<ChainBody> bodies, Vec3 gravity_m_s2)
+    : bodies_(std::move(bodies)), gravity_(gravity_m_s2) {
+  for (std::size_t b = 0; b < bodies_.size(); ++b) {
+    const ChainBody& body = bodies_[b];
+    if (body.parent >= static_cast<int>(b) || body.parent < -1) {
+      throw std::invalid_argument("ChainDynamics: body " + std::to_string(b) + " has parent " +
+                                  std::to_string(body.parent) + " (allowed -1.." +
+                                  std::to_string(static_cast<int>(b) - 1) + ")");
+    }
+    // F in the parent's M: the parent's X_MB composed with this body's X_PF, once.
+    X_MF_.push_back(body.parent < 0 ? body.X_PF : X_MB_[body.parent] * body.X_PF);
+    X_MB_.push_back(~body.X_BM);
+    // I_c = I_o − m (|c|² 1 − c cᵀ) (parallel axes).
+    const Vec3& c = body.com_m;
+    inertia_c_.push_back(body.inertia_o - body.mass_kg * (Diagonal(Dot(c, c)) - c * ~c));
+  }
+}
+
+void ChainDynamics::Kinematics(const double* q, ChainWorkspace* ws) const {
+  const std::size_t n = bodies_.size();
+  ws->R_GM.resize(n);
+  ws->p_GM.resize(n);
+  ws->R_GB.resize(n);
+  ws->p_GB.resize(n);
+  ws->S.resize(n);
+  ws->f.assign(n, SpatialVec(Vec3(0), Vec3(0)));
+  for (std::size_t b = 0; b < n; ++b) {
+    const ChainBody& body = bodies_[b];
+    const SimTK::Transform& X_MF = X_MF_[b];  // in the parent's M (or G)
+    Mat33 R_GF;
+    Vec3 p_GF;
+    if (body.parent < 0) {
+      R_GF = X_MF.R().asMat33();
+      p_GF = X_MF.p();
+    } else {
+      const Mat33& R = ws->R_GM[body.parent];
+      R_GF = Mul(R, X_MF.R().asMat33());
+      p_GF = ws->p_GM[body.parent] + Mul(R, X_MF.p());
+    }
+    // A pin turns M about F's Z by q: M's x and y columns rotate within F's x–y plane.
+    Mat33& R_GM = ws->R_GM[b];
+    R_GM = R_GF;
+    if (body.q >= 0) {
+      const double cq = std::cos(q[body.q]), sq = std::sin(q[body.q]);
+      for (int i = 0; i < 3; ++i) {
+        R_GM(i, 0) = cq * R_GF(i, 0) + sq * R_GF(i, 1);
+        R_GM(i, 1) = -sq * R_GF(i, 0) + cq * R_GF(i, 1);
+      }
+    }
+    ws->p_GM[b] = p_GF;
+    // The axis through M's origin as a motion about G's origin: (a, p × a).
+    const Vec3 axis(R_GF(0, 2), R_GF(1, 2), R_GF(2, 2));
+    ws->S[b] =
+        body.u >= 0 && !body.held ? SpatialVec(axis, p_GF % axis) : SpatialVec(Vec3(0), Vec3(0));
+    if (body.mass_kg > 0.0) {
+      ws->R_GB[b] = Mul(R_GM, X_MB_[b].R().asMat33());
+      ws->p_GB[b] = p_GF + Mul(R_GM, X_MB_[b].p());
+    }
+  }
+}
+
+Vec3 ChainDynamics::StationInGround(const ChainWorkspace& ws, int b, const Vec3& p_B) const {
+  return ws.p_GB[b] + Mul(ws.R_GB[b], p_B);
+}
+
+void ChainDynamics::ApplyForceAtStation(ChainWorkspace* ws, int b, const Vec3& p_B,
+                                        const Vec3& f_G) const {
+  ws->f[b] += SpatialVec(StationInGround(*ws, b, p_B) % f_G, f_G);
+}
+
+void ChainDynamics::Accelerations(const double* u, const double* tau, ChainWorkspace* ws,
+                                  double* udot) const {
+  const int n = num_bodies();
+  ws->v.resize(n);
+  ws->c.resize(n);
+  ws->p.resize(n);
+  ws->U.resize(n);
+  ws->a.resize(n);
+  ws->IA.resize(n);
+  ws->IB.resize(n);
+  ws->IC.resize(n);
+  ws->D.resize(n);
+  ws->uu.resize(n);
+  // Pass 1: velocities, velocity-product accelerations c = v ×ₘ S u̇ (Ṡ = v ×ₘ S for an axis
+  // fixed in the moving body), rigid-body inertias about G's origin and bias forces.
+  for (int b = 0; b < n; ++b) {
+    const ChainBody& body = bodies_[b];
+    const SpatialVec vj = body.u >= 0 ? ws->S[b] * u[body.u] : SpatialVec(Vec3(0), Vec3(0));
+    ws->v[b] = (body.parent < 0 ? SpatialVec(Vec3(0), Vec3(0)) : ws->v[body.parent]) + vj;
+    ws->c[b] = CrossMotion(ws->v[b], vj);
+    if (body.mass_kg > 0.0) {
+      // [[R I_c Rᵀ − m c× c×, m c×], [−m c×, m 1]] with c the mass centre in G.
+      const double m = body.mass_kg;
+      const Mat33& R = ws->R_GB[b];
+      const Vec3 c = ws->p_GB[b] + Mul(R, body.com_m);
+      const Mat33 cx = SimTK::crossMat(c);
+      ws->IA[b] = MulTransposed(Mul(R, inertia_c_[b]), R) + m * (Diagonal(Dot(c, c)) - c * ~c);
+      ws->IB[b] = m * cx;
+      ws->IC[b] = Diagonal(m);
+      const SpatialVec& v = ws->v[b];
+      ws->p[b] = CrossForce(v, MulInertia(ws->IA[b], ws->IB[b], ws->IC[b], v)) - ws->f[b];
+    } else {
+      ws->IA[b] = ws->IB[b] = ws->IC[b] = Diagonal(0.0);
+      ws->p[b] = -ws->f[b];
+    }
+  }
+  // Pass 2: articulated inertias and bias forces, tip to root (all in G: a child's adds to its
+  // parent's as it is).
+  for (int b = n - 1; b >= 0; --b) {
+    const ChainBody& body = bodies_[b];
+    const bool moves = body.u >= 0 && !body.held;
+    if (moves) {
+      const SpatialVec& S = ws->S[b];
+      SpatialVec& U = ws->U[b];
+      U = MulInertia(ws->IA[b], ws->IB[b], ws->IC[b], S);
+      ws->D[b] = Dot(S, U);
+      ws->uu[b] = tau[body.u] - Dot(S, ws->p[b]);
+    }
+    if (body.parent < 0) continue;
+    const int parent = body.parent;
+    if (moves) {
+      const SpatialVec& U = ws->U[b];
+      const double inv_d = 1.0 / ws->D[b];
+      const Mat33 A = MinusOuter(ws->IA[b], inv_d, U[0], U[0]);
+      const Mat33 B = MinusOuter(ws->IB[b], inv_d, U[0], U[1]);
+      const Mat33 C = MinusOuter(ws->IC[b], inv_d, U[1], U[1]);
+      ws->IA[parent] += A;
+      ws->IB[parent] += B;
+      ws->IC[parent] += C;
+      ws->p[parent] += ws->p[b] + MulInertia(A, B, C, ws->c[b]) + U * (ws->uu[b] * inv_d);
+    } else {  // a weld or held pin: c = 0, nothing projected out
+      ws->IA[parent] += ws->IA[b];
+      ws->IB[parent] += ws->IB[b];
+      ws->IC[parent] += ws->IC[b];
+      ws->p[parent] += ws->p[b];
+    }
+  }
+  // Pass 3: accelerations, root to tip; gravity as the ground's acceleration −g.
+  const SpatialVec a_ground(Vec3(0), -gravity_);
+  for (int b = 0; b < n; ++b) {
+    const ChainBody& body = bodies_[b];
+    ws->a[b] = (body.parent < 0 ? a_ground : ws->a[body.parent]) + ws->c[b];
+    if (body.u < 0) continue;
+    if (body.held) {
+      udot[body.u] = 0.0;
+      continue;
+    }
+    const double qdd = (ws->uu[b] - Dot(ws->U[b], ws->a[b])) / ws->D[b];
+    udot[body.u] = qdd;
+    ws->a[b] += ws->S[b] * qdd;
+  }
+}
+
+}  // namespace fesim::sim
