@@ -13,40 +13,83 @@ using SimTK::Vec3;
 
 namespace {
 
-// Small dense products written out so that they inline (SimTK's generic ones do not here).
+// Small dense products on the matrices' storage, written out so that they inline (SimTK's
+// generic products and even its element access are out-of-line calls here). A Mat33 is nine
+// packed doubles, element (i, j) at [i + 3 j].
+static_assert(sizeof(Mat33) == 9 * sizeof(double), "Mat33 is nine packed doubles");
+inline const double* Data(const Mat33& m) { return reinterpret_cast<const double*>(&m); }
+inline double* Data(Mat33& m) { return reinterpret_cast<double*>(&m); }
+
 inline Vec3 Mul(const Mat33& m, const Vec3& v) {
-  return {m(0, 0) * v[0] + m(0, 1) * v[1] + m(0, 2) * v[2],
-          m(1, 0) * v[0] + m(1, 1) * v[1] + m(1, 2) * v[2],
-          m(2, 0) * v[0] + m(2, 1) * v[1] + m(2, 2) * v[2]};
+  const double* a = Data(m);
+  return {a[0] * v[0] + a[3] * v[1] + a[6] * v[2], a[1] * v[0] + a[4] * v[1] + a[7] * v[2],
+          a[2] * v[0] + a[5] * v[1] + a[8] * v[2]};
 }
 /// mᵀ v.
 inline Vec3 MulT(const Mat33& m, const Vec3& v) {
-  return {m(0, 0) * v[0] + m(1, 0) * v[1] + m(2, 0) * v[2],
-          m(0, 1) * v[0] + m(1, 1) * v[1] + m(2, 1) * v[2],
-          m(0, 2) * v[0] + m(1, 2) * v[1] + m(2, 2) * v[2]};
+  const double* a = Data(m);
+  return {a[0] * v[0] + a[1] * v[1] + a[2] * v[2], a[3] * v[0] + a[4] * v[1] + a[5] * v[2],
+          a[6] * v[0] + a[7] * v[1] + a[8] * v[2]};
 }
 inline Mat33 Mul(const Mat33& a, const Mat33& b) {
   Mat33 r;
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) r(i, j) = a(i, 0) * b(0, j) + a(i, 1) * b(1, j) + a(i, 2) * b(2, j);
+  const double *x = Data(a), *y = Data(b);
+  double* z = Data(r);
+  for (int j = 0; j < 3; ++j) {
+    for (int i = 0; i < 3; ++i) {
+      z[i + 3 * j] = x[i] * y[3 * j] + x[i + 3] * y[1 + 3 * j] + x[i + 6] * y[2 + 3 * j];
+    }
   }
   return r;
 }
 /// a bᵀ.
 inline Mat33 MulTransposed(const Mat33& a, const Mat33& b) {
   Mat33 r;
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) r(i, j) = a(i, 0) * b(j, 0) + a(i, 1) * b(j, 1) + a(i, 2) * b(j, 2);
+  const double *x = Data(a), *y = Data(b);
+  double* z = Data(r);
+  for (int j = 0; j < 3; ++j) {
+    for (int i = 0; i < 3; ++i)
+      z[i + 3 * j] = x[i] * y[j] + x[i + 3] * y[j + 3] + x[i + 6] * y[j + 6];
   }
   return r;
 }
 /// a − s · u wᵀ.
 inline Mat33 MinusOuter(const Mat33& a, double s, const Vec3& u, const Vec3& w) {
   Mat33 r;
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) r(i, j) = a(i, j) - s * u[i] * w[j];
+  const double* x = Data(a);
+  double* z = Data(r);
+  for (int j = 0; j < 3; ++j) {
+    for (int i = 0; i < 3; ++i) z[i + 3 * j] = x[i + 3 * j] - s * u[i] * w[j];
   }
   return r;
+}
+/// dst += src.
+inline void AddTo(Mat33* dst, const Mat33& src) {
+  double* z = Data(*dst);
+  const double* x = Data(src);
+  for (int k = 0; k < 9; ++k) z[k] += x[k];
+}
+/// The rigid-body blocks about G's origin of mass m with its centre at c (in G) and inertia
+/// I_c (about the centre, in G): A = I_c + m (|c|² 1 − c cᵀ), B = m c×, C = m 1.
+inline void RigidInertia(double m, const Vec3& c, const Mat33& inertia_c, Mat33* A, Mat33* B,
+                         Mat33* C) {
+  *A = inertia_c;
+  double* a = Data(*A);
+  const double cc = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+  for (int j = 0; j < 3; ++j) {
+    for (int i = 0; i < 3; ++i) a[i + 3 * j] += m * ((i == j ? cc : 0.0) - c[i] * c[j]);
+  }
+  double* b = Data(*B);
+  b[0] = b[4] = b[8] = 0.0;
+  b[5] = m * c[0];   // (2, 1)
+  b[7] = -m * c[0];  // (1, 2)
+  b[6] = m * c[1];   // (0, 2)
+  b[2] = -m * c[1];  // (2, 0)
+  b[1] = m * c[2];   // (1, 0)
+  b[3] = -m * c[2];  // (0, 1)
+  double* cm = Data(*C);
+  for (int k = 0; k < 9; ++k) cm[k] = 0.0;
+  cm[0] = cm[4] = cm[8] = m;
 }
 inline double Dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 inline double Dot(const SpatialVec& a, const SpatialVec& b) {
@@ -115,16 +158,18 @@ void ChainDynamics::Kinematics(const double* q, ChainWorkspace* ws) const {
     // A pin turns M about F's Z by q: M's x and y columns rotate within F's x–y plane.
     Mat33& R_GM = ws->R_GM[b];
     R_GM = R_GF;
+    const double* f = Data(R_GF);  // columns x, y, z at [0], [3], [6]
     if (body.q >= 0) {
       const double cq = std::cos(q[body.q]), sq = std::sin(q[body.q]);
+      double* m = Data(R_GM);
       for (int i = 0; i < 3; ++i) {
-        R_GM(i, 0) = cq * R_GF(i, 0) + sq * R_GF(i, 1);
-        R_GM(i, 1) = -sq * R_GF(i, 0) + cq * R_GF(i, 1);
+        m[i] = cq * f[i] + sq * f[i + 3];
+        m[i + 3] = -sq * f[i] + cq * f[i + 3];
       }
     }
     ws->p_GM[b] = p_GF;
     // The axis through M's origin as a motion about G's origin: (a, p × a).
-    const Vec3 axis(R_GF(0, 2), R_GF(1, 2), R_GF(2, 2));
+    const Vec3 axis(f[6], f[7], f[8]);
     ws->S[b] =
         body.u >= 0 && !body.held ? SpatialVec(axis, p_GF % axis) : SpatialVec(Vec3(0), Vec3(0));
     if (body.mass_kg > 0.0) {
@@ -164,14 +209,9 @@ void ChainDynamics::Accelerations(const double* u, const double* tau, ChainWorks
     ws->v[b] = (body.parent < 0 ? SpatialVec(Vec3(0), Vec3(0)) : ws->v[body.parent]) + vj;
     ws->c[b] = CrossMotion(ws->v[b], vj);
     if (body.mass_kg > 0.0) {
-      // [[R I_c Rᵀ − m c× c×, m c×], [−m c×, m 1]] with c the mass centre in G.
-      const double m = body.mass_kg;
       const Mat33& R = ws->R_GB[b];
-      const Vec3 c = ws->p_GB[b] + Mul(R, body.com_m);
-      const Mat33 cx = SimTK::crossMat(c);
-      ws->IA[b] = MulTransposed(Mul(R, inertia_c_[b]), R) + m * (Diagonal(Dot(c, c)) - c * ~c);
-      ws->IB[b] = m * cx;
-      ws->IC[b] = Diagonal(m);
+      RigidInertia(body.mass_kg, ws->p_GB[b] + Mul(R, body.com_m),
+                   MulTransposed(Mul(R, inertia_c_[b]), R), &ws->IA[b], &ws->IB[b], &ws->IC[b]);
       const SpatialVec& v = ws->v[b];
       ws->p[b] = CrossForce(v, MulInertia(ws->IA[b], ws->IB[b], ws->IC[b], v)) - ws->f[b];
     } else {
@@ -199,14 +239,14 @@ void ChainDynamics::Accelerations(const double* u, const double* tau, ChainWorks
       const Mat33 A = MinusOuter(ws->IA[b], inv_d, U[0], U[0]);
       const Mat33 B = MinusOuter(ws->IB[b], inv_d, U[0], U[1]);
       const Mat33 C = MinusOuter(ws->IC[b], inv_d, U[1], U[1]);
-      ws->IA[parent] += A;
-      ws->IB[parent] += B;
-      ws->IC[parent] += C;
+      AddTo(&ws->IA[parent], A);
+      AddTo(&ws->IB[parent], B);
+      AddTo(&ws->IC[parent], C);
       ws->p[parent] += ws->p[b] + MulInertia(A, B, C, ws->c[b]) + U * (ws->uu[b] * inv_d);
     } else {  // a weld or held pin: c = 0, nothing projected out
-      ws->IA[parent] += ws->IA[b];
-      ws->IB[parent] += ws->IB[b];
-      ws->IC[parent] += ws->IC[b];
+      AddTo(&ws->IA[parent], ws->IA[b]);
+      AddTo(&ws->IB[parent], ws->IB[b]);
+      AddTo(&ws->IC[parent], ws->IC[b]);
       ws->p[parent] += ws->p[b];
     }
   }
