@@ -82,7 +82,8 @@ struct ModelBuildOptions {
   /// muscle torque (MuscleMobilityForces gives 0 there; the weld takes it), and cannot be moved.
   /// For runs that read only the free coordinates: the fits' simulations (identification/fullmodel
   /// SimulateLike); −23 % instructions per hand-rig simulation (docs/performance.md "`fesim
-  /// diagnose` wall time"). Same dynamics to round-off, same integrator steps:
+  /// diagnose` wall time"). Same dynamics to round-off, the same error norm (the integrator's
+  /// steps then differ only as round-off moves them):
   /// UpperLimbModel.WeldedLockedCoordinatesGiveTheSameDynamics,
   /// Integrator.WeldedLockedCoordinatesIntegrateTheSameTrajectoryAndSensitivities.
   bool weld_locked = false;
