@@ -12,7 +12,10 @@
 //
 //   diagnosis_suite --suite foreign|family [--per N] [--clean N] [--outside N] [--pairs N]
 //                   [--mechanisms a,b,…] [--floor R] [--seed S] [--only SEED,…] [--threads N]
-//                   [--out FILE.md] [--json FILE.json] [--verbose 0|1|2]
+//                   [--rhs simbody|chain] [--out FILE.md] [--json FILE.json] [--verbose 0|1|2]
+//
+// --rhs: the fits' right-hand side (diagnosis::FitOptions::simbody_right_hand_side; simbody,
+// the default, or chain: the articulated-body one), to see which verdicts turn on round-off.
 //
 // Every data set has its own seed (--seed + 1, + 2, … in the order single per mechanism, clean,
 // outside, pairs), so `--only` reruns any of them alone. The Markdown (default: stdout) holds the
@@ -66,6 +69,7 @@ struct Options {
   std::set<std::uint64_t> only;
   std::vector<std::string> mechanisms;
   std::string out, json;
+  bool simbody_rhs = true;  // --rhs
 };
 
 /// One data set of a suite and what the diagnosis said.
@@ -330,8 +334,8 @@ int Usage(const char* why) {
   std::fprintf(stderr,
                "diagnosis_suite: %s\nusage: diagnosis_suite --suite foreign|family [--per N] "
                "[--clean N] [--outside N] [--pairs N] [--mechanisms a,b,...] [--floor R] "
-               "[--seed S] [--only SEED,...] [--threads N] [--out FILE.md] [--json FILE.json] "
-               "[--verbose 0|1|2]\n",
+               "[--seed S] [--only SEED,...] [--threads N] [--rhs simbody|chain] [--out FILE.md] "
+               "[--json FILE.json] [--verbose 0|1|2]\n",
                why);
   return 2;
 }
@@ -365,6 +369,10 @@ int main(int argc, char** argv) {
       o.seed = std::strtoull(v.c_str(), nullptr, 10);
     else if (k == "--mechanisms")
       o.mechanisms = Split(v);
+    else if (k == "--rhs" && (v == "simbody" || v == "chain"))
+      o.simbody_rhs = v == "simbody";
+    else if (k == "--rhs")
+      return Usage(("--rhs " + v + ": allowed simbody, chain").c_str());
     else if (k == "--out")
       o.out = v;
     else if (k == "--json")
@@ -419,6 +427,7 @@ int main(int argc, char** argv) {
     MakeData(o, floor, &c);
     const fesim::Scenario rig = fesim::LoadScenario(SourcePath(c.rig));
     dg::DiagnoseSettings settings;
+    settings.fit.simbody_right_hand_side = o.simbody_rhs;
     dg::DiagnoseExecution exec;
     exec.threads = o.threads;
     const auto tc = std::chrono::steady_clock::now();
