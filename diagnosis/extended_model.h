@@ -192,10 +192,11 @@ struct FitOptions {
   /// Jacobian for its step direction only (as FullModelFitOptions::jacobian_tolerance_factor).
   double jacobian_tolerance_factor = 10.0;
   /// sim::IntegratorParams::simbody_right_hand_side of every fit simulation. True: Simbody's
-  /// realisation, although UpperLimbModel::CalcYDot gives the same dynamics to round-off ≈ 2.4×
-  /// faster — the verdicts on foreign data turn on round-off: with CalcYDot 3 of the 8 foreign
-  /// quick-slice tests of tests/diagnosis/diagnose_test.cc changed verdict (docs/diagnosis.md
-  /// "Known limits", "Verdicts that turn on round-off").
+  /// realisation, although UpperLimbModel::CalcYDot gives the same dynamics to round-off and a
+  /// diagnosis 1.9–2.2× faster — the verdicts on foreign data turn on round-off: with CalcYDot 3
+  /// of the 6 foreign tests of tests/diagnosis/diagnose_test.cc and 6 of the 18 foreign suite
+  /// data sets changed cause (docs/diagnosis.md "Known limits", "Verdicts that turn on
+  /// round-off"). The suite records and the tests are Simbody's.
   bool simbody_right_hand_side = true;
   /// The simulation. Empty: the full model (12) by identification/fullmodel's SimulateLike;
   /// `fesim diagnose --model NAME` sets a reduced model (reduced_model.h).
