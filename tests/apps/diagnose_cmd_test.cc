@@ -83,7 +83,10 @@ TEST(DiagnoseCmd, InterruptedRunLeavesNoPartialReport) {
   const std::string dir = ::testing::TempDir() + "diag_cmd_interrupt";
   std::filesystem::remove_all(dir);  // no resume cache from an earlier run
   const std::string scenario = dir + "_short.yaml";
-  WriteFileAtomic(scenario, RigWith("stimulation:\n  duration_s: 30\n  type: steps\n  steps: "
+  // 120 s: the diagnosis must still be under way when the signal comes 1.5 s after its start,
+  // however fast its simulations (a 30 s trial's finished within 1.5 s with the fits on the
+  // articulated-body right-hand side, diagnosis::FitOptions::simbody_right_hand_side false).
+  WriteFileAtomic(scenario, RigWith("stimulation:\n  duration_s: 120\n  type: steps\n  steps: "
                                     "[{time_s: 2, values_us: {ext: 200}}, {time_s: 12, values_us: "
                                     "{flex: 150}}, {time_s: 22, values_us: {ext: 0}}]\n"));
   ASSERT_EQ(RunFesim("simulate " + scenario + " --out " + dir + "/sim --seed 4").exit_code, 0);
