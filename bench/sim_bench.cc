@@ -72,7 +72,7 @@ void BM_RightHandSide(benchmark::State& state, bool simbody) {
   SimTK::State s = model.MakeInitialState();
   model.SetStimulation(s, {150, 100, 120, 80, 60, 40});
   const SimTK::Vector y = s.getY();
-  fesim::sim::ChainWorkspace ws;
+  fesim::sim::RhsWorkspace ws;
   std::vector<double> ydot(static_cast<std::size_t>(s.getNY()));
   double t = 0.0;
   for (auto _ : state) {

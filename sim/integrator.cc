@@ -108,10 +108,12 @@ struct CvodesContext {
   double activations_time = NAN;             // t of the activations in the state (LoadState)
   SensitivityData* sens = nullptr;           // forward sensitivities, when integrated
   // Right-hand sides by UpperLimbModel::CalcYDot instead of Simbody's realisation (no
-  // prescribed coordinate): its scratch and the whole Ẏ.
+  // prescribed coordinate): its scratch, the whole Y it reads (LoadVariables) and Ẏ.
   bool fast = false;
-  ChainWorkspace chain;
-  std::vector<double> ydot;
+  RhsWorkspace rhs_ws;
+  std::vector<double> y_all, ydot;
+  double y_all_activations_time = NAN;   // t of activations_at_t
+  std::vector<double> activations_at_t;  // a, ȧ of every muscle at that t
 
   /// `simbody_rhs`: IntegratorParams::simbody_right_hand_side.
   CvodesContext(const UpperLimbModel* m, SimTK::State* s, bool p, bool simbody_rhs)
@@ -143,6 +145,7 @@ struct CvodesContext {
     if (sens != nullptr) BeginSensitivityInterval(sens, *state, t);
     t0 = t;
     activations_time = NAN;  // the state's activations are of the previous interval's input
+    y_all_activations_time = NAN;
     w = model->RecruitedFractions(*state);
     const SimTK::Vector& Y = state->getY();
     a0.resize(omega.size());
@@ -210,18 +213,40 @@ void LoadState(CvodesContext* c, double t, const double* y,
   c->model->system().realize(s, stage);
 }
 
+/// The whole Y at (t, y) into c->y_all, as LoadState would put it into the state: the state's
+/// Y with y at the CVODES components and the closed-form activations at t (computed again only
+/// when t changes). Writes nothing into the state.
+void LoadVariables(CvodesContext* c, double t, const double* y) {
+  const SimTK::Vector& Y = c->state->getY();
+  const double* from = Y.getContiguousScalarData();
+  c->y_all.assign(from, from + Y.size());
+  for (std::size_t i = 0; i < c->y_index.size(); ++i) c->y_all[c->y_index[i]] = y[i];
+  double* act = c->y_all.data() + c->activation_index;
+  if (SameBits(c->y_all_activations_time, t)) {
+    std::copy(c->activations_at_t.begin(), c->activations_at_t.end(), act);
+    return;
+  }
+  c->activations_at_t.resize(2 * c->omega.size());
+  for (std::size_t j = 0; j < c->omega.size(); ++j) {
+    const auto a = muscles::ActivationFreeResponse(c->omega[j], c->w[j], c->a0[j], t - c->t0);
+    c->activations_at_t[2 * j] = act[2 * j] = a.a;
+    c->activations_at_t[2 * j + 1] = act[2 * j + 1] = a.a_dot;
+  }
+  c->y_all_activations_time = t;
+}
+
 /// ẏ at (t, y) into out; 0, or 1 (recoverable: CVODES retries with a smaller step) on failure.
-/// Without prescribed coordinates by UpperLimbModel::CalcYDot on the loaded state variables
-/// (Simbody's Ẏ to round-off, UpperLimbModel.FastDerivativesMatchSimbody), otherwise by
+/// Without prescribed coordinates by UpperLimbModel::CalcYDot on the variables LoadVariables
+/// gathers (Simbody's Ẏ to round-off, UpperLimbModel.FastDerivativesMatchSimbody), otherwise by
 /// Simbody's realize(Acceleration).
 int EvaluateRhs(CvodesContext* c, double t, const double* y, double* out) {
   ++c->rhs;
   const double* yd = nullptr;
   try {
     if (c->fast) {
-      LoadState(c, t, y, SimTK::Stage::Model);
-      c->ydot.resize(static_cast<std::size_t>(c->state->getNY()));
-      c->model->CalcYDot(*c->state, &c->chain, c->ydot.data());
+      LoadVariables(c, t, y);
+      c->ydot.resize(c->y_all.size());
+      c->model->CalcYDot(*c->state, t, c->y_all.data(), &c->rhs_ws, c->ydot.data());
       yd = c->ydot.data();
     } else {
       LoadState(c, t, y);
@@ -447,7 +472,7 @@ int BodyRhsDifference(const SensitivityData& d, const SensitivityData::Parameter
   const double* yd = nullptr;
   try {
     if (c.fast) {  // the same right-hand side as f(t, y): CalcYDot
-      ChainWorkspace ws;
+      RhsWorkspace ws;
       fast_ydot.resize(static_cast<std::size_t>(s.getNY()));
       pk.body->CalcYDot(s, &ws, fast_ydot.data());
       yd = fast_ydot.data();

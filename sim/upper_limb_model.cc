@@ -292,12 +292,14 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   /// w = H_IRC(A u) — unless an integrator advances the activations in closed form
   /// (SetActivationsInClosedForm): then nothing reads them and they are left unwritten — and the
   /// fatigue and potentiation states' ż. Reads only state variables (no stage needed).
-  void ZDot(const State& s, double* zdot) const {
+  void ZDot(const State& s, double* zdot) const { ZDot(s, ZBlock(s), zdot); }
+  /// The same for this element's z block `z` instead of the state's (`s` gives the stimulation
+  /// and the closed-form flag).
+  void ZDot(const State& s, const double* z, double* zdot) const {
     const int nm = static_cast<int>(params_->muscles.size());
     if (nm == 0) return;
     const bool closed_form = ClosedFormActivations(s);
     const Vector* u = closed_form ? nullptr : &Stimulation(s);
-    const double* z = &forces_.getZ(s)[z_start_];
     for (int j = 0; j < nm; ++j) {
       if (!closed_form) {
         const auto& m = params_->muscles[j];
@@ -330,25 +332,48 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   Real calcPotentialEnergy(const State& /*s*/) const override { return 0.0; }
 
   MuscleSnapshot Compute(const State& s) const {
-    const std::vector<double> q = QsOf(*slots_, s);
-    const std::vector<double> qd = UsOf(*slots_, s);
+    RhsWorkspace ws;
+    Compute(s.getNQ() > 0 ? s.getQ().getContiguousScalarData() : nullptr,
+            s.getNU() > 0 ? s.getU().getContiguousScalarData() : nullptr, ZBlock(s), &ws);
+    return std::move(ws.muscles);
+  }
+
+  /// This element's z block in the state; null without muscles.
+  const double* ZBlock(const State& s) const {
     const Vector& z = forces_.getZ(s);
+    return z.size() > 0 ? &z[z_start_] : nullptr;
+  }
+
+  /// The muscles at Simbody's Q and U `q`, `u` and this element's z block `z` into ws->muscles
+  /// (ws's vectors reused).
+  void Compute(const double* q_state, const double* u_state, const double* z,
+               RhsWorkspace* ws) const {
+    std::vector<double>& q = ws->q;
+    std::vector<double>& qd = ws->qdot;
+    q.resize(slots_->q.size());
+    qd.resize(slots_->u.size());
+    for (std::size_t i = 0; i < q.size(); ++i) {
+      q[i] = slots_->q[i] >= 0 ? q_state[slots_->q[i]] : slots_->welded_q[i];
+    }
+    for (std::size_t i = 0; i < qd.size(); ++i) {
+      qd[i] = slots_->u[i] >= 0 ? u_state[slots_->u[i]] : 0.0;
+    }
     const int nm = static_cast<int>(params_->muscles.size());
-    MuscleSnapshot out;
+    MuscleSnapshot& out = ws->muscles;
     out.activation.resize(nm);
     out.force_n.resize(nm);
     out.length_m.resize(nm);
     out.velocity_m_s.resize(nm);
+    out.any_clamped = false;
     // Each crossing's moment arm once, for the velocity and τ = R f (same bits as per use).
-    const std::vector<double> arms = tendons::CrossingMomentArms(paths_, q);
-    const double* arms_j = arms.data();
+    tendons::CrossingMomentArms(paths_, q, &ws->arms);
+    const double* arms_j = ws->arms.data();
     for (int j = 0; j < nm; ++j) {
-      out.activation[j] = z[z_start_ + 2 * j];
+      out.activation[j] = z[2 * j];
       double gain = 1.0;
-      if (fitness_offset_ >= 0) gain *= z[z_start_ + fitness_offset_ + j];
+      if (fitness_offset_ >= 0) gain *= z[fitness_offset_ + j];
       if (potentiation_offset_ >= 0) {
-        gain *=
-            1.0 + params_->mechanisms.potentiation.gain * z[z_start_ + potentiation_offset_ + j];
+        gain *= 1.0 + params_->mechanisms.potentiation.gain * z[potentiation_offset_ + j];
       }
       const MuscleTendonSample m = MuscleTendonForceAt(
           params_->muscles[j], tendons::MusculotendonLength(paths_[j], q),
@@ -359,8 +384,7 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
       out.length_m[j] = m.length_m;
       out.velocity_m_s[j] = m.velocity_m_s;
     }
-    out.joint_torque_nm = tendons::JointTorques(paths_, arms, out.force_n, q.size());
-    return out;
+    tendons::JointTorques(paths_, ws->arms, out.force_n, q.size(), &out.joint_torque_nm);
   }
 
   const Vector& Stimulation(const State& s) const {
@@ -594,35 +618,43 @@ std::vector<ChainBody> UpperLimbModel::ReadChain(const State& s) const {
   return chain;
 }
 
-void UpperLimbModel::CalcYDot(const State& s, ChainWorkspace* ws, double* ydot) const {
+void UpperLimbModel::CalcYDot(const State& s, RhsWorkspace* ws, double* ydot) const {
+  CalcYDot(s, s.getTime(), s.getNY() > 0 ? s.getY().getContiguousScalarData() : nullptr, ws, ydot);
+}
+
+void UpperLimbModel::CalcYDot(const State& s, double t, const double* y, RhsWorkspace* ws,
+                              double* ydot) const {
   if (!chain_) throw std::logic_error("UpperLimbModel::CalcYDot: a coordinate is prescribed");
   const int nq = s.getNQ(), nu = s.getNU(), nz = s.getNZ();
-  const double* q = nq > 0 ? s.getQ().getContiguousScalarData() : nullptr;
-  const double* u = nu > 0 ? s.getU().getContiguousScalarData() : nullptr;
-  chain_->Kinematics(q, ws);
+  const double* q = nq > 0 ? y : nullptr;
+  const double* u = nu > 0 ? y + nq : nullptr;
+  ChainWorkspace* chain = &ws->chain;
+  chain_->Kinematics(q, chain);
   ForEachSupportForce(
       *params_, up_, [&](int segment) { return segment_chain_[segment] < 0; },
       [&](int segment, const Vec3& p_B) {
-        return chain_->StationInGround(*ws, segment_chain_[segment], p_B);
+        return chain_->StationInGround(*chain, segment_chain_[segment], p_B);
       },
       [&](int segment, const Vec3& p_B, const Vec3& f_G) {
-        chain_->ApplyForceAtStation(ws, segment_chain_[segment], p_B, f_G);
+        chain_->ApplyForceAtStation(chain, segment_chain_[segment], p_B, f_G);
       });
   std::fill(ydot, ydot + nq + nu + nz, 0.0);
   double* tau = ydot + nq;  // τ first, then u̇ in its place
-  AddPassiveMobilityForces(*slots_, *params_, q, u, s.getTime(), tau);
-  const MuscleSnapshot muscles = muscle_force_->Compute(s);
+  AddPassiveMobilityForces(*slots_, *params_, q, u, t, tau);
+  // This element's z block in y and in ẏ.
+  const int z_block =
+      nq + nu + s.getZStart(forces_->getMySubsystemIndex()) + muscle_force_->ZStart();
+  muscle_force_->Compute(q, u, y + z_block, ws);
   for (int i = 0; i < kNumCoordinates; ++i) {
-    if (slots_->u[i] >= 0) tau[slots_->u[i]] += muscles.joint_torque_nm[i];
+    if (slots_->u[i] >= 0) tau[slots_->u[i]] += ws->muscles.joint_torque_nm[i];
   }
-  ws->tau.assign(tau, tau + nu);
-  chain_->Accelerations(u, ws->tau.data(), ws, tau);
+  chain->tau.assign(tau, tau + nu);
+  chain_->Accelerations(u, chain->tau.data(), chain, tau);
   for (int b = 0; b < chain_->num_bodies(); ++b) {
     const ChainBody& body = chain_->body(b);
     if (body.q >= 0) ydot[body.q] = body.held ? 0.0 : u[body.u];  // a pin's q̇ = u
   }
-  muscle_force_->ZDot(
-      s, ydot + nq + nu + s.getZStart(forces_->getMySubsystemIndex()) + muscle_force_->ZStart());
+  muscle_force_->ZDot(s, y + z_block, ydot + z_block);
 }
 
 bool UpperLimbModel::Welded(int coordinate) const { return slots_->q.at(coordinate) < 0; }

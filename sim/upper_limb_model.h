@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "muscles/electrode_array.h"
+#include "sim/chain_dynamics.h"
 #include "sim/model_params.h"
 
 namespace fesim::sim {
@@ -65,9 +66,15 @@ std::vector<double> TorquePerActivation(const ModelParams& params,
                                         const std::vector<double>& a);
 
 struct CoordinateSlots;  // where each coordinate's q and u sit in the state (upper_limb_model.cc)
-class ChainDynamics;
-struct ChainBody;
-struct ChainWorkspace;
+
+/// Scratch of UpperLimbModel::CalcYDot, one per thread; reused between calls, so that a
+/// right-hand side allocates nothing once the vectors have their sizes.
+struct RhsWorkspace {
+  ChainWorkspace chain;
+  MuscleSnapshot muscles;       ///< the muscles at the last call's state
+  std::vector<double> q, qdot;  ///< every coordinate's q, q̇ (welded: its angle, 0)
+  std::vector<double> arms;     ///< each crossing's moment arm (tendons::CrossingMomentArms)
+};
 
 /// How the Simbody system of an UpperLimbModel is built; not a model parameter (the same
 /// ModelParams give the same dynamics either way).
@@ -170,7 +177,13 @@ class UpperLimbModel {
   /// q̇ and u̇ are 0; activation ż are left unwritten when the activations are in closed form
   /// (SetActivationsInClosedForm). `ws` is the caller's scratch (one per thread). Throws
   /// std::logic_error when !HasFastDerivatives().
-  void CalcYDot(const SimTK::State& state, ChainWorkspace* ws, double* ydot) const;
+  void CalcYDot(const SimTK::State& state, RhsWorkspace* ws, double* ydot) const;
+  /// The same at time t (s) and state variables y (NY values, Simbody's Y layout) instead of the
+  /// state's: `state` gives only the stimulation and the closed-form flag (discrete variables)
+  /// and the layout. For integrators that keep their own y, so that nothing is written into a
+  /// SimTK::State (whose every write invalidates stages) per right-hand side.
+  void CalcYDot(const SimTK::State& state, double t, const double* y, RhsWorkspace* ws,
+                double* ydot) const;
 
   /// Total mechanical energy (kinetic + gravity + passive springs/limits + bands + weight
   /// compensation), J. Needs Stage::Velocity.

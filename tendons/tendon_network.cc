@@ -66,17 +66,23 @@ std::vector<double> JointTorques(const std::vector<MusclePath>& paths, const std
 
 std::vector<double> CrossingMomentArms(const std::vector<MusclePath>& paths,
                                        const std::vector<double>& q) {
+  std::vector<double> arms;
+  CrossingMomentArms(paths, q, &arms);
+  return arms;
+}
+
+void CrossingMomentArms(const std::vector<MusclePath>& paths, const std::vector<double>& q,
+                        std::vector<double>* arms) {
   std::size_t crossings = 0;
   for (const auto& path : paths) crossings += path.crossings.size();
-  std::vector<double> arms;
-  arms.reserve(crossings);
+  arms->clear();
+  arms->reserve(crossings);
   for (const auto& path : paths) {
     for (const auto& c : path.crossings) {
       CheckJoint(path, c, q.size());
-      arms.push_back(MomentArm(c.arm, q[c.joint] - c.q_ref_rad));
+      arms->push_back(MomentArm(c.arm, q[c.joint] - c.q_ref_rad));
     }
   }
-  return arms;
 }
 
 double MusculotendonVelocity(const MusclePath& path, const double* arms,
@@ -91,18 +97,24 @@ double MusculotendonVelocity(const MusclePath& path, const double* arms,
 std::vector<double> JointTorques(const std::vector<MusclePath>& paths,
                                  const std::vector<double>& arms, const std::vector<double>& f,
                                  std::size_t num_joints) {
+  std::vector<double> tau;
+  JointTorques(paths, arms, f, num_joints, &tau);
+  return tau;
+}
+
+void JointTorques(const std::vector<MusclePath>& paths, const std::vector<double>& arms,
+                  const std::vector<double>& f, std::size_t num_joints, std::vector<double>* tau) {
   if (f.size() != paths.size()) throw std::invalid_argument("JointTorques: force count mismatch");
   std::size_t crossings = 0;
   for (const auto& path : paths) crossings += path.crossings.size();
   if (arms.size() != crossings) {
     throw std::invalid_argument("JointTorques: moment arm count mismatch");
   }
-  std::vector<double> tau(num_joints, 0.0);
+  tau->assign(num_joints, 0.0);
   std::size_t k = 0;
   for (std::size_t m = 0; m < paths.size(); ++m) {
-    for (const auto& c : paths[m].crossings) tau[c.joint] += arms[k++] * f[m];
+    for (const auto& c : paths[m].crossings) (*tau)[c.joint] += arms[k++] * f[m];
   }
-  return tau;
 }
 
 }  // namespace fesim::tendons

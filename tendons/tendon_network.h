@@ -49,6 +49,9 @@ std::vector<double> JointTorques(const std::vector<MusclePath>& paths, const std
 /// (the force element evaluates each arm once per right-hand side, not once per use).
 std::vector<double> CrossingMomentArms(const std::vector<MusclePath>& paths,
                                        const std::vector<double>& q);
+/// The same into `arms` (resized; its capacity is reused between calls).
+void CrossingMomentArms(const std::vector<MusclePath>& paths, const std::vector<double>& q,
+                        std::vector<double>* arms);
 
 /// dl_MT/dt = −Σ_i r_i q̇_i, m/s, with `arms` the path's crossings' r (from CrossingMomentArms,
 /// pointing at the path's first crossing). Joint indices as checked by CrossingMomentArms.
@@ -59,5 +62,8 @@ double MusculotendonVelocity(const MusclePath& path, const double* arms,
 std::vector<double> JointTorques(const std::vector<MusclePath>& paths,
                                  const std::vector<double>& arms, const std::vector<double>& f,
                                  std::size_t num_joints);
+/// The same into `tau` (resized to num_joints; its capacity is reused between calls).
+void JointTorques(const std::vector<MusclePath>& paths, const std::vector<double>& arms,
+                  const std::vector<double>& f, std::size_t num_joints, std::vector<double>* tau);
 
 }  // namespace fesim::tendons

@@ -307,7 +307,7 @@ void ExpectFastDerivativesMatchSimbody(const UpperLimbModel& model, double t, bo
   const SimTK::Vector& expected = s.getYDot();
   SimTK::State fresh = s;  // the fast path needs no realised stage past Model
   fresh.invalidateAllCacheAtOrAbove(SimTK::Stage::Time);
-  ChainWorkspace ws;
+  RhsWorkspace ws;
   std::vector<double> ydot(s.getNY(), NAN);
   model.CalcYDot(fresh, &ws, ydot.data());
   const int activations_end = closed_form ? a0 + 2 * model.num_muscles() : a0;
@@ -317,6 +317,17 @@ void ExpectFastDerivativesMatchSimbody(const UpperLimbModel& model, double t, bo
   for (int k = 0; k < s.getNY(); ++k) {
     if (k >= a0 && k < activations_end) continue;  // stale in closed form: nothing reads them
     EXPECT_NEAR(ydot[k], expected[k], kRelativeTol * largest) << "Y index " << k;
+  }
+  // The same bits from (t, Y) given beside a state whose variables and time differ (it gives
+  // only the stimulation and the closed-form flag), the scratch reused.
+  SimTK::State other = fresh;
+  for (int k = 0; k < other.getNY(); ++k) other.updY()[k] = 0.3 * other.getY()[k] + 0.01;
+  other.setTime(t + 1.0);
+  std::vector<double> ydot_from_y(s.getNY(), NAN);
+  model.CalcYDot(other, t, &fresh.getY()[0], &ws, ydot_from_y.data());
+  for (int k = 0; k < s.getNY(); ++k) {
+    if (k >= a0 && k < activations_end) continue;
+    EXPECT_EQ(ydot_from_y[k], ydot[k]) << "Y index " << k;
   }
 }
 
@@ -340,7 +351,7 @@ TEST(UpperLimbModel, FastDerivativesMatchSimbody) {
   p.coordinates[kElbowFlexion].mode = CoordinateMode::kPrescribed;
   const UpperLimbModel prescribed(p);
   EXPECT_FALSE(prescribed.HasFastDerivatives());
-  ChainWorkspace ws;
+  RhsWorkspace ws;
   std::vector<double> ydot(prescribed.MakeInitialState().getNY());
   EXPECT_THROW(prescribed.CalcYDot(prescribed.MakeInitialState(), &ws, ydot.data()),
                std::logic_error);

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <stdexcept>
 #include <vector>
 
@@ -60,6 +61,12 @@ TEST(TendonNetwork, OverloadsOnPrecomputedArmsGiveTheSameBits) {
     at += path.crossings.size();
   }
   EXPECT_EQ(JointTorques(paths, arms, f, q.size()), JointTorques(paths, q, f));
+  // The forms into a caller's vectors, whatever they held before.
+  std::vector<double> reused(7, NAN), tau(1, NAN);
+  CrossingMomentArms(paths, q, &reused);
+  EXPECT_EQ(reused, arms);
+  JointTorques(paths, arms, f, q.size(), &tau);
+  EXPECT_EQ(tau, JointTorques(paths, q, f));
   EXPECT_THROW(JointTorques(paths, std::vector<double>(3), f, q.size()), std::invalid_argument);
   EXPECT_THROW(CrossingMomentArms(paths, {0.1}), std::invalid_argument);
 }
