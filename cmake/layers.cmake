@@ -6,7 +6,7 @@
 # standard library and is allowed everywhere.
 set(FESIM_PACKAGE_ITEMS_Eigen Eigen3::Eigen)
 set(FESIM_PACKAGE_ITEMS_Simbody ${Simbody_LIBRARIES})
-set(FESIM_PACKAGE_ITEMS_SUNDIALS SUNDIALS::cvodes_static SUNDIALS::sunlinsoldense_static
+set(FESIM_PACKAGE_ITEMS_SUNDIALS SUNDIALS::cvodes_static
   SUNDIALS::sunmatrixdense_static SUNDIALS::nvecserial_static SUNDIALS::generic_static)
 set(FESIM_PACKAGE_ITEMS_yaml-cpp yaml-cpp)
 set(FESIM_PACKAGE_ITEMS_MPI MPI::MPI_CXX)

@@ -3,7 +3,6 @@
 #include <cvodes/cvodes.h>
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
-#include <sunlinsol/sunlinsol_dense.h>
 #include <sunmatrix/sunmatrix_dense.h>
 
 #include <algorithm>
@@ -18,6 +17,7 @@
 
 #include "muscles/activation.h"
 #include "sim/chain_dynamics.h"
+#include "sim/dense_linear_solver.h"
 #include "sim/upper_limb_model.h"
 
 namespace fesim::sim {
@@ -700,7 +700,7 @@ class Cvodes {
     // exception that reports the failure (a fit's rejected trial point is not the user's error).
     CVodeSetErrHandlerFn(mem_, KeepMessage, &last_error_);
     a_ = SUNDenseMatrix(n, n, sunctx_);
-    ls_ = SUNLinSol_Dense(y_, a_, sunctx_);
+    ls_ = NewDenseLinearSolver(y_, a_, sunctx_);
     tol_ = tol;
     abs_tol_ = std::move(abs_tol);
     if (static_cast<int>(abs_tol_.size()) != n) {

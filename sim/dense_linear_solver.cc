@@ -1,0 +1,142 @@
+#include "sim/dense_linear_solver.h"
+
+#include <sunmatrix/sunmatrix_dense.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace fesim::sim {
+
+sunindextype DenseLuFactor(double* a, sunindextype n, sunindextype* p) {
+  for (sunindextype k = 0; k < n; ++k) {
+    double* col_k = a + k * n;
+    sunindextype l = k;  // the pivot row: the largest |a(i, k)|, the first of equals
+    for (sunindextype i = k + 1; i < n; ++i) {
+      if (std::abs(col_k[i]) > std::abs(col_k[l])) l = i;
+    }
+    p[k] = l;
+    if (col_k[l] == 0.0) return k + 1;
+    if (l != k) {  // swap rows k and l over every column
+      for (sunindextype j = 0; j < n; ++j) {
+        double* col_j = a + j * n;
+        const double t = col_j[l];
+        col_j[l] = col_j[k];
+        col_j[k] = t;
+      }
+    }
+    // The multipliers a(i, k) / a(k, k) below the diagonal (as a product with the reciprocal),
+    // then each later column j: a(i, j) −= a(k, j) · multiplier_i, skipped where a(k, j) = 0.
+    const double mult = 1.0 / col_k[k];
+    for (sunindextype i = k + 1; i < n; ++i) col_k[i] *= mult;
+    for (sunindextype j = k + 1; j < n; ++j) {
+      double* col_j = a + j * n;
+      const double a_kj = col_j[k];
+      if (a_kj == 0.0) continue;
+      for (sunindextype i = k + 1; i < n; ++i) col_j[i] -= a_kj * col_k[i];
+    }
+  }
+  return 0;
+}
+
+void DenseLuSolve(const double* a, sunindextype n, const sunindextype* p, double* b) {
+  for (sunindextype k = 0; k < n; ++k) {  // b ← P b
+    const sunindextype pk = p[k];
+    if (pk != k) {
+      const double t = b[k];
+      b[k] = b[pk];
+      b[pk] = t;
+    }
+  }
+  for (sunindextype k = 0; k + 1 < n; ++k) {  // L y = b (unit diagonal)
+    const double* col_k = a + k * n;
+    for (sunindextype i = k + 1; i < n; ++i) b[i] -= col_k[i] * b[k];
+  }
+  for (sunindextype k = n - 1; k > 0; --k) {  // U x = y
+    const double* col_k = a + k * n;
+    b[k] /= col_k[k];
+    for (sunindextype i = 0; i < k; ++i) b[i] -= col_k[i] * b[k];
+  }
+  if (n > 0) b[0] /= a[0];
+}
+
+namespace {
+
+struct Content {
+  std::vector<sunindextype> pivots;
+  sunindextype last_flag = 0;
+};
+
+Content* ContentOf(SUNLinearSolver s) { return static_cast<Content*>(s->content); }
+
+SUNLinearSolver_Type GetType(SUNLinearSolver) { return SUNLINEARSOLVER_DIRECT; }
+SUNLinearSolver_ID GetId(SUNLinearSolver) { return SUNLINEARSOLVER_CUSTOM; }
+int Initialize(SUNLinearSolver s) {
+  ContentOf(s)->last_flag = SUNLS_SUCCESS;
+  return SUNLS_SUCCESS;
+}
+
+int Setup(SUNLinearSolver s, SUNMatrix a) {
+  Content* c = ContentOf(s);
+  const auto n = static_cast<sunindextype>(c->pivots.size());
+  if (a == nullptr || SUNMatGetID(a) != SUNMATRIX_DENSE || SUNDenseMatrix_Rows(a) != n ||
+      SUNDenseMatrix_Columns(a) != n) {
+    c->last_flag = SUNLS_ILL_INPUT;
+    return SUNLS_ILL_INPUT;
+  }
+  c->last_flag = DenseLuFactor(SUNDenseMatrix_Data(a), n, c->pivots.data());
+  return c->last_flag > 0 ? SUNLS_LUFACT_FAIL : SUNLS_SUCCESS;
+}
+
+int Solve(SUNLinearSolver s, SUNMatrix a, N_Vector x, N_Vector b, sunrealtype /*tol*/) {
+  Content* c = ContentOf(s);
+  const auto n = static_cast<sunindextype>(c->pivots.size());
+  double* xd = N_VGetArrayPointer(x);
+  const double* bd = N_VGetArrayPointer(b);
+  if (xd != bd) std::copy(bd, bd + n, xd);
+  DenseLuSolve(SUNDenseMatrix_Data(a), n, c->pivots.data(), xd);
+  c->last_flag = SUNLS_SUCCESS;
+  return SUNLS_SUCCESS;
+}
+
+sunindextype LastFlag(SUNLinearSolver s) { return ContentOf(s)->last_flag; }
+
+int Space(SUNLinearSolver s, long* real_words, long* int_words) {
+  *real_words = 0;
+  *int_words = 2 + static_cast<long>(ContentOf(s)->pivots.size());
+  return SUNLS_SUCCESS;
+}
+
+int Free(SUNLinearSolver s) {
+  if (s == nullptr) return SUNLS_SUCCESS;
+  delete ContentOf(s);
+  s->content = nullptr;
+  SUNLinSolFreeEmpty(s);
+  return SUNLS_SUCCESS;
+}
+
+}  // namespace
+
+SUNLinearSolver NewDenseLinearSolver(N_Vector y, SUNMatrix a, SUNContext sunctx) {
+  if (y == nullptr || a == nullptr || SUNMatGetID(a) != SUNMATRIX_DENSE ||
+      SUNDenseMatrix_Rows(a) != SUNDenseMatrix_Columns(a) ||
+      N_VGetLength(y) != SUNDenseMatrix_Rows(a)) {
+    return nullptr;
+  }
+  SUNLinearSolver s = SUNLinSolNewEmpty(sunctx);
+  if (s == nullptr) return nullptr;
+  s->ops->gettype = GetType;
+  s->ops->getid = GetId;
+  s->ops->initialize = Initialize;
+  s->ops->setup = Setup;
+  s->ops->solve = Solve;
+  s->ops->lastflag = LastFlag;
+  s->ops->space = Space;
+  s->ops->free = Free;
+  auto* content = new Content;
+  content->pivots.assign(static_cast<std::size_t>(SUNDenseMatrix_Rows(a)), 0);
+  s->content = content;
+  return s;
+}
+
+}  // namespace fesim::sim
