@@ -18,6 +18,7 @@
 #include "muscles/activation.h"
 #include "sim/chain_dynamics.h"
 #include "sim/dense_linear_solver.h"
+#include "sim/serial_vector.h"
 #include "sim/upper_limb_model.h"
 
 namespace fesim::sim {
@@ -695,6 +696,7 @@ class Cvodes {
   Cvodes(int n, double tol, std::vector<double> abs_tol, bool adams, CvodesContext* ctx) {
     if (SUNContext_Create(nullptr, &sunctx_) != 0) throw std::runtime_error("SUNContext_Create");
     y_ = N_VNew_Serial(n, sunctx_);
+    UseCompiledSerialOps(y_);  // and so every vector CVODES clones from it
     mem_ = CVodeCreate(adams ? CV_ADAMS : CV_BDF, sunctx_);
     // CVODES prints its failures to stderr by default; keep the last message instead, for the
     // exception that reports the failure (a fit's rejected trial point is not the user's error).

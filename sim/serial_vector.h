@@ -1,0 +1,19 @@
+// The hot operations of SUNDIALS' serial N_Vector, compiled with fesim.
+//
+// Debian 12's libsundials 6.4.1 is compiled without optimisation (sim/dense_linear_solver.h);
+// CVODES' vector arithmetic — N_VLinearSum (its axpy form above all), N_VWrmsNorm, N_VScale —
+// was 12 % of a 60 s default-model trial's instructions (docs/performance.md "Default model
+// real-time factor"). These are nvector_serial's own cases and loops, the same operations in
+// the same order, so results are bit-identical (SerialVector.SameBitsAsSundials).
+#pragma once
+
+#include <sundials/sundials_nvector.h>
+
+namespace fesim::sim {
+
+/// Points v's N_VLinearSum, N_VScale, N_VWrmsNorm and N_VWSqrSumLocal at the compiled forms. `v`
+/// must be a serial vector (N_VNew_Serial); its clones (N_VClone: CVODES' internal vectors)
+/// inherit the operations.
+void UseCompiledSerialOps(N_Vector v);
+
+}  // namespace fesim::sim
