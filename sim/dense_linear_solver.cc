@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <vector>
 
 namespace fesim::sim {
@@ -115,7 +116,45 @@ int Free(SUNLinearSolver s) {
   return SUNLS_SUCCESS;
 }
 
+int CopyMatrix(SUNMatrix a, SUNMatrix b) {
+  if (SUNMatGetID(b) != SUNMATRIX_DENSE || SUNDenseMatrix_Rows(a) != SUNDenseMatrix_Rows(b) ||
+      SUNDenseMatrix_Columns(a) != SUNDenseMatrix_Columns(b)) {
+    return SUNMAT_ILL_INPUT;
+  }
+  const double* from = SUNDenseMatrix_Data(a);
+  std::copy(from, from + SUNDenseMatrix_LData(a), SUNDenseMatrix_Data(b));
+  return SUNMAT_SUCCESS;
+}
+
+int ScaleAddIdentity(sunrealtype c, SUNMatrix a) {  // A ← c A + I, element by element
+  const sunindextype rows = SUNDenseMatrix_Rows(a), cols = SUNDenseMatrix_Columns(a);
+  double* d = SUNDenseMatrix_Data(a);
+  for (sunindextype j = 0; j < cols; ++j) {
+    for (sunindextype i = 0; i < rows; ++i) {
+      double& x = d[j * rows + i];
+      x *= c;
+      if (i == j) x += 1.0;
+    }
+  }
+  return SUNMAT_SUCCESS;
+}
+
+SUNMatrix CloneMatrix(SUNMatrix a) {
+  SUNMatrix b = SUNDenseMatrix(SUNDenseMatrix_Rows(a), SUNDenseMatrix_Columns(a), a->sunctx);
+  if (b != nullptr) UseCompiledDenseMatrixOps(b);
+  return b;
+}
+
 }  // namespace
+
+void UseCompiledDenseMatrixOps(SUNMatrix a) {
+  if (a == nullptr || SUNMatGetID(a) != SUNMATRIX_DENSE) {
+    throw std::invalid_argument("UseCompiledDenseMatrixOps: not a dense SUNMatrix");
+  }
+  a->ops->copy = CopyMatrix;
+  a->ops->scaleaddi = ScaleAddIdentity;
+  a->ops->clone = CloneMatrix;
+}
 
 SUNLinearSolver NewDenseLinearSolver(N_Vector y, SUNMatrix a, SUNContext sunctx) {
   if (y == nullptr || a == nullptr || SUNMatGetID(a) != SUNMATRIX_DENSE ||

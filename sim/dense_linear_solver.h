@@ -22,6 +22,11 @@ namespace fesim::sim {
 /// A⁻¹ b. Null when `a` is not square. Free with SUNLinSolFree.
 SUNLinearSolver NewDenseLinearSolver(N_Vector y, SUNMatrix a, SUNContext sunctx);
 
+/// Points a dense SUNMatrix's copy, A ← cA + I and clone at compiled forms of
+/// sunmatrix_dense's own loops (bit-identical; its clones, e.g. CVODES' saved Jacobian, inherit
+/// them). CVODES copies and shifts the iteration matrix at every linear-solver setup.
+void UseCompiledDenseMatrixOps(SUNMatrix a);
+
 /// LU with partial pivoting of the n × n column-major `a` in place, pivots into p (row swapped
 /// with row k at step k): 0, or k + 1 when the k-th pivot is exactly zero (SUNDlsMat_denseGETRF).
 sunindextype DenseLuFactor(double* a, sunindextype n, sunindextype* p);

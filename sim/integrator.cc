@@ -702,6 +702,7 @@ class Cvodes {
     // exception that reports the failure (a fit's rejected trial point is not the user's error).
     CVodeSetErrHandlerFn(mem_, KeepMessage, &last_error_);
     a_ = SUNDenseMatrix(n, n, sunctx_);
+    UseCompiledDenseMatrixOps(a_);
     ls_ = NewDenseLinearSolver(y_, a_, sunctx_);
     tol_ = tol;
     abs_tol_ = std::move(abs_tol);

@@ -5,6 +5,7 @@
 #include <sundials/sundials_dense.h>
 #include <sunmatrix/sunmatrix_dense.h>
 
+#include <algorithm>
 #include <cstring>
 #include <random>
 #include <vector>
@@ -88,6 +89,37 @@ TEST(DenseLinearSolver, SolvesThroughTheSundialsInterfaceAndReportsAZeroPivot) {
   SUNMatDestroy(a);
   N_VDestroy(x);
   N_VDestroy(b);
+  SUNContext_Free(&ctx);
+}
+
+TEST(DenseLinearSolver, MatrixOperationsGiveSundialsBits) {
+  // A ← c A + I, copy and clone against sunmatrix_dense's own functions, bit for bit.
+  SUNContext ctx = nullptr;
+  ASSERT_EQ(SUNContext_Create(nullptr, &ctx), 0);
+  const int n = 7;
+  SUNMatrix ours = SUNDenseMatrix(n, n, ctx), theirs = SUNDenseMatrix(n, n, ctx);
+  UseCompiledDenseMatrixOps(ours);
+  const std::vector<double> a = RandomMatrix(n, 5u, false);
+  std::copy(a.begin(), a.end(), SUNDenseMatrix_Data(ours));
+  std::copy(a.begin(), a.end(), SUNDenseMatrix_Data(theirs));
+  ASSERT_EQ(SUNMatScaleAddI(-0.37, ours), SUNMAT_SUCCESS);
+  ASSERT_EQ(SUNMatScaleAddI_Dense(-0.37, theirs), SUNMAT_SUCCESS);
+  EXPECT_EQ(
+      std::memcmp(SUNDenseMatrix_Data(ours), SUNDenseMatrix_Data(theirs), sizeof(double) * n * n),
+      0);
+  SUNMatrix clone = SUNMatClone(ours);  // CVODES' saved Jacobian: the same operations
+  ASSERT_NE(clone, nullptr);
+  EXPECT_EQ(clone->ops->scaleaddi, ours->ops->scaleaddi);
+  ASSERT_EQ(SUNMatCopy(ours, clone), SUNMAT_SUCCESS);
+  EXPECT_EQ(
+      std::memcmp(SUNDenseMatrix_Data(clone), SUNDenseMatrix_Data(theirs), sizeof(double) * n * n),
+      0);
+  SUNMatrix wrong = SUNDenseMatrix(n, n + 1, ctx);
+  EXPECT_EQ(SUNMatCopy(ours, wrong), SUNMAT_ILL_INPUT);
+  SUNMatDestroy(wrong);
+  SUNMatDestroy(clone);
+  SUNMatDestroy(ours);
+  SUNMatDestroy(theirs);
   SUNContext_Free(&ctx);
 }
 
