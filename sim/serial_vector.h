@@ -2,7 +2,7 @@
 //
 // Debian 12's libsundials 6.4.1 is compiled without optimisation (sim/dense_linear_solver.h);
 // CVODES' vector arithmetic — N_VLinearSum (its axpy form above all), N_VWrmsNorm, N_VScale —
-// was 12 % of a 60 s default-model trial's instructions (docs/performance.md "Default model
+// was 10 % of a 60 s default-model trial's instructions (docs/performance.md "Default model
 // real-time factor"). These are nvector_serial's own cases and loops, the same operations in
 // the same order, so results are bit-identical (SerialVector.SameBitsAsSundials).
 #pragma once
