@@ -154,7 +154,7 @@ std::string DiagnoseSettings::KeyText() const {
   // The right-hand side enters only when it is not the default, so that caches written before
   // the choice existed (all Simbody's) keep their keys.
   return s + (fit.sensitivities ? "sens," : "fd,") + (fit.simbody_right_hand_side ? "" : "chain,") +
-         model;
+         (person.converged_stop ? "converged," : "") + model;
 }
 
 Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measured,

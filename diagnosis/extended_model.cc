@@ -582,6 +582,8 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   lm.max_iterations = max_iterations > 0 ? max_iterations : options.max_iterations;
   lm.relative_tolerance = options.relative_tolerance;
   lm.step_tolerance = 1e-9;
+  lm.stop_needs_predicted_decrease = options.stop_needs_predicted_decrease;
+  lm.hold_active_bounds = options.hold_active_bounds;
   identification::LmResult res =
       identification::LevenbergMarquardt(residual, x0_free, lower, upper, lm, {}, jacobian);
   res.cost /= c * c;

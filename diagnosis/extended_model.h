@@ -191,13 +191,16 @@ struct FitOptions {
   /// The sensitivity integrations run at this multiple of `tolerance` (≥ 1): LM needs the
   /// Jacobian for its step direction only (as FullModelFitOptions::jacobian_tolerance_factor).
   double jacobian_tolerance_factor = 10.0;
-  /// sim::IntegratorParams::simbody_right_hand_side of every fit simulation. True: Simbody's
-  /// realisation, although UpperLimbModel::CalcYDot gives the same dynamics to round-off and a
-  /// diagnosis 1.9–2.2× faster — the verdicts on foreign data turn on round-off: with CalcYDot 3
-  /// of the 6 foreign tests of tests/diagnosis/diagnose_test.cc and 6 of the 18 foreign suite
-  /// data sets changed cause (docs/diagnosis.md "Known limits", "Verdicts that turn on
-  /// round-off"). The suite records and the tests are Simbody's.
-  bool simbody_right_hand_side = true;
+  /// sim::IntegratorParams::simbody_right_hand_side of every fit simulation. False: the
+  /// articulated-body right-hand side (UpperLimbModel::CalcYDot), the same dynamics as Simbody's
+  /// realisation to round-off and a diagnosis 1.9–2.2× faster. The two gave the same cause on 16
+  /// of the 18 foreign suite data sets with the calibration's converged stop, against 12 of 18
+  /// without it (docs/diagnosis.md "Known limits", "Verdicts that turn on round-off").
+  bool simbody_right_hand_side = false;
+  /// identification::LmOptions::stop_needs_predicted_decrease and hold_active_bounds of the LM
+  /// run (PersonCalibrationOptions::converged_stop sets both for the calibration).
+  bool stop_needs_predicted_decrease = false;
+  bool hold_active_bounds = false;
   /// The simulation. Empty: the full model (12) by identification/fullmodel's SimulateLike;
   /// `fesim diagnose --model NAME` sets a reduced model (reduced_model.h).
   TrialSimulator simulator;

@@ -359,6 +359,7 @@ PersonCalibration CalibratePerson(const sim::ModelParams& rig, const LibraryCont
   const std::vector<ModelParameter> all = PersonParameters(rig, ctx);
   FitOptions f = fo;
   f.prior_sigma = out.prior_sigma_rad > 0.0 ? out.prior_sigma_rad : 1e-3;
+  f.stop_needs_predicted_decrease = f.hold_active_bounds = options.converged_stop;
   // 2. Identifiability at the nominal point.
   const Eigen::VectorXd nominal = Starts(all);
   std::vector<double> information(all.size(), 0.0);

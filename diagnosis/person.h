@@ -45,7 +45,8 @@
 //     i.e. the data determine it beyond what the parameters before it explain at least that
 //     many times better than its prior. The others stay at nominal and the report says so.
 //  3. MAP fit of the kept parameters by bounded LM (PersonCalibrationOptions::iterations steps at
-//     most) from the nominal values and, when an output is the elbow or a shoulder coordinate (the
+//     most; active bounds held and MINPACK's stop, PersonCalibrationOptions::converged_stop) from
+//     the nominal values and, when an output is the elbow or a shoulder coordinate (the
 //     forearm's weight makes Σr² multimodal over strength and stiffness), from the four corners
 //     stiffness × {0.8, 1.25}, strength × {0.8, 1.25} (FitOverStarts); the lowest posterior cost
 //     is kept.
@@ -110,6 +111,12 @@ struct PersonCalibrationOptions {
   /// Step 3 from the four corner starts alone (stiffness × {0.8, 1.25}, strength × {0.8, 1.25}),
   /// not from nominal: the retry of a calibration that misses the black box (diagnose.h).
   bool corner_starts_only = false;
+  /// Step 3 with active bounds held and MINPACK's stop (FitOptions::hold_active_bounds,
+  /// stop_needs_predicted_decrease). With the plain relative-decrease stop a step clamped at a
+  /// bound, or taken at a large damping, ended calibrations far from a minimum, and candidate
+  /// fits freeing the person then found better persons along a path that round-off decides
+  /// (docs/diagnosis.md, The person, step 3).
+  bool converged_stop = true;
 };
 
 /// Steps 1–4 on the training view. `fo` as for every fit (threads, integrator, simulator).

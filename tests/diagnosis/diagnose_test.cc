@@ -110,39 +110,51 @@ TEST(DiagnoseForeign, AnEffectOutsideTheLibraryIsNeverAConfidentName) {
       << d.cause << " " << d.confidence;
 }
 
-TEST(DiagnoseForeign, APoorCalibrationMinimumIsReplacedNotCreditedToACandidate) {
-  // Suite data set 1017 (three 60 s trials, baseline wander at the floor): the calibration from
-  // nominal stops at held-out NRMSE 0.63 and misses the black box; the retry from the corner
-  // starts reaches 0.16 (and crosstalk's profile start, without it, led the person to 0.17 with
-  // crosstalk ≈ 0: docs/diagnosis.md, known limits). The better person is the baseline, not a
-  // candidate's gain.
+TEST(DiagnoseForeign, TheCalibrationFromNominalReachesTheMinimumTheCornerRetryFound) {
+  // Suite data set 1017 (three 60 s trials, baseline wander at the floor). With the plain
+  // relative-decrease stop the calibration from nominal stopped at held-out NRMSE 0.63, missed
+  // the black box (0.38), and only the retry from the corner starts reached 0.16. With active
+  // bounds held and MINPACK's stop (PersonCalibrationOptions::converged_stop) the nominal start
+  // reaches that minimum itself: no retry, no person adopted from a candidate's fit, and the
+  // wander is not credited to a candidate (docs/diagnosis.md, The person, step 3).
   foreign::DatasetSpec spec;
   spec.person_seed = spec.seed = 1017;
   spec.effects = {{"wander", 1.0}};
   const foreign::Dataset data = foreign::MakeDataset(spec);
   const Diagnosis d = Diagnose(HandRig().model, data.trials, {}, TwoThreads());
   EXPECT_TRUE(d.cause == "none" || d.cause == "unexplained" || d.confidence < 0.5) << Explain(d);
-  const bool noted = std::any_of(d.notes.begin(), d.notes.end(), [](const std::string& n) {
+  const bool retried = std::any_of(d.notes.begin(), d.notes.end(), [](const std::string& n) {
     return n.find("corner starts") != std::string::npos ||
            n.find("poorer minimum") != std::string::npos;
   });
-  EXPECT_TRUE(noted) << Explain(d);
+  EXPECT_FALSE(retried) << Explain(d);
+  EXPECT_LT(d.baseline_heldout_nrmse, 0.2) << Explain(d);
   EXPECT_LT(d.baseline_heldout_nrmse, d.reference.heldout_nrmse) << Explain(d);
+}
+
+/// The settings under which a calibration stops in a poor minimum that a candidate's fit leaves:
+/// the plain relative-decrease stop and Simbody's right-hand side (the path the two tests below
+/// document; with the converged stop these calibrations reach such persons themselves).
+DiagnoseSettings LooseCalibration() {
+  DiagnoseSettings s;
+  s.person.converged_stop = false;
+  s.fit.simbody_right_hand_side = true;
+  return s;
 }
 
 TEST(DiagnoseForeign, APersonFoundByACandidateFitBecomesTheControlAndTheTestsRunAgain) {
   // Suite data set 1006 (three 60 s trials, wrist moment arms planted posture dependent at
-  // 4.8 × the noise): the calibration predicts the held-out trial at NRMSE 0.52 and the score test
-  // of moment_arm_posture@wrist is insignificant there (p_adj 0.36). The passive_asymmetry@mcp
-  // fit, the control switched off, leaves a person at 0.36: refitted alone it becomes the
-  // control, the tests are run again at it and the posture-dependent wrist arms are named
-  // (extension.h, Control).
+  // 4.8 × the noise), LooseCalibration: the calibration predicts the held-out trial at NRMSE 0.52
+  // and the score test of moment_arm_posture@wrist is insignificant there (p_adj 0.36). The
+  // passive_asymmetry@mcp fit, the control switched off, leaves a person at 0.36: refitted alone it
+  // becomes the control, the tests are run again at it and the posture-dependent wrist arms are
+  // named (extension.h, Control).
   foreign::DatasetSpec spec;
   spec.person_seed = spec.seed = 1006;
   spec.floor = 1.0;
   spec.effects = {{"moment_arm_posture", 1.0}};
   const foreign::Dataset data = foreign::MakeDataset(spec);
-  const Diagnosis d = Diagnose(HandRig().model, data.trials, {}, TwoThreads());
+  const Diagnosis d = Diagnose(HandRig().model, data.trials, LooseCalibration(), TwoThreads());
   const bool noted = std::any_of(d.notes.begin(), d.notes.end(), [](const std::string& n) {
     return n.find("switched off") != std::string::npos;
   });
@@ -155,10 +167,10 @@ TEST(DiagnoseForeign, APersonFoundByACandidateFitBecomesTheControlAndTheTestsRun
 
 TEST(DiagnoseForeign, ACandidateIsCreditedOnlyWithItsOwnPartOfTheGain) {
   // Suite data set 1011 (three 60 s trials, a flexor spasticity the library's spasticity does not
-  // reach): candidate fits that free the person gained 12–14 % on held-out data while their
-  // mechanism stayed near "off" (a wrist tremor of 0.6 mN·m; an Ω ratio of 1.19 whose removal
-  // costs nothing), and unequal_muscle_dynamics was named. Switched off after the fit, such a
-  // candidate leaves the fitted model as good: its own part of the gain is below 2 % and it is
+  // reach), LooseCalibration: candidate fits that free the person gained 12–14 % on held-out data
+  // while their mechanism stayed near "off" (a wrist tremor of 0.6 mN·m; an Ω ratio of 1.19 whose
+  // removal costs nothing), and unequal_muscle_dynamics was named. Switched off after the fit, such
+  // a candidate leaves the fitted model as good: its own part of the gain is below 2 % and it is
   // neither accepted nor an alternative (docs/diagnosis.md, "Extension"); the person it reached,
   // the candidate switched off, becomes the control when it predicts better than the calibration
   // (then no candidate keeps that gain at all).
@@ -166,7 +178,7 @@ TEST(DiagnoseForeign, ACandidateIsCreditedOnlyWithItsOwnPartOfTheGain) {
   spec.person_seed = spec.seed = 1011;
   spec.effects = {{"spasticity", 1.0}};
   const foreign::Dataset data = foreign::MakeDataset(spec);
-  const Diagnosis d = Diagnose(HandRig().model, data.trials, {}, TwoThreads());
+  const Diagnosis d = Diagnose(HandRig().model, data.trials, LooseCalibration(), TwoThreads());
   EXPECT_NE(d.cause, "unequal_muscle_dynamics") << Explain(d);
   int credited_to_the_person = 0;
   for (const auto& c : d.candidates) {
