@@ -9,7 +9,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <regex>
 #include <string>
 
 #include "base/trial.h"
@@ -144,9 +143,14 @@ TEST(DiagnoseCmd, InterruptedRunResumesFromTheCacheWithTheSameFigures) {
   const std::string dir = ::testing::TempDir() + "diag_cmd_resume";
   std::filesystem::remove_all(dir);
   const std::string rig = dir + "_rig.yaml", planted = dir + "_planted.yaml";
+  // 20 s: on 12 s (its last 3.6 s held out) the calibration puts the wrist's damping at its
+  // lower bound, which rings like the tremor, and the verdict is `none` (docs/diagnosis.md, Known
+  // limits, "Damping that rings like a tremor").
   const std::string text = RigWith(
-      "stimulation:\n  duration_s: 12\n  type: steps\n  steps: [{time_s: 2, values_us: "
-      "{ext: 200}}, {time_s: 5, values_us: {flex: 150}}, {time_s: 8, values_us: {ext: 0}}]\n");
+      "stimulation:\n  duration_s: 20\n  type: steps\n  steps: [{time_s: 2, values_us: "
+      "{ext: 200}}, {time_s: 5, values_us: {flex: 150}}, {time_s: 8, values_us: {ext: 0}}, "
+      "{time_s: 11, values_us: {flex: 0}}, {time_s: 14, values_us: {ext: 150}}, {time_s: 17, "
+      "values_us: {ext: 0}}]\n");
   WriteFileAtomic(rig, text);
   WriteFileAtomic(planted, text +
                                "mechanisms:\n  tremor: {coordinate: wrist_flexion, frequency_hz: "
@@ -163,11 +167,7 @@ TEST(DiagnoseCmd, InterruptedRunResumesFromTheCacheWithTheSameFigures) {
   EXPECT_EQ(ref_cached, 0);
   EXPECT_GT(ref_simulations, 0);
   const std::string ref_json = ReadFile(dir + "/ref/diagnosis.json");
-  // The verdict is not this test's subject: on this 12 s trial the calibration puts the wrist's
-  // damping at its lower bound, which rings like the tremor, and the verdict is `none`
-  // (docs/diagnosis.md, Known limits, "Damping that rings like a tremor"). Candidates were fitted.
-  EXPECT_TRUE(std::regex_search(ref_json, std::regex("\"heldout_gain\": -?[0-9]")))
-      << ref_json.substr(0, 300);
+  EXPECT_NE(ref_json.find("\"cause\": \"tremor\""), std::string::npos) << ref_json.substr(0, 300);
   const int ref_entries = CacheEntries(dir + "/ref/cache");
   EXPECT_GE(ref_entries, 4);  // calibration, score tests, ≥ 1 candidate fit, the refit
 
