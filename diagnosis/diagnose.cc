@@ -151,10 +151,12 @@ std::string DiagnoseSettings::KeyText() const {
                       refit_iterations, fit.max_iterations}) {
     s += std::to_string(v) + ",";
   }
-  // The right-hand side enters only when it is not the default, so that caches written before
-  // the choice existed (all Simbody's) keep their keys.
+  // The articulated-body right-hand side and the LM stop rules enter as markers, so that caches
+  // written before these choices existed (Simbody's right-hand side, the plain stop) keep their
+  // keys.
   return s + (fit.sensitivities ? "sens," : "fd,") + (fit.simbody_right_hand_side ? "" : "chain,") +
-         (person.converged_stop ? "converged," : "") + model;
+         (person.converged_stop ? "converged," : "") + (fit.hold_active_bounds ? "held," : "") +
+         (fit.stop_needs_predicted_decrease ? "minpack," : "") + model;
 }
 
 Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measured,

@@ -193,9 +193,10 @@ struct FitOptions {
   double jacobian_tolerance_factor = 10.0;
   /// sim::IntegratorParams::simbody_right_hand_side of every fit simulation. False: the
   /// articulated-body right-hand side (UpperLimbModel::CalcYDot), the same dynamics as Simbody's
-  /// realisation to round-off and a diagnosis 1.9–2.2× faster. The two gave the same cause on 16
-  /// of the 18 foreign suite data sets with the calibration's converged stop, against 12 of 18
-  /// without it (docs/diagnosis.md "Known limits", "Verdicts that turn on round-off").
+  /// realisation to round-off and a diagnosis 2.4–3.1× faster (docs/performance.md). The two gave
+  /// the same cause on 16 of the 18 foreign suite data sets with the calibration's converged stop,
+  /// against 12 of 18 without it (docs/diagnosis.md "Known limits", "Verdicts that turn on
+  /// round-off").
   bool simbody_right_hand_side = false;
   /// identification::LmOptions::stop_needs_predicted_decrease and hold_active_bounds of the LM
   /// run (PersonCalibrationOptions::converged_stop sets both for the calibration).

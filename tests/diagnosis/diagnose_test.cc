@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "diagnosis/measured.h"
 #include "diagnosis/planted.h"
@@ -75,6 +76,20 @@ double Fitted(const Diagnosis& d, const std::string& name) {
     if (p.name == name) return p.value;
   }
   return NAN;
+}
+
+TEST(DiagnoseSettings, EveryFitChoiceChangesTheResumeCacheKey) {
+  // A cached stage may be read back only by a run with the same settings (diagnose.h).
+  const DiagnoseSettings base;
+  std::vector<DiagnoseSettings> changed(4, base);
+  changed[0].fit.simbody_right_hand_side = !base.fit.simbody_right_hand_side;
+  changed[1].person.converged_stop = !base.person.converged_stop;
+  changed[2].fit.hold_active_bounds = !base.fit.hold_active_bounds;
+  changed[3].fit.stop_needs_predicted_decrease = !base.fit.stop_needs_predicted_decrease;
+  std::vector<std::string> keys{base.KeyText()};
+  for (const auto& c : changed) keys.push_back(c.KeyText());
+  std::sort(keys.begin(), keys.end());
+  EXPECT_EQ(std::unique(keys.begin(), keys.end()), keys.end());
 }
 
 TEST(DiagnoseForeign, ACleanPersonIsNoneAndTheCalibrationReachesTheBlackBox) {
