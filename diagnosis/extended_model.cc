@@ -677,15 +677,22 @@ std::string ParameterAtRangeBound(const std::vector<ModelParameter>& params,
 }
 
 std::string WithinNormalVariation(const std::vector<ModelParameter>& params,
-                                  const Eigen::VectorXd& x, Eigen::Index offset) {
-  if (offset < 0 || offset + static_cast<Eigen::Index>(params.size()) > x.size()) {
-    throw std::invalid_argument("WithinNormalVariation: offset out of range");
+                                  const Eigen::VectorXd& x, Eigen::Index offset,
+                                  const Eigen::VectorXd& ci95) {
+  if (offset < 0 || offset + static_cast<Eigen::Index>(params.size()) > x.size() ||
+      (ci95.size() > 0 && ci95.size() != x.size())) {
+    throw std::invalid_argument("WithinNormalVariation: offset out of range or ci95 size differs");
   }
   std::string first;
   for (std::size_t k = 0; k < params.size(); ++k) {
     const ModelParameter& p = params[k];
-    if (!std::isfinite(p.normal_half_width)) continue;
     const double v = x(offset + static_cast<Eigen::Index>(k));
+    if (!std::isfinite(p.normal_half_width)) {
+      double w = ci95.size() ? ci95(offset + static_cast<Eigen::Index>(k)) : INFINITY;
+      if (std::isnan(w)) w = 0.0;  // no interval (e.g. at a bound): only its start itself
+      if (!(std::abs(v - p.start) <= w)) return "";
+      continue;
+    }
     if (std::abs(v - p.start) > p.normal_half_width) return "";
     if (first.empty()) {
       char buf[256];

@@ -89,9 +89,14 @@ std::string ParameterAtRangeBound(const std::vector<ModelParameter>& params,
 
 /// "name = v within its normal variation ±w" of the first of `params` (values from x(offset))
 /// with a normal_half_width when every such parameter ends within start ± normal_half_width;
-/// "" when one ends beyond its band or none has a band.
+/// "" when one ends beyond its band or none has a band. With `ci95` (the fit's 95 % half-widths,
+/// indexed as x; empty: not used) a parameter without a band must also end within its ci95 of
+/// its start (NaN: at its start): a mechanism whose unbanded part is indistinguishable from "off"
+/// and whose banded part is within a normal person's variation is a normal person (crosstalk, whose
+/// wide current spread has no band and whose antagonist reach has one).
 std::string WithinNormalVariation(const std::vector<ModelParameter>& params,
-                                  const Eigen::VectorXd& x, Eigen::Index offset);
+                                  const Eigen::VectorXd& x, Eigen::Index offset,
+                                  const Eigen::VectorXd& ci95 = {});
 
 /// The data one fit or evaluation sees: trials simulated from t = 0, and per trial the samples
 /// that count (training segment or held-out segment). Outputs are the q.* columns named here.

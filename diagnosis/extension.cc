@@ -260,7 +260,7 @@ Judgement Extender::Judge(const Fitted& f, const Fitted& ref, int c, Eigen::Inde
   const int p = static_cast<int>(lib_[c].params.size());
   j.collapsed = CollapsedParameter(lib_[c].params, f.stage.fit.x, offset);
   j.at_bound = ParameterAtRangeBound(lib_[c].params, f.stage.fit.x, offset);
-  j.normal = WithinNormalVariation(lib_[c].params, f.stage.fit.x, offset);
+  j.normal = WithinNormalVariation(lib_[c].params, f.stage.fit.x, offset, f.stage.fit.ci95);
   const Eigen::VectorXd& r0 = ref.stage.train_residual;
   const Eigen::VectorXd& r1 = f.stage.train_residual;
   if (r1.size() == r0.size()) {

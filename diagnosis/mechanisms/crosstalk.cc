@@ -10,6 +10,13 @@
 //                                   co-activation of the antagonists by current spread.
 // Planted: c = 0.06 s (at 0.015 s the effect RMS is ≈ the noise RMS, but 95 % of it is absorbed
 // by the person calibration).
+//
+// Normal variation: f ≤ 0.04 with c indistinguishable from 0 (WithinNormalVariation with the
+// fit's ci95). A foreign person's off-group entries of W are U[0, 0.02] against on-group entries
+// of U[0.5, 1.5] (foreign/person.h), a reach of the antagonists of up to 0.02/0.5 = 0.04 in every
+// clean person; clean foreign person 3003 fitted f = 0.030 ± 0.005, c = 0.003 ± 0.012
+// (docs/diagnosis.md, Validation). Planted foreign reaches fit f = 0.19–0.60; the in-family plant
+// is c ≥ 0.06.
 #include <algorithm>
 
 #include "diagnosis/mechanisms/library.h"
@@ -20,6 +27,9 @@ namespace {
 /// A muscle is driven by a channel when its entry of A is at least this share of the channel's
 /// largest (as the person's muscle groups, diagnosis/person.cc).
 constexpr double kDrivenShare = 0.02;
+
+/// f of a normal person (see the file comment).
+constexpr double kNormalAntagonistFraction = 0.04;
 
 /// One explicit A entry the antagonist fraction adds per unit f: channel `channel` reaching
 /// `muscle` with the weight `weight` its own channel gives it.
@@ -86,6 +96,7 @@ Mechanism CrosstalkMechanism() {
                                             r.muscle, v * r.weight);
                                       }
                                     })));
+    c.params.back().normal_half_width = kNormalAntagonistFraction;
     c.probes = {ProbeAt(c.params, 0, 0.1), ProbeAt(c.params, 1, 0.1)};
     c.one_sided = {true, true};
     // A strong antagonist reach is half-reproduced by stronger, stiffer muscles (extension.h):

@@ -461,6 +461,20 @@ TEST(ExtendedModel, AFitInsideEveryNormalBandIsANormalPerson) {
   x(2) = -0.5;
   EXPECT_NE(WithinNormalVariation({ratio, other}, x, 1), "");
   EXPECT_THROW(WithinNormalVariation({ratio, other}, x, 2), std::invalid_argument);
+  // With the fit's ci95, an unbanded parameter must also be indistinguishable from its start.
+  x << 7.0, -2.5, 11.0;
+  Eigen::VectorXd ci95(3);
+  ci95 << 0.1, 0.2, 12.0;
+  free.start = 0.0;  // free = 11 ± 12 includes its start 0: indistinguishable from "off"
+  EXPECT_NE(WithinNormalVariation({ratio, free}, x, 1, ci95), "");
+  ci95(2) = 10.0;  // 11 ± 10 excludes its start 0: the unbanded part is the mechanism
+  EXPECT_EQ(WithinNormalVariation({ratio, free}, x, 1, ci95), "");
+  ci95(2) = NAN;  // no interval: indistinguishable only at its start
+  EXPECT_EQ(WithinNormalVariation({ratio, free}, x, 1, ci95), "");
+  x(2) = 0.0;
+  EXPECT_NE(WithinNormalVariation({ratio, free}, x, 1, ci95), "");
+  EXPECT_THROW(WithinNormalVariation({ratio, free}, x, 1, Eigen::VectorXd(2)),
+               std::invalid_argument);
 }
 
 TEST(ExtendedModel, NrmseIsZeroForAPerfectPredictionAndSkipsUnusedSamples) {
