@@ -15,7 +15,7 @@
 // fit's ci95). A foreign person's off-group entries of W are U[0, 0.02] against on-group entries
 // of U[0.5, 1.5] (foreign/person.h), a reach of the antagonists of up to 0.02/0.5 = 0.04 in every
 // clean person; clean foreign person 3003 fitted f = 0.030 ± 0.005, c = 0.003 ± 0.012
-// (docs/diagnosis.md, Validation). Planted foreign reaches fit f = 0.19–0.60; the in-family plant
+// (docs/diagnosis.md, Validation). Planted foreign reaches fit f = 0.19–0.53; the in-family plant
 // is c ≥ 0.06.
 #include <algorithm>
 
