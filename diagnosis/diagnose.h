@@ -37,12 +37,14 @@ namespace fesim::diagnosis {
 
 /// What the diagnosis computes: every field changes results and enters the resume cache's key.
 struct DiagnoseSettings {
-  double holdout_fraction = 0.3;   ///< one trial: held-out tail share, (0, 0.8].
-  int max_fitted = 3;              ///< candidates fitted per batch (and on top), ≥ 1.
-  int max_screened = 6;            ///< first round: candidates fitted at most, ≥ 1.
-  int max_accepted = 2;            ///< mechanisms accepted at most, ≥ 1.
-  double alpha = 0.01;             ///< family-wise false-alarm level over the candidates.
-  double min_heldout_gain = 0.02;  ///< smallest held-out NRMSE gain accepted, dimensionless.
+  double holdout_fraction = 0.3;  ///< one trial: held-out tail share, (0, 0.8].
+  int max_fitted = 3;             ///< candidates fitted per batch (and on top), ≥ 1.
+  int max_screened = 6;           ///< first round: candidates fitted at most, ≥ 1.
+  int max_accepted = 2;           ///< mechanisms accepted at most, ≥ 1.
+  double alpha = 0.01;            ///< family-wise false-alarm level over the candidates.
+  /// Smallest own part of a held-out NRMSE gain accepted (Judgement::own_gain), and smallest gain
+  /// of a structure outside the library (verdict.h), dimensionless.
+  double min_heldout_gain = 0.02;
   /// A held-out gain accepted without a significant Diebold–Mariano test, dimensionless.
   double clear_heldout_gain = 0.1;
   /// A calibrated model whose held-out NRMSE on an output exceeds reference_gate × the black

@@ -284,9 +284,8 @@ Judgement Extender::Judge(const Fitted& f, const Fitted& ref, int c, Eigen::Inde
   }
   const double alpha = ctx_.settings.alpha;
   j.passes = j.collapsed.empty() && j.at_bound.empty() && j.normal.empty() && j.shape.empty() &&
-             j.lr_p_adj < alpha && j.gain > ctx_.settings.min_heldout_gain &&
-             !(j.own_gain <= ctx_.settings.min_heldout_gain) &&
-             (j.z_p_adj < alpha || j.gain > ctx_.settings.clear_heldout_gain);
+             j.lr_p_adj < alpha && !(j.own_gain <= ctx_.settings.min_heldout_gain) &&
+             HeldoutGainAccepted(j.gain, j.z_p_adj, ctx_.settings);
   return j;
 }
 
@@ -581,8 +580,8 @@ void Extender::Record(int c, const Fitted& f, const Judgement& j) {
     cr.decision = j.shape;
   } else if (!(j.lr_p_adj < ctx_.settings.alpha)) {
     cr.decision = "its fit does not pass the robust training test";
-  } else if (!(j.gain > ctx_.settings.min_heldout_gain)) {
-    cr.decision = "held-out gain below " + Fmt("%.0f %%", 100.0 * ctx_.settings.min_heldout_gain);
+  } else if (!(j.gain > 0.0)) {
+    cr.decision = "no held-out gain";
   } else if (j.own_gain <= ctx_.settings.min_heldout_gain) {
     cr.decision =
         Fmt("its own part of the held-out gain is %.1f %% (below %.0f %%): switched off, "
@@ -1169,6 +1168,10 @@ ExtensionOutcome Extender::Run(const ScreenStage& screen,
 }
 
 }  // namespace
+
+bool HeldoutGainAccepted(double gain, double dm_p_adjusted, const DiagnoseSettings& settings) {
+  return (gain > 0.0 && dm_p_adjusted < settings.alpha) || gain > settings.clear_heldout_gain;
+}
 
 ExtensionOutcome Extend(const StageContext& ctx, const std::vector<Candidate>& library,
                         const CalibrationStage& calibration,
