@@ -117,6 +117,27 @@ TEST(Verdict, AMechanismBeyondAControlIsNamedAndAControlAsGoodAsTheMechanismMake
   u.Fitted("stiction@wrist_flexion", 0.049, false);
   MakeVerdict(u.library, e, 0, u.settings, &u.d);
   EXPECT_EQ(u.d.cause, "unexplained") << u.d.reason;
+
+  // Two mechanisms that each gain under min_heldout_gain on a model within the black-box gate:
+  // a normal person's small misfit they share, `none` (docs/diagnosis.md, Verdict).
+  VerdictCase v;
+  v.Fitted("passive_stiffness_nonlinear@wrist_flexion", 0.010, true);
+  v.Fitted("moment_arm_posture@pip_flexion", 0.008, false);
+  ExtensionOutcome small = v.Outcome({"passive_stiffness_nonlinear@wrist_flexion"},
+                                     v.Index("passive_stiffness_nonlinear@wrist_flexion"));
+  small.cause_lr_p = 1e-6;
+  small.cause_gain = 0.010;
+  MakeVerdict(v.library, small, 0, v.settings, &v.d);
+  EXPECT_EQ(v.d.cause, "none") << v.d.reason;
+  EXPECT_NE(v.d.reason.find("moment_arm_posture@pip_flexion: 0.8 %"), std::string::npos)
+      << v.d.reason;
+  // The same gains on a model that misses the black box: `unexplained`.
+  VerdictCase w;
+  w.Fitted("passive_stiffness_nonlinear@wrist_flexion", 0.010, true);
+  w.Fitted("moment_arm_posture@pip_flexion", 0.008, false);
+  w.d.baseline_heldout_nrmse_per_output = {0.2, 0.9, 0.2};
+  MakeVerdict(w.library, small, 0, w.settings, &w.d);
+  EXPECT_EQ(w.d.cause, "unexplained") << w.d.reason;
 }
 
 // A sensor offset that steps once (a glove slip, outside the library) fits as a drift and gains
