@@ -42,8 +42,9 @@ struct DiagnoseSettings {
   int max_screened = 6;           ///< first round: candidates fitted at most, ≥ 1.
   int max_accepted = 2;           ///< mechanisms accepted at most, ≥ 1.
   double alpha = 0.01;            ///< family-wise false-alarm level over the candidates.
-  /// Smallest own part of a held-out NRMSE gain accepted (Judgement::own_gain), and smallest gain
-  /// of a structure outside the library (verdict.h), dimensionless.
+  /// Smallest own part of a held-out NRMSE gain accepted (Judgement::own_gain), smallest gain of
+  /// a structure outside the library, and of a cause named beside an about-equal alternative
+  /// (verdict.h), dimensionless.
   double min_heldout_gain = 0.02;
   /// A held-out gain accepted without a significant Diebold–Mariano test, dimensionless.
   double clear_heldout_gain = 0.1;

@@ -200,8 +200,8 @@ void MakeVerdict(const std::vector<Candidate>& library, const ExtensionOutcome& 
           compared + ")";
     } else if (extension.cause_gain < settings.min_heldout_gain && gaps_before.empty()) {
       // Near the black box, two candidates that each gain under min_heldout_gain share a small
-      // misfit of a normal person (a clean in-family person: 1.0 % and 0.8 %, Known limits in
-      // docs/diagnosis.md): no structure to report.
+      // misfit of a normal person (a clean in-family person: 1.0 % and 0.8 %; docs/diagnosis.md,
+      // Verdict): no structure to report.
       d->cause = "none";
       d->reason = "the calibrated model predicts the held-out data as well as the black box " +
                   d->reference.method +
