@@ -118,6 +118,7 @@ struct CandidateResult {
   /// Its own part of that gain: the fitted model with the candidate switched off against the
   /// fitted model, over the calibrated model's NRMSE (extension.h; NaN: not measured).
   double heldout_own_gain = NAN;
+  double heldout_own_z = NAN;  ///< Diebold–Mariano statistic of the own part (NaN: not measured).
   bool accepted = false;
   /// Second round (on top of the mechanism(s) accepted before it): S of its score test at the
   /// extended model (NaN: not tested there) and its held-out gain over that model (NaN: not

@@ -53,7 +53,8 @@ struct Fitted {
   FitStage stage;
   double heldout_nrmse = INFINITY;
   Eigen::VectorXd heldout_residual;
-  double heldout_nrmse_without_last = NAN;  ///< FitStage::heldout_without_last's.
+  double heldout_nrmse_without_last = NAN;        ///< FitStage::heldout_without_last's.
+  Eigen::VectorXd heldout_residual_without_last;  ///< and its residual (empty: not measured).
 };
 
 /// The tests of one fit against the model it extends.
@@ -65,6 +66,9 @@ struct Judgement {
   /// stays near "off" (a tremor of 0.6 mN·m gaining 12 % on a foreign spasticity) has a small
   /// own gain. NaN: not measured (then not a condition).
   double own_gain = NAN;
+  /// Diebold–Mariano statistic of the own part (the fit against the fit with the candidate
+  /// switched off) and its p adjusted as z_p_adj's.
+  double own_z = 0.0, own_z_p_adj = 1.0;
   std::string collapsed;
   std::string at_bound;  ///< a parameter at a bound of its plausible range ("": none).
   std::string normal;    ///< WithinNormalVariation's text ("": beyond it, or no band).
@@ -110,6 +114,8 @@ class Extender {
     f->heldout_residual = StackResiduals(ctx_.data.heldout, f->stage.heldout_predictions);
     if (f->stage.without_last_ok) {
       f->heldout_nrmse_without_last = ViewNrmse(ctx_.data.heldout, f->stage.heldout_without_last);
+      f->heldout_residual_without_last =
+          StackResiduals(ctx_.data.heldout, f->stage.heldout_without_last);
     }
   }
   /// The tests of fit `f` (candidate c's parameters at `offset` of its x) against `ref`.
@@ -276,6 +282,9 @@ Judgement Extender::Judge(const Fitted& f, const Fitted& ref, int c, Eigen::Inde
                       offset == f.stage.fit.x.size() - static_cast<Eigen::Index>(p);
     if (last && std::isfinite(f.heldout_nrmse_without_last)) {
       j.own_gain = (f.heldout_nrmse_without_last - f.heldout_nrmse) / ref.heldout_nrmse;
+      j.own_z =
+          DieboldMariano(ctx_.heldout_rows, f.heldout_residual_without_last, f.heldout_residual);
+      j.own_z_p_adj = std::min(1.0, ctx_.settings.max_screened * NormalSurvival(j.own_z));
     }
   }
   const Mechanism& mechanism = FindMechanism(lib_[c].id);
@@ -284,7 +293,7 @@ Judgement Extender::Judge(const Fitted& f, const Fitted& ref, int c, Eigen::Inde
   }
   const double alpha = ctx_.settings.alpha;
   j.passes = j.collapsed.empty() && j.at_bound.empty() && j.normal.empty() && j.shape.empty() &&
-             j.lr_p_adj < alpha && !(j.own_gain <= ctx_.settings.min_heldout_gain) &&
+             j.lr_p_adj < alpha && OwnGainAccepted(j.own_gain, j.own_z_p_adj, ctx_.settings) &&
              HeldoutGainAccepted(j.gain, j.z_p_adj, ctx_.settings);
   return j;
 }
@@ -560,6 +569,7 @@ void Extender::Record(int c, const Fitted& f, const Judgement& j) {
   cr.heldout_z = j.z;
   cr.heldout_p_adjusted = j.z_p_adj;
   cr.heldout_own_gain = j.own_gain;
+  cr.heldout_own_z = std::isfinite(j.own_gain) ? j.own_z : NAN;
   cr.collapsed = j.collapsed;
   cr.shape = j.shape;
   cr.parameters.clear();
@@ -582,12 +592,12 @@ void Extender::Record(int c, const Fitted& f, const Judgement& j) {
     cr.decision = "its fit does not pass the robust training test";
   } else if (!(j.gain > 0.0)) {
     cr.decision = "no held-out gain";
-  } else if (j.own_gain <= ctx_.settings.min_heldout_gain) {
+  } else if (!OwnGainAccepted(j.own_gain, j.own_z_p_adj, ctx_.settings)) {
     cr.decision =
-        Fmt("its own part of the held-out gain is %.1f %% (below %.0f %%): switched off, "
-            "the fitted model predicts about as well — the gain comes from the person's "
-            "refit",
-            100.0 * j.own_gain, 100.0 * ctx_.settings.min_heldout_gain);
+        Fmt("its own part of the held-out gain is %.1f %% (below %.0f %%, Diebold–Mariano z "
+            "%.1f not significant): switched off, the fitted model predicts about as well — the "
+            "gain comes from the person's refit",
+            100.0 * j.own_gain, 100.0 * ctx_.settings.min_heldout_gain, j.own_z);
   } else if (!j.passes) {
     cr.decision = "held-out gain below " +
                   Fmt("%.0f %%", 100.0 * ctx_.settings.clear_heldout_gain) +
@@ -1171,6 +1181,11 @@ ExtensionOutcome Extender::Run(const ScreenStage& screen,
 
 bool HeldoutGainAccepted(double gain, double dm_p_adjusted, const DiagnoseSettings& settings) {
   return (gain > 0.0 && dm_p_adjusted < settings.alpha) || gain > settings.clear_heldout_gain;
+}
+
+bool OwnGainAccepted(double own_gain, double dm_p_adjusted, const DiagnoseSettings& settings) {
+  if (std::isnan(own_gain)) return true;
+  return (own_gain > 0.0 && dm_p_adjusted < settings.alpha) || own_gain > settings.min_heldout_gain;
 }
 
 ExtensionOutcome Extend(const StageContext& ctx, const std::vector<Candidate>& library,

@@ -51,7 +51,9 @@
 //     insignificant test (DiagnoseForeign.ACleanPersonIsNone…). A significant gain needs no size:
 //     near the noise floor a real effect's share of the held-out NRMSE is small (an in-family
 //     crosstalk at 4.4 × noise on a calibrated model at 0.053: 1.6 %, z 6.3; docs/diagnosis.md);
-//   its own part (Judgement::own_gain) > min_heldout_gain;
+//   its own part (Judgement::own_gain) > 0 with a Diebold–Mariano p_adj < alpha (the fit
+//     against itself with the candidate off), or > min_heldout_gain without: a tremor's
+//     spectral line at the noise RMS is all its own gain and small (foreign 6008: 1.7 %, z 6.9);
 //   no parameter ended where the mechanism collapses into the person (collapses_at), and none at
 //     a bound of its plausible range other than its "off" start (ParameterAtRangeBound): a
 //     posture ratio of ±6 or a 5-fold v_max is no person's, it is the fit soaking up a misfit the
@@ -111,6 +113,12 @@ struct ExtensionOutcome {
 /// whose Diebold–Mariano p_adj (over max_screened fits) is below settings.alpha, or g >
 /// settings.clear_heldout_gain whatever the test. NaN figures do not pass.
 bool HeldoutGainAccepted(double gain, double dm_p_adjusted, const DiagnoseSettings& settings);
+
+/// The own-part condition of the acceptance (above): the candidate's own part g_own of the
+/// held-out gain (NaN: not measured, which passes) is positive with a Diebold–Mariano p_adj (the
+/// fit against itself with the candidate switched off, over max_screened fits) below
+/// settings.alpha, or exceeds settings.min_heldout_gain whatever the test.
+bool OwnGainAccepted(double own_gain, double dm_p_adjusted, const DiagnoseSettings& settings);
 
 /// Screening, forward selection with the backward step, and the refit (see above). Fills the
 /// fit figures of `results` (library order). `baseline_directions`: the first screen's probe

@@ -34,5 +34,29 @@ TEST(Extension, HeldoutGainAcceptedNeedsASignificantTestOrAClearGain) {
   EXPECT_TRUE(HeldoutGainAccepted(0.016, 1e-7, strict));
 }
 
+// docs/diagnosis.md, Extension and acceptance: the candidate's own part of the gain (the fit
+// against itself with the candidate switched off) passes when significant or above
+// min_heldout_gain; not measured, it is no condition.
+TEST(Extension, OwnGainAcceptedNeedsASignificantTestOrTheMinimumGain) {
+  const DiagnoseSettings s;  // alpha 0.01, min_heldout_gain 2 %
+  const auto p_adj = [](double z) { return 6.0 * 0.5 * std::erfc(z / std::sqrt(2.0)); };
+  // A tremor's spectral line at the noise RMS (foreign 6008): all its own, 1.7 %, z 6.9.
+  EXPECT_TRUE(OwnGainAccepted(0.017, p_adj(6.9), s));
+  // A person's refit beside a mechanism near "off": small and not significant (foreign 1019).
+  EXPECT_FALSE(OwnGainAccepted(0.003, p_adj(1.5), s));
+  EXPECT_FALSE(OwnGainAccepted(0.019, 1.0, s));
+  EXPECT_TRUE(OwnGainAccepted(0.021, 1.0, s));
+  // A significant own loss or none is never accepted.
+  EXPECT_FALSE(OwnGainAccepted(0.0, 1e-12, s));
+  EXPECT_FALSE(OwnGainAccepted(-0.01, 1e-12, s));
+  // Not measured (no ablation): no condition.
+  EXPECT_TRUE(OwnGainAccepted(NAN, 1.0, s));
+  DiagnoseSettings strict;
+  strict.alpha = 1e-12;
+  strict.min_heldout_gain = 0.05;
+  EXPECT_FALSE(OwnGainAccepted(0.017, p_adj(6.9), strict));
+  EXPECT_FALSE(OwnGainAccepted(0.04, 1.0, strict));
+}
+
 }  // namespace
 }  // namespace fesim::diagnosis
