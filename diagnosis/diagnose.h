@@ -119,6 +119,9 @@ struct CandidateResult {
   /// fitted model, over the calibrated model's NRMSE (extension.h; NaN: not measured).
   double heldout_own_gain = NAN;
   double heldout_own_z = NAN;  ///< Diebold–Mariano statistic of the own part (NaN: not measured).
+  /// The person's parameters of its joint at a bound of their range that kept it from being
+  /// accepted (extension.h, Mechanism::mimics_joint_person); "": none.
+  std::string person_at_bound;
   bool accepted = false;
   /// Second round (on top of the mechanism(s) accepted before it): S of its score test at the
   /// extended model (NaN: not tested there) and its held-out gain over that model (NaN: not

@@ -676,6 +676,22 @@ std::string ParameterAtRangeBound(const std::vector<ModelParameter>& params,
   return "";
 }
 
+std::string JointParametersAtBound(const std::vector<ModelParameter>& params,
+                                   const Eigen::VectorXd& x, const std::string& joint) {
+  if (x.size() < static_cast<Eigen::Index>(params.size())) {
+    throw std::invalid_argument("JointParametersAtBound: fewer values than parameters");
+  }
+  std::string names;
+  if (joint.empty()) return names;
+  for (std::size_t k = 0; k < params.size(); ++k) {
+    const ModelParameter& p = params[k];
+    if (p.joint != joint) continue;
+    const double v = x(static_cast<Eigen::Index>(k)), tol = 1e-3 * (p.upper - p.lower);
+    if (v - p.lower <= tol || p.upper - v <= tol) names += (names.empty() ? "" : ", ") + p.name;
+  }
+  return names;
+}
+
 std::string WithinNormalVariation(const std::vector<ModelParameter>& params,
                                   const Eigen::VectorXd& x, Eigen::Index offset,
                                   const Eigen::VectorXd& ci95) {

@@ -44,6 +44,10 @@ struct ModelParameter {
   /// (potentiation's shortest rise time: a constant extra gain on the active force); NaN: none.
   /// A candidate fit that ends there is not accepted (diagnose.h step 4).
   double collapses_at = NAN;
+  /// Person parameters that are functions of one joint's angle (its passive k, k₃, rest angle, a
+  /// group's moment-arm scale there): the joint's coordinate name; "" otherwise (also the
+  /// joint's damping b, a function of its speed).
+  std::string joint;
   /// The bounds are the plausible range of the parameter (true), not a search window around a
   /// start (false: a tremor's phase and frequency). A mechanism whose fit ends at a plausible-
   /// range bound other than its "off" start is not accepted (extension.h).
@@ -86,6 +90,12 @@ std::string CollapsedParameter(const std::vector<ModelParameter>& params, const 
 /// within 1e-3 of its range at a bound that is not its start, or "" when none does.
 std::string ParameterAtRangeBound(const std::vector<ModelParameter>& params,
                                   const Eigen::VectorXd& x, Eigen::Index offset);
+
+/// The names, comma-separated, of the person parameters of joint `joint` (ModelParameter::joint;
+/// values x(0), x(1), … of `params`) that sit within 1e-3 of their range at a bound; "" when none
+/// does or `joint` is "".
+std::string JointParametersAtBound(const std::vector<ModelParameter>& params,
+                                   const Eigen::VectorXd& x, const std::string& joint);
 
 /// "name = v within its normal variation ±w" of the first of `params` (values from x(offset))
 /// with a normal_half_width when every such parameter ends within start ± normal_half_width;

@@ -71,7 +71,10 @@ struct Judgement {
   double own_z = 0.0, own_z_p_adj = 1.0;
   std::string collapsed;
   std::string at_bound;  ///< a parameter at a bound of its plausible range ("": none).
-  std::string normal;    ///< WithinNormalVariation's text ("": beyond it, or no band).
+  /// The person parameters of the candidate's joint at a bound of their range in the model it
+  /// extends (JointParametersAtBound; "": none).
+  std::string person_at_bound;
+  std::string normal;  ///< WithinNormalVariation's text ("": beyond it, or no band).
   /// Mechanism::shape_contradiction on the residual of the model it extends ("": none).
   std::string shape;
   bool passes = false;
@@ -266,6 +269,10 @@ Judgement Extender::Judge(const Fitted& f, const Fitted& ref, int c, Eigen::Inde
   const int p = static_cast<int>(lib_[c].params.size());
   j.collapsed = CollapsedParameter(lib_[c].params, f.stage.fit.x, offset);
   j.at_bound = ParameterAtRangeBound(lib_[c].params, f.stage.fit.x, offset);
+  const Mechanism& mechanism = FindMechanism(lib_[c].id);
+  if (mechanism.mimics_joint_person) {
+    j.person_at_bound = JointParametersAtBound(person_, ref.stage.fit.x, lib_[c].joint);
+  }
   j.normal = WithinNormalVariation(lib_[c].params, f.stage.fit.x, offset, f.stage.fit.ci95);
   const Eigen::VectorXd& r0 = ref.stage.train_residual;
   const Eigen::VectorXd& r1 = f.stage.train_residual;
@@ -287,13 +294,13 @@ Judgement Extender::Judge(const Fitted& f, const Fitted& ref, int c, Eigen::Inde
       j.own_z_p_adj = std::min(1.0, ctx_.settings.max_screened * NormalSurvival(j.own_z));
     }
   }
-  const Mechanism& mechanism = FindMechanism(lib_[c].id);
   if (mechanism.shape_contradiction && r0.size() > 0) {
     j.shape = mechanism.shape_contradiction(UnstackResiduals(ctx_.data.train, r0));
   }
   const double alpha = ctx_.settings.alpha;
-  j.passes = j.collapsed.empty() && j.at_bound.empty() && j.normal.empty() && j.shape.empty() &&
-             j.lr_p_adj < alpha && OwnGainAccepted(j.own_gain, j.own_z_p_adj, ctx_.settings) &&
+  j.passes = j.collapsed.empty() && j.at_bound.empty() && j.person_at_bound.empty() &&
+             j.normal.empty() && j.shape.empty() && j.lr_p_adj < alpha &&
+             OwnGainAccepted(j.own_gain, j.own_z_p_adj, ctx_.settings) &&
              HeldoutGainAccepted(j.gain, j.z_p_adj, ctx_.settings);
   return j;
 }
@@ -570,6 +577,7 @@ void Extender::Record(int c, const Fitted& f, const Judgement& j) {
   cr.heldout_p_adjusted = j.z_p_adj;
   cr.heldout_own_gain = j.own_gain;
   cr.heldout_own_z = std::isfinite(j.own_gain) ? j.own_z : NAN;
+  cr.person_at_bound = j.person_at_bound;
   cr.collapsed = j.collapsed;
   cr.shape = j.shape;
   cr.parameters.clear();
@@ -584,6 +592,10 @@ void Extender::Record(int c, const Fitted& f, const Judgement& j) {
     cr.decision = j.at_bound +
                   " ended at a bound of its plausible range: the fit stands in for a "
                   "misfit of the model, not for the mechanism";
+  } else if (!j.person_at_bound.empty()) {
+    cr.decision = "the person's " + j.person_at_bound +
+                  " ended at a bound of its range: the person lies outside the model's range at " +
+                  lib_[c].joint + ", for which a mechanism there may stand in";
   } else if (!j.normal.empty()) {
     cr.decision = j.normal + ": a normal person's variation, not the mechanism";
   } else if (!j.shape.empty()) {

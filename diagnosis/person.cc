@@ -140,14 +140,20 @@ void AddGroupParameters(const sim::ModelParams& rig, const MuscleGroup& g,
 
 void AddJointParameters(const sim::ModelParams& rig, int c, std::vector<ModelParameter>* out) {
   const std::string joint = sim::CoordinateNames()[c];
+  // A function of the joint's angle names it (ModelParameter::joint); the damping, of its speed,
+  // does not.
+  const auto of_angle = [&joint](ModelParameter p) {
+    p.joint = joint;
+    return p;
+  };
   const auto& pj = rig.coordinates[c].passive;
   const double k = pj.stiffness_nm_per_rad, b = pj.damping_nms_per_rad, q0 = pj.rest_angle_rad;
   if (k > 0.0) {
-    out->push_back(WithLogPrior(Param("k." + joint, "N*m/rad", k, 0.1 * k, 10.0 * k, k,
-                                      [c](double v, sim::ModelParams* m) {
-                                        m->coordinates[c].passive.stiffness_nm_per_rad = v;
-                                      }),
-                                kPriorFactor, true));
+    out->push_back(of_angle(WithLogPrior(Param("k." + joint, "N*m/rad", k, 0.1 * k, 10.0 * k, k,
+                                               [c](double v, sim::ModelParams* m) {
+                                                 m->coordinates[c].passive.stiffness_nm_per_rad = v;
+                                               }),
+                                         kPriorFactor, true)));
   }
   if (b > 0.0) {
     out->push_back(WithLogPrior(Param("b." + joint, "N*m*s/rad", b, 0.05 * b, 20.0 * b, b,
@@ -158,16 +164,17 @@ void AddJointParameters(const sim::ModelParams& rig, int c, std::vector<ModelPar
   }
   if (k > 0.0) {  // normal mid-range curvature of the passive curve (sim/passive_joint.h)
     // Softening k₃ ≥ −k/2 keeps the passive stiffness k + 3k₃d² positive within ±0.8 rad.
-    out->push_back(WithPrior(Param("k3." + joint, "N*m/rad^3", 0.0, -0.5 * k, 20.0 * k, k,
-                                   [c](double v, sim::ModelParams* m) {
-                                     m->coordinates[c].passive.cubic_stiffness_nm_per_rad3 = v;
-                                   }),
-                             kCubicPriorPerRad2 * k, true));
+    out->push_back(
+        of_angle(WithPrior(Param("k3." + joint, "N*m/rad^3", 0.0, -0.5 * k, 20.0 * k, k,
+                                 [c](double v, sim::ModelParams* m) {
+                                   m->coordinates[c].passive.cubic_stiffness_nm_per_rad3 = v;
+                                 }),
+                           kCubicPriorPerRad2 * k, true)));
   }
-  out->push_back(WithPrior(
+  out->push_back(of_angle(WithPrior(
       Param("rest." + joint, "rad", q0, q0 - 0.6, q0 + 0.6, 10.0 * kDeg,
             [c](double v, sim::ModelParams* m) { m->coordinates[c].passive.rest_angle_rad = v; }),
-      10.0 * kDeg, true));
+      10.0 * kDeg, true)));
 }
 
 ModelParameter OmegaScale(const sim::ModelParams& rig, const std::vector<MuscleGroup>& groups) {
@@ -192,7 +199,7 @@ ModelParameter OmegaScale(const sim::ModelParams& rig, const std::vector<MuscleG
 ModelParameter ArmScale(const sim::ModelParams& rig, const MuscleGroup& g, int c) {
   const std::vector<double> rest = RestPosture(rig);
   const std::vector<int> ms = g.muscles;
-  return WithLogPrior(
+  ModelParameter p = WithLogPrior(
       Param("arm." + g.name + "@" + sim::CoordinateNames()[c], "1", 1.0, 0.5, 2.0, 1.0,
             [ms, c, rest](double v, sim::ModelParams* m) {
               for (int j : ms) {
@@ -207,6 +214,8 @@ ModelParameter ArmScale(const sim::ModelParams& rig, const MuscleGroup& g, int c
               }
             }),
       1.25, true);
+  p.joint = sim::CoordinateNames()[c];
+  return p;
 }
 
 ModelParameter HandMassScale(const sim::ModelParams& rig) {

@@ -122,6 +122,7 @@ Json DiagnosisJson(const Diagnosis& d) {
     e.Set("heldout_own_gain",
           std::isfinite(c.heldout_own_gain) ? Json(c.heldout_own_gain) : Json());
     e.Set("heldout_own_z", std::isfinite(c.heldout_own_z) ? Json(c.heldout_own_z) : Json());
+    e.Set("person_at_bound", c.person_at_bound.empty() ? Json() : Json(c.person_at_bound));
     e.Set("lr_p_adjusted", c.fitted ? Json(c.lr_p_adjusted) : Json());
     e.Set("shape_contradiction", c.shape.empty() ? Json() : Json(c.shape));
     e.Set("accepted", c.accepted).Set("decision", c.decision).Set("evidence", c.evidence);

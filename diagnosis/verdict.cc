@@ -26,6 +26,24 @@ std::string GapText(const std::vector<int>& gaps, const std::vector<double>& nrm
          ")";
 }
 
+/// "; <label> gains … but is not named …" for the candidate of largest held-out gain that the
+/// person-at-bound condition kept out (CandidateResult::person_at_bound), "" when none: what a
+/// verdict `none` owes to a person outside the model's range.
+std::string HeldByPersonText(const std::vector<CandidateResult>& candidates) {
+  const CandidateResult* held = nullptr;
+  for (const CandidateResult& cr : candidates) {
+    if (!cr.person_at_bound.empty() && cr.heldout_gain > 0.0 &&
+        (held == nullptr || cr.heldout_gain > held->heldout_gain)) {
+      held = &cr;
+    }
+  }
+  if (held == nullptr) return "";
+  return "; " + held->label +
+         Fmt(" gains %.1f %% on the held-out data", 100.0 * held->heldout_gain) +
+         " but is not named: the person's " + held->person_at_bound +
+         " ended at a bound of its range, so the person lies outside the model's range there";
+}
+
 /// Verdict `none` when only controls (Mechanism::control) were accepted: the extended model
 /// holds a normal variation of the person, no mechanism passes beyond it.
 void NoneBeyondControls(const std::vector<Candidate>& library, const ExtensionOutcome& extension,
@@ -144,7 +162,8 @@ void MakeVerdict(const std::vector<Candidate>& library, const ExtensionOutcome& 
       d->reason =
           "the calibrated model predicts the held-out data as well as the black box " +
           (d->reference.method.empty() ? std::string("(none identified)") : d->reference.method) +
-          " (within the gate) and no candidate mechanism passes its tests";
+          " (within the gate) and no candidate mechanism passes its tests" +
+          HeldByPersonText(d->candidates);
     }
     return;
   }

@@ -72,9 +72,9 @@ struct Candidate {
   std::vector<double> refit_scan_factors;
   /// Profile starts of the screening (full vectors over `params`; empty: none): with the
   /// candidate held at each, the person parameters are fitted, then everything together from the
-  /// lowest — when the calibrated model misses the black box (extension.h). For a mechanism the person parameters mimic along a curved valley
-  /// (arm_support: a lifting force f·W at the forearm's centre of mass is statically a stronger,
-  /// stiffer person by 1/(1 − f)).
+  /// lowest — when the calibrated model misses the black box (extension.h). For a mechanism the
+  /// person parameters mimic along a curved valley (arm_support: a lifting force f·W at the
+  /// forearm's centre of mass is statically a stronger, stiffer person by 1/(1 − f)).
   std::vector<Eigen::VectorXd> profile_starts;
   /// Index into `params` of a phase that no trial shares with another (a physiological tremor is
   /// not phase-locked to the start of a recording); −1: none. The extended model's held-out
@@ -132,6 +132,13 @@ struct Mechanism {
   /// output, of the model the candidate extends), checked before a fitted candidate passes: the
   /// reason that residual contradicts it, or "" (sensor_drift: a trend, not a step). Null: none.
   std::function<std::string(const std::vector<ResidualSeries>& residual)> shape_contradiction;
+  /// Its extension is a smooth function of its joint's angle — a passive torque or a moment arm —
+  /// which the person's parameters of that joint (ModelParameter::joint: passive k, k₃, rest
+  /// angle, the groups' moment-arm scales) approximate to first order. When one of those ended at
+  /// a bound of its range in the model the candidate extends, the person lies outside the model's
+  /// range at that joint, the candidate may stand in for it, and it is not accepted (extension.h).
+  /// Not for signatures the person cannot produce: a spectral line, a velocity threshold.
+  bool mimics_joint_person = false;
   /// A control, not a mechanism: a way a normal person differs from the calibrated one that the
   /// person parameters (person.h) do not express. It competes with the mechanisms in the
   /// extension (extension.h) so that a mechanism is named only for what it explains beyond normal

@@ -63,6 +63,7 @@ Mechanism MomentArmPostureMechanism() {
                       truth, planted);
   };
   m.evidence = PostureEvidence;
+  m.mimics_joint_person = true;  // a posture-dependent arm: the arm scales to first order
   return m;
 }
 

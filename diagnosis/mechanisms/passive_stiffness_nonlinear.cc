@@ -73,6 +73,7 @@ Mechanism PassiveStiffnessNonlinearMechanism() {
     PlantViaCandidate(id, "passive.sharpness_per_rad", 5.0, ctx.library, truth, planted);
   };
   m.evidence = PostureEvidence;
+  m.mimics_joint_person = true;  // a stiffening passive curve: k and k₃ to first order
   return m;
 }
 

@@ -436,6 +436,41 @@ TEST(ExtendedModel, CollapsedParameterIsTheOneAtItsCollapseBound) {
   EXPECT_THROW(CollapsedParameter(params, x, 2), std::invalid_argument);
 }
 
+// A candidate at a joint is judged with the person parameters of that joint (extension.cc,
+// Judge): those at a bound of their range are named, the other joints' are not.
+TEST(ExtendedModel, JointParametersAtBoundNamesTheJointsParametersAtEitherBound) {
+  ModelParameter k = Stiffness(1.0), arm = Stiffness(1.0), other = Stiffness(1.0),
+                 strength = Stiffness(1.0);
+  k.name = "k.pip_flexion";
+  k.joint = "pip_flexion";
+  k.lower = 0.1;
+  k.upper = 10.0;
+  arm.name = "arm.ext.finger@pip_flexion";
+  arm.joint = "pip_flexion";
+  arm.lower = 0.5;
+  arm.upper = 2.0;
+  other.name = "k.mcp_flexion";
+  other.joint = "mcp_flexion";
+  other.lower = 0.1;
+  other.upper = 10.0;
+  strength.name = "strength.ext";
+  strength.lower = 0.05;
+  strength.upper = 20.0;
+  const std::vector<ModelParameter> params = {k, arm, other, strength};
+  Eigen::VectorXd x(5);
+  x << 1.0, 1.0, 10.0, 0.05, 3.0;  // the fifth: a mechanism's, not a person's
+  EXPECT_EQ(JointParametersAtBound(params, x, "pip_flexion"), "");
+  EXPECT_EQ(JointParametersAtBound(params, x, "mcp_flexion"), "k.mcp_flexion");
+  EXPECT_EQ(JointParametersAtBound(params, x, ""), "");  // whole-model mechanisms
+  x(1) = 2.0 - 1e-3;                                     // within 1e-3 of the 1.5 range
+  x(0) = 0.1;
+  EXPECT_EQ(JointParametersAtBound(params, x, "pip_flexion"),
+            "k.pip_flexion, arm.ext.finger@pip_flexion");
+  x(1) = 2.0 - 2e-3;
+  EXPECT_EQ(JointParametersAtBound(params, x, "pip_flexion"), "k.pip_flexion");
+  EXPECT_THROW(JointParametersAtBound(params, x.head(3), "pip_flexion"), std::invalid_argument);
+}
+
 TEST(ExtendedModel, AFitInsideEveryNormalBandIsANormalPerson) {
   ModelParameter ratio = Stiffness(1.0), free = Stiffness(1.0), other = Stiffness(1.0);
   ratio.name = "ratio";

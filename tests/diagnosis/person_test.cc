@@ -55,6 +55,16 @@ TEST(Person, TheHandRigOffersGroupRecruitmentStrengthJointsRatesArmsAndHandMass)
     expected.insert(a);
   }
   EXPECT_EQ(names, expected);
+  // The functions of one joint's angle name it (JointParametersAtBound); the others none.
+  for (const auto& p : params) {
+    const auto at = p.name.find('@');
+    const bool of_angle = p.name.rfind("k.", 0) == 0 || p.name.rfind("k3.", 0) == 0 ||
+                          p.name.rfind("rest.", 0) == 0;  // b: a function of speed
+    const std::string joint = at != std::string::npos ? p.name.substr(at + 1)
+                              : of_angle              ? p.name.substr(p.name.find('.') + 1)
+                                                      : std::string();
+    EXPECT_EQ(p.joint, joint) << p.name;
+  }
   // A reduced model: the channels' input scales only.
   LibraryContext reduced = HandContext();
   reduced.reduced_model = "hammerstein-mimo";

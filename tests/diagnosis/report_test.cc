@@ -30,11 +30,13 @@ Diagnosis Example() {
   c.fitted = true;
   c.heldout_gain = 0.5;
   c.heldout_own_gain = 0.45;
+  c.heldout_own_z = 7.5;
   c.accepted = true;
   c.evidence = "peak at 6 Hz";
   CandidateResult n;
   n.id = "fatigue";
   n.label = "fatigue";
+  n.person_at_bound = "k.wrist_flexion";
   d.candidates = {c, n};
   d.split = "test";
   d.reason = "a tremor (periodic joint torque) explains what the calibrated model misses";
@@ -117,6 +119,11 @@ TEST(Report, JsonHasTheProductKeysPerCandidateTestsAndTheCalibratedPerson) {
   EXPECT_EQ(c0.Find("heldout_own_gain")->AsNumber(), 0.45);
   EXPECT_TRUE(j.Find("candidates")->Items()[1].Find("heldout_gain")->IsNull());  // not fitted
   EXPECT_TRUE(j.Find("candidates")->Items()[1].Find("heldout_own_gain")->IsNull());
+  EXPECT_EQ(c0.Find("heldout_own_z")->AsNumber(), 7.5);
+  EXPECT_TRUE(j.Find("candidates")->Items()[1].Find("heldout_own_z")->IsNull());
+  EXPECT_TRUE(c0.Find("person_at_bound")->IsNull());
+  EXPECT_EQ(j.Find("candidates")->Items()[1].Find("person_at_bound")->AsString(),
+            "k.wrist_flexion");
   // The person: values with units and intervals, and what was not calibrated says so.
   const Json& k = *j.Find("person")->Find("k.wrist_flexion");
   EXPECT_EQ(k.Find("value")->AsNumber(), 1.1);

@@ -86,6 +86,33 @@ TEST(Verdict, AMisfitOnlyAControlExplainsIsNoneWithTheControlNamedInTheReason) {
   EXPECT_EQ(s.d.extension_parameters[0].name, "passive_asymmetry@wrist_flexion:passive.asymmetry");
 }
 
+// docs/diagnosis.md, Extension and acceptance (the person-at-bound condition): a candidate kept
+// out because the person's parameters of its joint ended at a bound leaves `none`, and the reason
+// names it, its gain and those parameters (clean foreign 7006: moment_arm_posture@pip, 44 %).
+TEST(Verdict, NoneNamesTheCandidateThePersonAtABoundKeptOut) {
+  VerdictCase s;
+  s.Fitted("moment_arm_posture@pip_flexion", 0.44, false);
+  s.d.candidates[s.Index("moment_arm_posture@pip_flexion")].person_at_bound =
+      "arm.ext.finger@pip_flexion";
+  s.Fitted("passive_stiffness_nonlinear@pip_flexion", 0.05, false);
+  s.d.candidates[s.Index("passive_stiffness_nonlinear@pip_flexion")].person_at_bound =
+      "k3.pip_flexion";
+  s.d.baseline_heldout_nrmse_per_output = s.d.extended_heldout_nrmse_per_output;
+  MakeVerdict(s.library, s.Outcome({}, -1), 0, s.settings, &s.d);
+  EXPECT_EQ(s.d.cause, "none");
+  EXPECT_NE(s.d.reason.find("moment_arm_posture@pip_flexion gains 44.0 %"), std::string::npos)
+      << s.d.reason;
+  EXPECT_NE(s.d.reason.find("arm.ext.finger@pip_flexion"), std::string::npos) << s.d.reason;
+  EXPECT_EQ(s.d.reason.find("k3.pip_flexion"), std::string::npos) << s.d.reason;  // the largest
+  // Without one: the plain reason.
+  VerdictCase t;
+  t.Fitted("moment_arm_posture@pip_flexion", 0.01, false);
+  t.d.baseline_heldout_nrmse_per_output = t.d.extended_heldout_nrmse_per_output;
+  MakeVerdict(t.library, t.Outcome({}, -1), 0, t.settings, &t.d);
+  EXPECT_EQ(t.d.cause, "none");
+  EXPECT_EQ(t.d.reason.find("not named"), std::string::npos) << t.d.reason;
+}
+
 TEST(Verdict, AMechanismBeyondAControlIsNamedAndAControlAsGoodAsTheMechanismMakesItNone) {
   VerdictCase s;
   // A mechanism accepted on top of a control: named, the control's parameters kept.
