@@ -463,6 +463,51 @@ class PriorRows {
   std::vector<int> of_;  ///< free column of each prior row
 };
 
+/// The coordinates LM fits in: z = ln x for the free parameters with a log-normal prior (scale
+/// factors, lower > 0), x itself for the others. A scale factor's effect is multiplicative
+/// (recruitment shape γ over decades, a strength, a damping), so equal steps in ln x are equal
+/// relative changes; in x, LM's trust region at a factor's lower bound is far too large and at
+/// its upper bound far too small.
+class LogCoordinates {
+ public:
+  LogCoordinates(const std::vector<ModelParameter>& params, int first_free) {
+    for (std::size_t k = first_free; k < params.size(); ++k) {
+      log_.push_back(params[k].log_prior && params[k].lower > 0.0);
+    }
+  }
+  Eigen::VectorXd ToLm(Eigen::VectorXd x) const {
+    for (std::size_t k = 0; k < log_.size(); ++k) {
+      if (log_[k]) x(static_cast<Eigen::Index>(k)) = std::log(x(static_cast<Eigen::Index>(k)));
+    }
+    return x;
+  }
+  Eigen::VectorXd ToX(Eigen::VectorXd z) const {
+    for (std::size_t k = 0; k < log_.size(); ++k) {
+      if (log_[k]) z(static_cast<Eigen::Index>(k)) = std::exp(z(static_cast<Eigen::Index>(k)));
+    }
+    return z;
+  }
+  /// ∂r/∂z from ∂r/∂x at x: the log columns × x.
+  Eigen::MatrixXd ChainRule(Eigen::MatrixXd j, const Eigen::VectorXd& x) const {
+    for (std::size_t k = 0; k < log_.size(); ++k) {
+      const auto kk = static_cast<Eigen::Index>(k);
+      if (log_[k]) j.col(kk) *= x(kk);
+    }
+    return j;
+  }
+  /// 95 % half-widths in x from those in z at x (delta method: x · h_z).
+  Eigen::VectorXd HalfWidthsToX(Eigen::VectorXd h, const Eigen::VectorXd& x) const {
+    for (std::size_t k = 0; k < log_.size(); ++k) {
+      const auto kk = static_cast<Eigen::Index>(k);
+      if (log_[k]) h(kk) *= x(kk);
+    }
+    return h;
+  }
+
+ private:
+  std::vector<bool> log_;
+};
+
 }  // namespace
 
 FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
@@ -474,11 +519,17 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
     throw std::invalid_argument("FitParameters: x0 size or first_free out of range");
   }
   const int p = np - first_free;
-  Eigen::VectorXd lower(p), upper(p);
-  for (int k = 0; k < p; ++k) {
-    lower(k) = params[first_free + k].lower;
-    upper(k) = params[first_free + k].upper;
-  }
+  const LogCoordinates coords(params, first_free);
+  const Eigen::VectorXd lower = coords.ToLm([&] {
+    Eigen::VectorXd b(p);
+    for (int k = 0; k < p; ++k) b(k) = params[first_free + k].lower;
+    return b;
+  }());
+  const Eigen::VectorXd upper = coords.ToLm([&] {
+    Eigen::VectorXd b(p);
+    for (int k = 0; k < p; ++k) b(k) = params[first_free + k].upper;
+    return b;
+  }());
   const auto full = [&](const Eigen::VectorXd& free) {
     Eigen::VectorXd x = x0;
     x.tail(p) = free;
@@ -545,28 +596,35 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
       start && start->jacobian.rows() == n && start->jacobian.cols() == p
           ? start->jacobian
           : ResidualJacobian(base, params, x0, r0, view, options, &out.simulations, first_free);
-  const double max_diag =
-      with_prior_jacobian(project(j0), x0_free).colwise().squaredNorm().maxCoeff();
+  // LM works in `coords` (z = ln x for the log-prior parameters): the Jacobian ∂r/∂z is ∂r/∂x
+  // times x on those columns, the prior rows' included (their ∂/∂z is then σ_p / width).
+  const auto lm_jacobian = [&](const Eigen::MatrixXd& j_x, const Eigen::VectorXd& free) {
+    return coords.ChainRule(with_prior_jacobian(project(j_x), free), free);
+  };
+  const Eigen::VectorXd z0 = coords.ToLm(x0_free);
+  const double max_diag = lm_jacobian(j0, x0_free).colwise().squaredNorm().maxCoeff();
   const double c = max_diag > 0.0 ? 1.0 / std::sqrt(max_diag) : 1.0;
   bool first_residual = true, first_jacobian = true;
-  const identification::ResidualFn residual = [&](const Eigen::VectorXd& free) {
-    if (first_residual && free == x0_free) {
+  const identification::ResidualFn residual = [&](const Eigen::VectorXd& z) {
+    if (first_residual && z == z0) {
       first_residual = false;
-      return (c * with_prior(project(r0), free)).eval();
+      return (c * with_prior(project(r0), x0_free)).eval();
     }
     first_residual = false;
+    const Eigen::VectorXd free = coords.ToX(z);
     return (c * with_prior(project(raw_residual(free)), free)).eval();
   };
   out.jacobian = j0;
   out.jacobian_x = x0;
-  const identification::JacobianFn jacobian = [&](const Eigen::VectorXd& free,
+  const identification::JacobianFn jacobian = [&](const Eigen::VectorXd& z,
                                                   const Eigen::VectorXd& r, int* evaluations) {
     *evaluations += p;
-    if (first_jacobian && free == x0_free) {
+    if (first_jacobian && z == z0) {
       first_jacobian = false;
-      return (c * with_prior_jacobian(project(j0), free)).eval();
+      return (c * lm_jacobian(j0, x0_free)).eval();
     }
     first_jacobian = false;
+    const Eigen::VectorXd free = coords.ToX(z);
     // The finite differences need the raw residual at `free` (LM's r is scaled, and projected
     // when profiled): the one simulated there (LM asks at the point it just evaluated).
     const Eigen::VectorXd raw =
@@ -576,7 +634,7 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
     out.jacobian = ResidualJacobian(base, params, full(free), raw, view, options, &out.simulations,
                                     first_free);
     out.jacobian_x = full(free);
-    return (c * with_prior_jacobian(project(out.jacobian), free)).eval();
+    return (c * lm_jacobian(out.jacobian, free)).eval();
   };
   identification::LmOptions lm;
   lm.max_iterations = max_iterations > 0 ? max_iterations : options.max_iterations;
@@ -585,16 +643,18 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   lm.stop_needs_predicted_decrease = options.stop_needs_predicted_decrease;
   lm.hold_active_bounds = options.hold_active_bounds;
   identification::LmResult res =
-      identification::LevenbergMarquardt(residual, x0_free, lower, upper, lm, {}, jacobian);
+      identification::LevenbergMarquardt(residual, z0, lower, upper, lm, {}, jacobian);
   res.cost /= c * c;
   res.jtj /= c * c;
+  res.x = coords.ToX(res.x);
   out.x = full(res.x);
   out.map_cost = res.cost;
   out.cost = res.cost - prior_rows(res.x).squaredNorm();
   out.converged = res.converged;
   out.residuals = n;
   out.ci95 = Eigen::VectorXd::Constant(np, NAN);
-  out.ci95.tail(p) = identification::ConfidenceHalfWidths95(res.jtj, out.cost, n);
+  out.ci95.tail(p) =
+      coords.HalfWidthsToX(identification::ConfidenceHalfWidths95(res.jtj, out.cost, n), res.x);
   if (nuisance) {
     if (!(best_free.size() == p && best_free == res.x)) {
       raw_residual(res.x);
@@ -660,6 +720,13 @@ std::string CollapsedParameter(const std::vector<ModelParameter>& params, const 
   return "";
 }
 
+int RangeBoundSide(const ModelParameter& p, double v) {
+  const bool log = p.log_prior && p.lower > 0.0 && v > 0.0;
+  const double lo = log ? std::log(p.lower) : p.lower, hi = log ? std::log(p.upper) : p.upper;
+  const double at = log ? std::log(v) : v, tol = 1e-3 * (hi - lo);
+  return at - lo <= tol ? -1 : hi - at <= tol ? 1 : 0;
+}
+
 std::string ParameterAtRangeBound(const std::vector<ModelParameter>& params,
                                   const Eigen::VectorXd& x, Eigen::Index offset) {
   if (offset < 0 || offset + static_cast<Eigen::Index>(params.size()) > x.size()) {
@@ -668,10 +735,8 @@ std::string ParameterAtRangeBound(const std::vector<ModelParameter>& params,
   for (std::size_t k = 0; k < params.size(); ++k) {
     const ModelParameter& p = params[k];
     if (!p.range_is_plausible) continue;
-    const double v = x(offset + static_cast<Eigen::Index>(k)), tol = 1e-3 * (p.upper - p.lower);
-    const bool at_lower = v - p.lower <= tol && std::abs(p.start - p.lower) > tol;
-    const bool at_upper = p.upper - v <= tol && std::abs(p.upper - p.start) > tol;
-    if (at_lower || at_upper) return p.name;
+    const int side = RangeBoundSide(p, x(offset + static_cast<Eigen::Index>(k)));
+    if (side != 0 && side != RangeBoundSide(p, p.start)) return p.name;
   }
   return "";
 }
@@ -686,8 +751,9 @@ std::string JointParametersAtBound(const std::vector<ModelParameter>& params,
   for (std::size_t k = 0; k < params.size(); ++k) {
     const ModelParameter& p = params[k];
     if (p.joint != joint) continue;
-    const double v = x(static_cast<Eigen::Index>(k)), tol = 1e-3 * (p.upper - p.lower);
-    if (v - p.lower <= tol || p.upper - v <= tol) names += (names.empty() ? "" : ", ") + p.name;
+    if (RangeBoundSide(p, x(static_cast<Eigen::Index>(k))) != 0) {
+      names += (names.empty() ? "" : ", ") + p.name;
+    }
   }
   return names;
 }

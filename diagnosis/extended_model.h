@@ -8,7 +8,8 @@
 //                 sim/sensors.h plants it: drift · t)
 // Predictions simulate each trial's u.* from t = 0 with identification/fullmodel's SimulateLike,
 // the output joints starting at the trial's measured initial posture (DataView::initial_q);
-// fitting is the bounded Levenberg–Marquardt of identification/levenberg_marquardt.h. Jacobian
+// fitting is the bounded Levenberg–Marquardt of identification/levenberg_marquardt.h, in ln x
+// for the parameters with a log-normal prior (scale factors spanning decades). Jacobian
 // columns come from CVODES forward sensitivities (one augmented simulation per trial for all the
 // columns whose ModelParameter::sensitivity is set) and forward differences for the others, in
 // parallel threads. A parameter with a prior (ModelParameter::prior_width) adds the row
@@ -86,8 +87,13 @@ std::vector<ModelParameter> Join(const std::vector<ModelParameter>& a,
 std::string CollapsedParameter(const std::vector<ModelParameter>& params, const Eigen::VectorXd& x,
                                Eigen::Index offset);
 
+/// Where v sits in p's range: −1 within 1e-3 of the range of its lower bound, +1 of its upper,
+/// 0 inside. The range is measured in the coordinates FitParameters fits in (ln x for a
+/// log-prior scale factor: γ at 3 in [10⁻³, 10⁴] is not at its lower bound).
+int RangeBoundSide(const ModelParameter& p, double v);
+
 /// The name of the first of `params` (values from x(offset)) with range_is_plausible that sits
-/// within 1e-3 of its range at a bound that is not its start, or "" when none does.
+/// at a bound (RangeBoundSide) that is not its start, or "" when none does.
 std::string ParameterAtRangeBound(const std::vector<ModelParameter>& params,
                                   const Eigen::VectorXd& x, Eigen::Index offset);
 

@@ -115,7 +115,7 @@ void AddGroupParameters(const sim::ModelParams& rig, const MuscleGroup& g,
     gamma.push_back(rig.muscles[j].recruitment.gamma);
   }
   const std::vector<int> ms = g.muscles;
-  out->push_back(WithLogPrior(Param("strength." + g.name, "1", 1.0, 0.05, 20.0, 1.0,
+  out->push_back(WithLogPrior(Param("strength." + g.name, "1", 1.0, 0.01, 20.0, 1.0,
                                     [ms, fmax](double v, sim::ModelParams* m) {
                                       for (std::size_t i = 0; i < ms.size(); ++i) {
                                         m->muscles[ms[i]].hill.max_isometric_force_n = v * fmax[i];
@@ -129,7 +129,7 @@ void AddGroupParameters(const sim::ModelParams& rig, const MuscleGroup& g,
                                       }
                                     }),
                               kPriorFactor, true));
-  out->push_back(WithLogPrior(Param("gamma." + g.name, "1", 1.0, 0.05, 20.0, 1.0,
+  out->push_back(WithLogPrior(Param("gamma." + g.name, "1", 1.0, 1e-3, 1e4, 1.0,
                                     [ms, gamma](double v, sim::ModelParams* m) {
                                       for (std::size_t i = 0; i < ms.size(); ++i) {
                                         m->muscles[ms[i]].recruitment.gamma = v * gamma[i];
@@ -156,7 +156,7 @@ void AddJointParameters(const sim::ModelParams& rig, int c, std::vector<ModelPar
                                          kPriorFactor, true)));
   }
   if (b > 0.0) {
-    out->push_back(WithLogPrior(Param("b." + joint, "N*m*s/rad", b, 0.05 * b, 20.0 * b, b,
+    out->push_back(WithLogPrior(Param("b." + joint, "N*m*s/rad", b, 0.01 * b, 20.0 * b, b,
                                       [c](double v, sim::ModelParams* m) {
                                         m->coordinates[c].passive.damping_nms_per_rad = v;
                                       }),
@@ -200,7 +200,7 @@ ModelParameter ArmScale(const sim::ModelParams& rig, const MuscleGroup& g, int c
   const std::vector<double> rest = RestPosture(rig);
   const std::vector<int> ms = g.muscles;
   ModelParameter p = WithLogPrior(
-      Param("arm." + g.name + "@" + sim::CoordinateNames()[c], "1", 1.0, 0.5, 2.0, 1.0,
+      Param("arm." + g.name + "@" + sim::CoordinateNames()[c], "1", 1.0, 0.25, 4.0, 1.0,
             [ms, c, rest](double v, sim::ModelParams* m) {
               for (int j : ms) {
                 auto& path = m->muscles[j].path;
@@ -223,7 +223,7 @@ ModelParameter HandMassScale(const sim::ModelParams& rig) {
   const std::vector<int> segs = {sim::kHand, sim::kProximalPhalanx, sim::kMiddlePhalanx,
                                  sim::kDistalPhalanx};
   for (int s : segs) nominal.push_back(rig.segments[s]);
-  return WithLogPrior(Param("mass.hand", "1", 1.0, 0.5, 2.0, 1.0,
+  return WithLogPrior(Param("mass.hand", "1", 1.0, 0.25, 4.0, 1.0,
                             [segs, nominal](double v, sim::ModelParams* m) {
                               for (std::size_t i = 0; i < segs.size(); ++i) {
                                 auto& seg = m->segments[segs[i]];
@@ -301,8 +301,7 @@ void SetFittedValue(const ModelParameter& p, double value, double ci95, PersonVa
   v->fitted = true;
   v->value = value;
   v->ci95 = ci95;
-  const double range = p.upper - p.lower;
-  v->at_bound = value - p.lower <= 1e-3 * range || p.upper - value <= 1e-3 * range;
+  v->at_bound = RangeBoundSide(p, value) != 0;
   // The prior's half-width in the parameter's unit at its value (log-normal: × the value).
   const double prior_half = 1.96 * v->prior_width * (p.log_prior ? value : 1.0);
   v->prior_dominated =

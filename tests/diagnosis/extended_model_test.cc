@@ -137,6 +137,43 @@ TEST(ExtendedModel, FitRecoversAStiffnessAndHeldParametersStay) {
   EXPECT_GT(g.cost, 10 * f.cost);  // a drift cannot stand in for the stiffness
 }
 
+// A log-prior scale factor is fitted in z = ln x (FitParameters): the optimum and its interval
+// are properties of the cost, not of the coordinates — the interval of x by the delta method
+// from that of z equals the one fitted in x.
+TEST(ExtendedModel, AScaleFactorFittedInLogsHasTheOptimumAndIntervalOfTheFitInX) {
+  const StiffWristCase w = StiffWrist();
+  ModelParameter in_x = Stiffness(w.k_nominal);
+  in_x.lower = 0.01 * w.k_nominal;
+  in_x.upper = 100.0 * w.k_nominal;
+  ModelParameter in_log = in_x;
+  in_log.log_prior = true;  // FitOptions::prior_sigma 0: no prior rows, the coordinates only
+  const Eigen::VectorXd x0 = Eigen::VectorXd::Constant(1, w.k_nominal);
+  const FitResult a = FitParameters(w.rig, {in_x}, x0, w.view, w.options);
+  const FitResult b = FitParameters(w.rig, {in_log}, x0, w.view, w.options);
+  EXPECT_NEAR(b.x(0), 1.3 * w.k_nominal, 0.01 * w.k_nominal);
+  EXPECT_NEAR(b.x(0), a.x(0), 1e-3 * a.x(0));
+  // The data are noise-free: each interval scales with √cost of its own end point; per √cost
+  // (the (JᵀJ)⁻¹ part) they agree.
+  ASSERT_GT(a.ci95(0), 0.0);
+  ASSERT_GT(a.cost, 0.0);
+  EXPECT_NEAR(b.ci95(0) / std::sqrt(b.cost), a.ci95(0) / std::sqrt(a.cost),
+              0.02 * a.ci95(0) / std::sqrt(a.cost));
+}
+
+// Bounds are judged in the fit's coordinates: a log-prior factor's range in ln x.
+TEST(ExtendedModel, RangeBoundSideMeasuresAScaleFactorsRangeInLogs) {
+  ModelParameter gamma = Stiffness(1.0);
+  gamma.lower = 1e-3;
+  gamma.upper = 1e4;
+  EXPECT_EQ(RangeBoundSide(gamma, 3.0), -1);  // in x: within 1e-3 of the 1e4 range
+  gamma.log_prior = true;
+  EXPECT_EQ(RangeBoundSide(gamma, 3.0), 0);
+  EXPECT_EQ(RangeBoundSide(gamma, 1.01e-3), -1);  // ln 1.01 < 1e-3 × ln 1e7
+  EXPECT_EQ(RangeBoundSide(gamma, 1.03e-3), 0);
+  EXPECT_EQ(RangeBoundSide(gamma, 0.99e4), 1);
+  EXPECT_EQ(RangeBoundSide(gamma, 1e4), 1);
+}
+
 TEST(ExtendedModel, ParabolaVertexIsTheMinimumOfAQuadraticFromThreeSamples) {
   // c = 2 (f − 1.3)² + 5, sampled unevenly around its minimum: exact.
   const auto c = [](double f) { return 2.0 * (f - 1.3) * (f - 1.3) + 5.0; };
