@@ -127,13 +127,12 @@ TEST(DiagnoseForeign, AnEffectOutsideTheLibraryIsNeverAConfidentName) {
       << d.cause << " " << d.confidence;
 }
 
-TEST(DiagnoseForeign, TheCalibrationFromNominalReachesTheMinimumTheCornerRetryFound) {
-  // Suite data set 1017 (three 60 s trials, baseline wander at the floor). With the plain
-  // relative-decrease stop the calibration from nominal stopped at held-out NRMSE 0.63, missed
-  // the black box (0.38), and only the retry from the corner starts reached 0.16. With active
-  // bounds held and MINPACK's stop (PersonCalibrationOptions::converged_stop) the nominal start
-  // reaches that minimum itself: no retry, no person adopted from a candidate's fit, and the
-  // wander is not credited to a candidate (docs/diagnosis.md, The person, step 3).
+TEST(DiagnoseForeign, ACalibrationThatStallsFromNominalIsRetriedFromTheCorners) {
+  // Suite data set 1017 (three 60 s trials, baseline wander at the floor). From nominal the
+  // calibration stops at a posterior cost of 584 (seven steps; LM's damping grown to λ ≈ 500, the
+  // linear model predicting 10⁻⁶ of the cost): the calibrated model misses the black box, and the
+  // retry from the corner starts reaches 16.5, a held-out NRMSE below the black box's; the wander
+  // is not credited to a candidate (docs/diagnosis.md, The person, step 3; Known limits).
   foreign::DatasetSpec spec;
   spec.person_seed = spec.seed = 1017;
   spec.effects = {{"wander", 1.0}};
@@ -141,10 +140,9 @@ TEST(DiagnoseForeign, TheCalibrationFromNominalReachesTheMinimumTheCornerRetryFo
   const Diagnosis d = Diagnose(HandRig().model, data.trials, {}, TwoThreads());
   EXPECT_TRUE(d.cause == "none" || d.cause == "unexplained" || d.confidence < 0.5) << Explain(d);
   const bool retried = std::any_of(d.notes.begin(), d.notes.end(), [](const std::string& n) {
-    return n.find("corner starts") != std::string::npos ||
-           n.find("poorer minimum") != std::string::npos;
+    return n.find("corner starts") != std::string::npos;
   });
-  EXPECT_FALSE(retried) << Explain(d);
+  EXPECT_TRUE(retried) << Explain(d);
   EXPECT_LT(d.baseline_heldout_nrmse, 0.2) << Explain(d);
   EXPECT_LT(d.baseline_heldout_nrmse, d.reference.heldout_nrmse) << Explain(d);
 }
@@ -183,20 +181,17 @@ TEST(DiagnoseForeign, APersonFoundByACandidateFitBecomesTheControlAndTheTestsRun
 }
 
 TEST(DiagnoseForeign, ACandidateIsCreditedOnlyWithItsOwnPartOfTheGain) {
-  // Suite data set 1011 (three 60 s trials, a flexor spasticity the library's spasticity does not
-  // reach), LooseCalibration: candidate fits that free the person gained 12–14 % on held-out data
-  // while their mechanism stayed near "off" (a wrist tremor of 0.6 mN·m; an Ω ratio of 1.19 whose
-  // removal costs nothing), and unequal_muscle_dynamics was named. Switched off after the fit, such
-  // a candidate leaves the fitted model as good: its own part of the gain is below 2 % and not
-  // significant, and it is neither accepted nor an alternative (docs/diagnosis.md, "Extension and
-  // acceptance"); the person it reached,
-  // the candidate switched off, becomes the control when it predicts better than the calibration
-  // (then no candidate keeps that gain at all).
+  // Suite data set 6017 (three 60 s trials, a wrist passive stiffening at 1.1 × the noise): the
+  // unequal_muscle_dynamics fit, which frees the person, gains 1.1 % on held-out data, but switched
+  // off after the fit it leaves the fitted model almost as good (own part 0.2 %, not significant):
+  // the gain came from the person's refit, and the candidate is neither accepted nor an
+  // alternative (docs/diagnosis.md, "Extension and acceptance"). No candidate of a first round is
+  // accepted without its own part.
   foreign::DatasetSpec spec;
-  spec.person_seed = spec.seed = 1011;
-  spec.effects = {{"spasticity", 1.0}};
+  spec.person_seed = spec.seed = 6017;
+  spec.effects = {{"passive_stiffness_nonlinear", 1.0}};
   const foreign::Dataset data = foreign::MakeDataset(spec);
-  const DiagnoseSettings settings = LooseCalibration();
+  const DiagnoseSettings settings;
   const Diagnosis d = Diagnose(HandRig().model, data.trials, settings, TwoThreads());
   EXPECT_NE(d.cause, "unequal_muscle_dynamics") << Explain(d);
   int credited_to_the_person = 0;
@@ -204,18 +199,18 @@ TEST(DiagnoseForeign, ACandidateIsCreditedOnlyWithItsOwnPartOfTheGain) {
     if (!c.fitted) continue;
     ASSERT_TRUE(std::isfinite(c.heldout_own_gain)) << c.label;
     const double own_p = settings.max_screened * NormalSurvival(c.heldout_own_z);
-    if (!OwnGainAccepted(c.heldout_own_gain, own_p, settings)) {
+    const bool on_top = c.decision.find("on top of") != std::string::npos;
+    if (!on_top && !OwnGainAccepted(c.heldout_own_gain, own_p, settings)) {
       EXPECT_FALSE(c.accepted) << c.label;
     }
     if (c.decision.find("own part of the held-out gain") != std::string::npos) {
       ++credited_to_the_person;
-      EXPECT_GT(c.heldout_gain, 0.02) << c.label;
+      EXPECT_GT(c.heldout_gain, 0.0) << c.label;
+      EXPECT_LT(c.heldout_own_gain, 0.5 * c.heldout_gain) << c.label;
+      EXPECT_FALSE(c.accepted) << c.label;
     }
   }
-  const bool adopted = std::any_of(d.notes.begin(), d.notes.end(), [](const std::string& n) {
-    return n.find("switched off") != std::string::npos;
-  });
-  EXPECT_TRUE(adopted || credited_to_the_person >= 1) << Explain(d);
+  EXPECT_GE(credited_to_the_person, 1) << Explain(d);
 }
 
 TEST(DiagnoseFamily, ACleanWidePersonIsNone) {
