@@ -147,37 +147,31 @@ TEST(DiagnoseForeign, ACalibrationThatStallsFromNominalIsRetriedFromTheCorners) 
   EXPECT_LT(d.baseline_heldout_nrmse, d.reference.heldout_nrmse) << Explain(d);
 }
 
-/// The settings under which a calibration stops in a poor minimum that a candidate's fit leaves:
-/// the plain relative-decrease stop and Simbody's right-hand side (the path the two tests below
-/// document; with the converged stop these calibrations reach such persons themselves).
-DiagnoseSettings LooseCalibration() {
-  DiagnoseSettings s;
-  s.person.converged_stop = false;
-  s.fit.simbody_right_hand_side = true;
-  return s;
-}
-
 TEST(DiagnoseForeign, APersonFoundByACandidateFitBecomesTheControlAndTheTestsRunAgain) {
   // Suite data set 1006 (three 60 s trials, wrist moment arms planted posture dependent at
-  // 4.8 × the noise), LooseCalibration: the calibration predicts the held-out trial at NRMSE 0.52
-  // and the score test of moment_arm_posture@wrist is insignificant there (p_adj 0.36). The
-  // passive_asymmetry@mcp fit, the control switched off, leaves a person at 0.36: refitted alone it
-  // becomes the control, the tests are run again at it and the posture-dependent wrist arms are
-  // named (extension.h, Control).
+  // 4.8 × the noise) with the calibration cut short at 2 LM steps: it stops in a poorer minimum
+  // than the person a candidate's fit (which frees the person) reaches; that person, refitted
+  // alone with the candidate switched off, becomes the control, the candidates are judged against
+  // it, and the note says so (extension.h, Control).
   foreign::DatasetSpec spec;
   spec.person_seed = spec.seed = 1006;
   spec.floor = 1.0;
   spec.effects = {{"moment_arm_posture", 1.0}};
   const foreign::Dataset data = foreign::MakeDataset(spec);
-  const Diagnosis d = Diagnose(HandRig().model, data.trials, LooseCalibration(), TwoThreads());
-  const bool noted = std::any_of(d.notes.begin(), d.notes.end(), [](const std::string& n) {
-    return n.find("switched off") != std::string::npos;
-  });
-  EXPECT_TRUE(noted) << Explain(d);
-  EXPECT_LT(d.baseline_heldout_nrmse, 0.45) << Explain(d);
-  EXPECT_EQ(d.cause, "moment_arm_posture") << Explain(d);
-  ASSERT_FALSE(d.mechanisms.empty());
-  EXPECT_EQ(d.mechanisms[0], "moment_arm_posture@wrist_flexion") << Explain(d);
+  DiagnoseSettings settings;
+  settings.person.iterations = 2;
+  const Diagnosis d = Diagnose(HandRig().model, data.trials, settings, TwoThreads());
+  std::string note;
+  for (const auto& n : d.notes) {
+    if (n.find("poorer minimum") != std::string::npos) note = n;
+  }
+  ASSERT_FALSE(note.empty()) << d.baseline_heldout_nrmse << " " << Explain(d);
+  // "… stopped in a poorer minimum (held-out NRMSE a) than the person refitted alone … (b)":
+  // the baseline the candidates are judged against is the adopted b < a.
+  const std::size_t at = note.find("held-out NRMSE ");
+  ASSERT_NE(at, std::string::npos) << note;
+  const double calibrated = std::stod(note.substr(at + 15));
+  EXPECT_LT(d.baseline_heldout_nrmse, calibrated) << note;
 }
 
 TEST(DiagnoseForeign, ACandidateIsCreditedOnlyWithItsOwnPartOfTheGain) {
