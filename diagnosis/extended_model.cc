@@ -508,6 +508,27 @@ class LogCoordinates {
   std::vector<bool> log_;
 };
 
+/// FitParameters' LM settings: `max_iterations` when > 0, else the options'.
+identification::LmOptions LmOptionsOf(const FitOptions& options, int max_iterations) {
+  identification::LmOptions lm;
+  lm.max_iterations = max_iterations > 0 ? max_iterations : options.max_iterations;
+  lm.relative_tolerance = options.relative_tolerance;
+  lm.step_tolerance = 1e-9;
+  lm.stop_needs_predicted_decrease = options.stop_needs_predicted_decrease;
+  lm.hold_active_bounds = options.hold_active_bounds;
+  return lm;
+}
+
+/// The lower (or upper) bounds of the parameters from `first_free` on.
+Eigen::VectorXd FreeBounds(const std::vector<ModelParameter>& params, int first_free, bool upper) {
+  Eigen::VectorXd b(static_cast<Eigen::Index>(params.size()) - first_free);
+  for (Eigen::Index k = 0; k < b.size(); ++k) {
+    const ModelParameter& p = params[first_free + k];
+    b(k) = upper ? p.upper : p.lower;
+  }
+  return b;
+}
+
 }  // namespace
 
 FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelParameter>& params,
@@ -520,16 +541,8 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
   }
   const int p = np - first_free;
   const LogCoordinates coords(params, first_free);
-  const Eigen::VectorXd lower = coords.ToLm([&] {
-    Eigen::VectorXd b(p);
-    for (int k = 0; k < p; ++k) b(k) = params[first_free + k].lower;
-    return b;
-  }());
-  const Eigen::VectorXd upper = coords.ToLm([&] {
-    Eigen::VectorXd b(p);
-    for (int k = 0; k < p; ++k) b(k) = params[first_free + k].upper;
-    return b;
-  }());
+  const Eigen::VectorXd lower = coords.ToLm(FreeBounds(params, first_free, false));
+  const Eigen::VectorXd upper = coords.ToLm(FreeBounds(params, first_free, true));
   const auto full = [&](const Eigen::VectorXd& free) {
     Eigen::VectorXd x = x0;
     x.tail(p) = free;
@@ -636,14 +649,8 @@ FitResult FitParameters(const sim::ModelParams& base, const std::vector<ModelPar
     out.jacobian_x = full(free);
     return (c * lm_jacobian(out.jacobian, free)).eval();
   };
-  identification::LmOptions lm;
-  lm.max_iterations = max_iterations > 0 ? max_iterations : options.max_iterations;
-  lm.relative_tolerance = options.relative_tolerance;
-  lm.step_tolerance = 1e-9;
-  lm.stop_needs_predicted_decrease = options.stop_needs_predicted_decrease;
-  lm.hold_active_bounds = options.hold_active_bounds;
-  identification::LmResult res =
-      identification::LevenbergMarquardt(residual, z0, lower, upper, lm, {}, jacobian);
+  identification::LmResult res = identification::LevenbergMarquardt(
+      residual, z0, lower, upper, LmOptionsOf(options, max_iterations), {}, jacobian);
   res.cost /= c * c;
   res.jtj /= c * c;
   res.x = coords.ToX(res.x);
