@@ -167,6 +167,15 @@ class Extender {
   /// `limit` of them.
   std::vector<int> StrongestPerId(std::vector<int> cands, const ScreenStage& tests,
                                   int limit) const;
+  /// One group per candidate of `reps`: it, then — when its mechanism chooses its joint by the
+  /// fit (Candidate::joint_by_fit) — the other joints of its id in `significant`, in that order.
+  std::vector<std::vector<int>> JointGroups(const std::vector<int>& reps,
+                                            const std::vector<int>& significant) const;
+  /// Of fits[first, first + n), the index of the lowest training Σr²: the joint chosen by the fit.
+  static std::size_t LowestCost(const std::vector<Fitted>& fits, std::size_t first, std::size_t n);
+  /// Records the fit of a joint that the fit did not choose (JointGroups): its figures, and a
+  /// decision naming the chosen candidate `chosen` and its training Σr².
+  void RecordNotChosen(int c, const Fitted& f, const Judgement& j, int chosen, double chosen_cost);
   /// Makes `control` (the person alone refitted from where candidate c's fit ended) the
   /// control when it beats it on training Σr² and on held-out NRMSE (extension.h, Control).
   /// `route` says how that person was reached, for baseline_note.
@@ -175,6 +184,11 @@ class Extender {
   /// trial best, when that beats the control by clear_heldout_gain: the person alone is refitted
   /// from there and offered to AdoptBetterControl (extension.h, Control).
   void AdoptRemovedPerson(const std::vector<Fitted>& fits);
+  /// The screening fits of `members` (extension.h, Screening), side by side; `controls`: per
+  /// member the person refitted from a better profile start (empty Fitted: none), already
+  /// offered to AdoptBetterControl.
+  std::vector<Fitted> FitScreened(const std::vector<int>& members, const ScreenStage& screen,
+                                  std::vector<Fitted>* controls);
   void ScreenRound(const ScreenStage& screen);
   /// The score tests repeated at an adopted control (AdoptBetterControl): the first screen's
   /// tests were at the calibration; every candidate's figures restart from these.
@@ -726,6 +740,38 @@ std::vector<int> Extender::StrongestPerId(std::vector<int> cands, const ScreenSt
   return out;
 }
 
+std::vector<std::vector<int>> Extender::JointGroups(const std::vector<int>& reps,
+                                                    const std::vector<int>& significant) const {
+  std::vector<std::vector<int>> groups;
+  for (int r : reps) {
+    groups.push_back({r});
+    if (!lib_[r].joint_by_fit) continue;
+    for (int c : significant) {
+      if (c != r && lib_[c].id == lib_[r].id) groups.back().push_back(c);
+    }
+  }
+  return groups;
+}
+
+std::size_t Extender::LowestCost(const std::vector<Fitted>& fits, std::size_t first,
+                                 std::size_t n) {
+  std::size_t best = first;
+  for (std::size_t k = first + 1; k < first + n; ++k) {
+    if (fits[k].stage.fit.cost < fits[best].stage.fit.cost) best = k;
+  }
+  return best;
+}
+
+void Extender::RecordNotChosen(int c, const Fitted& f, const Judgement& j, int chosen,
+                               double chosen_cost) {
+  Record(c, f, j);
+  (*results_)[c].decision =
+      "not judged: the fit at " + lib_[chosen].joint +
+      Fmt(" has the lower training sum of squares (%.4g against %.4g here; the joint is chosen "
+          "by the fit)",
+          chosen_cost, f.stage.fit.cost);
+}
+
 void Extender::AdoptBetterControl(const Fitted& control, int c, const std::string& route) {
   if (!control.stage.heldout_ok ||
       !(control.stage.train_residual.squaredNorm() < base_.stage.train_residual.squaredNorm()) ||
@@ -762,30 +808,11 @@ void Extender::AdoptRemovedPerson(const std::vector<Fitted>& fits) {
   AdoptBetterControl(control, best->cands.back(), "fit with it switched off");
 }
 
-void Extender::ScreenRound(const ScreenStage& screen) {
-  const double alpha = ctx_.settings.alpha;
-  std::vector<int> order;
-  for (std::size_t c = 0; c < lib_.size(); ++c) {
-    const bool profiled = reference_gap_ && !lib_[c].profile_starts.empty();
-    if (lib_[c].applicable && ((*results_)[c].p_adjusted < alpha || profiled))
-      order.push_back(static_cast<int>(c));
-  }
-  const std::vector<int> significant = order;
-  order = StrongestPerId(order, screen, ctx_.settings.max_screened);
-  for (int c : significant) {  // why a candidate to be screened is not fitted
-    if (std::find(order.begin(), order.end(), c) != order.end()) continue;
-    const auto same_id =
-        std::find_if(order.begin(), order.end(), [&](int o) { return lib_[o].id == lib_[c].id; });
-    (*results_)[c].decision =
-        same_id != order.end()
-            ? "not fitted: " + lib_[*same_id].label +
-                  " has the larger score statistic (one joint per mechanism is fitted)"
-            : Fmt("not fitted: beyond the %.0f strongest mechanisms", ctx_.settings.max_screened);
-  }
-  int best = -1;
-  std::vector<int> batch;
+std::vector<Fitted> Extender::FitScreened(const std::vector<int>& members,
+                                          const ScreenStage& screen,
+                                          std::vector<Fitted>* controls) {
   const std::function<std::string(std::size_t)> item = [&](std::size_t k) {
-    const int c = batch[k];
+    const int c = members[k];
     const Eigen::VectorXd x0 =
         Concat(base_.stage.fit.x, lib_[c].start_from_step(screen.tests[c].theta));
     FitStage s = FitStageOf({c}, x0, ctx_.settings.screen_iterations, 0.0, true);
@@ -807,53 +834,101 @@ void Extender::ScreenRound(const ScreenStage& screen) {
     r.Set("fit", ToJson(s)).Set("control", control);
     return r.Dump(0);
   };
-  for (std::size_t first = 0; first < order.size() && best < 0; first += batch.size()) {
-    batch.assign(order.begin() + static_cast<std::ptrdiff_t>(first),
-                 order.begin() + static_cast<std::ptrdiff_t>(std::min(
-                                     order.size(), first + std::max(1, ctx_.settings.max_fitted))));
+  {  // FreePerson's directions, probed here: ProbeDirections maps items itself
+    std::vector<int> need;
+    for (int c : members) {
+      if (LacksSensitivities({c})) need.push_back(c);
+    }
+    EnsureDirections(need);
+  }
+  const std::vector<std::string> texts = ctx_.Map(members.size(), item);
+  std::vector<Fitted> fits(members.size());
+  controls->assign(members.size(), Fitted());
+  for (std::size_t k = 0; k < members.size(); ++k) {
+    const Json item_json = Json::Parse(texts[k], "screening fit");
+    fits[k].cands = {members[k]};
+    FromJson(Member(item_json, "fit"), &fits[k].stage);
+    Complete(&fits[k]);
+    if (!Member(item_json, "control").IsNull()) {
+      FromJson(Member(item_json, "control"), &(*controls)[k].stage);
+      Complete(&(*controls)[k]);
+      AdoptBetterControl((*controls)[k], members[k], "profile-start fit");
+    }
+  }
+  return fits;
+}
+
+void Extender::ScreenRound(const ScreenStage& screen) {
+  const double alpha = ctx_.settings.alpha;
+  std::vector<int> order;
+  for (std::size_t c = 0; c < lib_.size(); ++c) {
+    const bool profiled = reference_gap_ && !lib_[c].profile_starts.empty();
+    if (lib_[c].applicable && ((*results_)[c].p_adjusted < alpha || profiled))
+      order.push_back(static_cast<int>(c));
+  }
+  const std::vector<int> significant = order;
+  order = StrongestPerId(order, screen, ctx_.settings.max_screened);
+  const auto rep_of = [&](int c) {  // the fitted candidate of c's id, or order.end()
+    return std::find_if(order.begin(), order.end(),
+                        [&](int o) { return lib_[o].id == lib_[c].id; });
+  };
+  for (int c : significant) {  // why a candidate to be screened is not fitted
+    if (std::find(order.begin(), order.end(), c) != order.end()) continue;
+    const auto same_id = rep_of(c);
+    if (same_id != order.end() && lib_[c].joint_by_fit) continue;  // fitted with its group
+    (*results_)[c].decision =
+        same_id != order.end()
+            ? "not fitted: " + lib_[*same_id].label +
+                  " has the larger score statistic (one joint per mechanism is fitted)"
+            : Fmt("not fitted: beyond the %.0f strongest mechanisms", ctx_.settings.max_screened);
+  }
+  int best = -1;
+  std::vector<int> reps;
+  for (std::size_t first = 0; first < order.size() && best < 0; first += reps.size()) {
+    reps.assign(order.begin() + static_cast<std::ptrdiff_t>(first),
+                order.begin() + static_cast<std::ptrdiff_t>(std::min(
+                                    order.size(), first + std::max(1, ctx_.settings.max_fitted))));
     ctx_.Report(0.4 + 0.35 * first / order.size(),
-                "fitting " + std::to_string(batch.size()) + " extensions");
-    {  // FreePerson's directions, probed here: ProbeDirections maps items itself
-      std::vector<int> need;
-      for (int c : batch) {
-        if (LacksSensitivities({c})) need.push_back(c);
-      }
-      EnsureDirections(need);
-    }
-    const std::vector<std::string> texts = ctx_.Map(batch.size(), item);
-    std::vector<Fitted> fits(batch.size()), controls(batch.size());
-    for (std::size_t k = 0; k < batch.size(); ++k) {
-      const Json item_json = Json::Parse(texts[k], "screening fit");
-      fits[k].cands = {batch[k]};
-      FromJson(Member(item_json, "fit"), &fits[k].stage);
-      Complete(&fits[k]);
-      if (!Member(item_json, "control").IsNull()) {
-        FromJson(Member(item_json, "control"), &controls[k].stage);
-        Complete(&controls[k]);
-        AdoptBetterControl(controls[k], batch[k], "profile-start fit");
-      }
-    }
+                "fitting " + std::to_string(reps.size()) + " extensions");
+    const std::vector<std::vector<int>> groups = JointGroups(reps, significant);
+    std::vector<int> members;
+    for (const auto& g : groups) members.insert(members.end(), g.begin(), g.end());
+    std::vector<Fitted> controls;
+    std::vector<Fitted> fits = FitScreened(members, screen, &controls);
     AdoptRemovedPerson(fits);
-    for (std::size_t k = 0; k < batch.size(); ++k) {
-      const int c = batch[k];
-      Fitted& f = fits[k];
-      // A profiled fit must beat both the control and its own refitted person (extension.h).
-      Judgement j = JudgeLast(f, base_, c);
-      if (controls[k].stage.train_residual.size()) {
-        const Judgement own = JudgeLast(f, controls[k], c);
-        if (!own.passes || own.gain < j.gain) j = own;
+    std::size_t at = 0;
+    for (const auto& g : groups) {
+      const std::size_t chosen = LowestCost(fits, at, g.size());
+      const double chosen_cost = fits[chosen].stage.fit.cost;
+      for (std::size_t k = at; k < at + g.size(); ++k) {
+        const int c = members[k];
+        // A profiled fit must beat both the control and its own refitted person (extension.h).
+        Judgement j = JudgeLast(fits[k], base_, c);
+        if (controls[k].stage.train_residual.size()) {
+          const Judgement own = JudgeLast(fits[k], controls[k], c);
+          if (!own.passes || own.gain < j.gain) j = own;
+        }
+        if (k != chosen) {
+          RecordNotChosen(c, fits[k], j, members[chosen], chosen_cost);
+        } else {
+          Record(c, fits[k], j);
+        }
+        round1_.push_back(std::move(fits[k]));
+        if (k == chosen && j.passes &&
+            (best < 0 || j.gain > (*results_)[round1_[best].cands[0]].heldout_gain)) {
+          best = static_cast<int>(round1_.size()) - 1;
+        }
       }
-      Record(c, f, j);
-      round1_.push_back(std::move(f));
-      if (j.passes && (best < 0 || j.gain > (*results_)[round1_[best].cands[0]].heldout_gain)) {
-        best = static_cast<int>(round1_.size()) - 1;
-      }
+      at += g.size();
     }
   }
   if (best < 0) return;
   const int c1 = round1_[best].cands[0];
-  for (int c : order) {
-    if (!(*results_)[c].fitted) {
+  for (int c : significant) {
+    const auto same_id = rep_of(c);
+    const bool grouped = std::find(order.begin(), order.end(), c) != order.end() ||
+                         (same_id != order.end() && lib_[c].joint_by_fit);
+    if (grouped && !(*results_)[c].fitted) {
       (*results_)[c].decision = "not fitted: " + lib_[c1].label +
                                 " passed in an earlier batch of larger score statistics";
     }
@@ -953,8 +1028,12 @@ bool Extender::OnTopRound() {
       order.push_back(static_cast<int>(c));
     }
   }
+  const std::vector<int> significant = order;
   order = StrongestPerId(order, tests, ctx_.settings.max_fitted);
   if (order.empty()) return false;
+  const std::vector<std::vector<int>> groups = JointGroups(order, significant);
+  std::vector<int> members;
+  for (const auto& g : groups) members.insert(members.end(), g.begin(), g.end());
   // Start: a candidate's own first-round fit when it passed its training test there, else the
   // Gauss–Newton step of its test on top of the extended model.
   const auto start_on_top = [&](int c) {
@@ -967,33 +1046,36 @@ bool Extender::OnTopRound() {
   };
   const std::function<std::string(std::size_t)> item = [&](std::size_t k) {
     std::vector<int> cands = accepted_;
-    cands.push_back(order[k]);
-    return ToJson(FitStageOf(cands, start_on_top(order[k]), ctx_.settings.screen_iterations, 0.0,
+    cands.push_back(members[k]);
+    return ToJson(FitStageOf(cands, start_on_top(members[k]), ctx_.settings.screen_iterations, 0.0,
                              true))
         .Dump(0);
   };
-  ctx_.Report(0.85, "fitting " + std::to_string(order.size()) + " extensions on top");
-  for (int c : order) {  // FreePerson's directions, probed outside the items
+  ctx_.Report(0.85, "fitting " + std::to_string(members.size()) + " extensions on top");
+  for (int c : members) {  // FreePerson's directions, probed outside the items
     std::vector<int> cands = accepted_;
     cands.push_back(c);
     if (LacksSensitivities(cands)) EnsureDirections(cands);
   }
-  const std::vector<std::string> texts = ctx_.Map(order.size(), item);
+  const std::vector<std::string> texts = ctx_.Map(members.size(), item);
+  std::vector<Fitted> on_top(members.size());
+  for (std::size_t k = 0; k < members.size(); ++k) {
+    on_top[k].cands = accepted_;
+    on_top[k].cands.push_back(members[k]);
+    FromJson(Json::Parse(texts[k], "fit on top"), &on_top[k].stage);
+    Complete(&on_top[k]);
+  }
   int pick = -1;
   double pick_gain = 0.0;
-  std::vector<Fitted> on_top;
   Judgement pick_j;
-  for (std::size_t k = 0; k < order.size(); ++k) {
-    const int c = order[k];
-    Fitted f;
-    f.cands = accepted_;
-    f.cands.push_back(c);
-    FromJson(Json::Parse(texts[k], "fit on top"), &f.stage);
-    Complete(&f);
-    const Judgement j = JudgeLast(f, current_, c);
+  std::size_t at = 0;
+  for (const auto& g : groups) {  // each group's joint chosen by the fit (JointGroups) is judged
+    const std::size_t k = LowestCost(on_top, at, g.size());
+    at += g.size();
+    const int c = members[k];
+    const Judgement j = JudgeLast(on_top[k], current_, c);
     (*results_)[c].heldout_gain_on_accepted = j.gain;
     on_top_reference_[c] = current_.heldout_nrmse;
-    on_top.push_back(std::move(f));
     if (j.passes && (pick < 0 || j.gain > pick_gain)) {
       pick = static_cast<int>(k);
       pick_gain = j.gain;
@@ -1001,7 +1083,7 @@ bool Extender::OnTopRound() {
     }
   }
   if (pick < 0) return false;
-  const int c = order[pick];
+  const int c = members[pick];
   accepted_.push_back(c);
   (*results_)[c].accepted = true;
   (*results_)[c].decision = "passes on top of " + lib_[accepted_[0]].label;

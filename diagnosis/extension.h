@@ -29,7 +29,11 @@
 // own parameters from the test's Gauss–Newton step (Candidate::start_from_step), fitted together
 // with the person parameters (screen_iterations LM steps, person priors on) — all of them when
 // the extended model has forward sensitivities, else (fatigue, potentiation) the kRelevantPerson
-// whose Jacobian columns point most along the candidate's probe directions. When the calibrated
+// whose Jacobian columns point most along the candidate's probe directions. A mechanism whose
+// joint is chosen by the fit (Mechanism::joint_by_fit: tremor) is fitted at each joint of a
+// significant test, here and on top, and only its fit of lowest training Σr² is judged: the
+// choice uses the training data alone, so the held-out test stays one test per mechanism
+// (DiagnoseForeign.AWristTremorIsNamedAtTheWristWhereAFingerJointScoresHigher). When the calibrated
 // model misses the black box on some output (`reference_gap`, verdict.h ReferenceGaps), a
 // candidate with profile starts (Candidate::profile_starts: arm_support, crosstalk) is fitted
 // whatever its score test, and also from the lowest of the person fits with it held at each

@@ -95,6 +95,7 @@ struct Candidate {
   bool drift_per_trial = false;
   /// A control (Mechanism::control): fitted and judged like a mechanism, never a cause.
   bool control = false;
+  bool joint_by_fit = false;  ///< Mechanism::joint_by_fit.
   bool applicable = true;
   std::string not_applicable_reason;
 };
@@ -139,6 +140,12 @@ struct Mechanism {
   /// range at that joint, the candidate may stand in for it, and it is not accepted (extension.h).
   /// Not for signatures the person cannot produce: a spectral line, a velocity threshold.
   bool mimics_joint_person = false;
+  /// Its joint is chosen by the fit, not by the score statistic: its effect reaches the coupled
+  /// joints — a wrist torque moves the fingers through the extrinsic finger muscles — and the
+  /// largest statistic can be at a joint it does not act on (foreign 1004: a wrist tremor's
+  /// statistic 614 at the MCP, 607 at the wrist). Every joint whose test is significant is fitted
+  /// and the fit of lowest training Σr² is judged (extension.h, Screening).
+  bool joint_by_fit = false;
   /// A control, not a mechanism: a way a normal person differs from the calibrated one that the
   /// person parameters (person.h) do not express. It competes with the mechanisms in the
   /// extension (extension.h) so that a mechanism is named only for what it explains beyond normal

@@ -105,6 +105,7 @@ std::vector<Candidate> CandidateLibrary(const sim::ModelParams& rig, const Libra
     for (Candidate c : m.candidates(rig, ctx)) {
       c.id = m.id;
       c.control = m.control;
+      c.joint_by_fit = m.joint_by_fit;
       if (c.label.empty()) c.label = c.joint.empty() ? c.id : c.id + "@" + c.joint;
       if (!ctx.reduced_model.empty() && c.applicable && !m.reduced_model_form) {
         c.applicable = false;

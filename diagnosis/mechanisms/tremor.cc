@@ -59,6 +59,7 @@ Mechanism TremorMechanism() {
   m.id = "tremor";
   m.description = "a tremor (periodic joint torque)";
   m.reduced_model_form = true;
+  m.joint_by_fit = true;  // a wrist tremor shakes the fingers too (mechanism.h)
   m.candidates = [](const sim::ModelParams& rig, const LibraryContext& ctx) {
     std::vector<Candidate> out;
     const std::vector<int> joints = OutputJoints(ctx);
