@@ -13,6 +13,13 @@
 //   diagnosis_suite --suite foreign|family [--per N] [--clean N] [--outside N] [--pairs N]
 //                   [--mechanisms a,b,…] [--floor R] [--seed S] [--only SEED,…] [--threads N]
 //                   [--rhs simbody|chain] [--out FILE.md] [--json FILE.json] [--verbose 0|1|2]
+//                   [--reuse OLD.json [--rerun SEED,…]]
+//
+// --reuse: the data sets found in an earlier run's --json output (same seed, kind and planted
+// effects) are taken from it instead of being diagnosed again, except those --rerun lists; the
+// Markdown says how many were read. For a change whose effect is confined to data sets one can
+// name (e.g. those that fitted a given candidate): the others' diagnoses are the same by
+// determinism (fixed seeds, results independent of the thread count).
 //
 // --rhs: the fits' right-hand side (diagnosis::FitOptions::simbody_right_hand_side; chain, the
 // articulated-body one and the default, or simbody), to see which verdicts turn on round-off.
@@ -29,6 +36,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -69,7 +77,9 @@ struct Options {
   std::set<std::uint64_t> only;
   std::vector<std::string> mechanisms;
   std::string out, json;
-  bool simbody_rhs = false;  // --rhs
+  bool simbody_rhs = false;       // --rhs
+  std::string reuse;              // --reuse
+  std::set<std::uint64_t> rerun;  // --rerun
 };
 
 /// One data set of a suite and what the diagnosis said.
@@ -85,6 +95,9 @@ struct Case {
   std::string planted_joint;  // single: the joint a joint-local effect acts at, else empty
   dg::Diagnosis result;
   double wall_s = 0.0;
+  /// --reuse: the earlier run's "diagnosis" object (null: diagnosed in this run); `result` then
+  /// holds only what the Markdown reads (ReusedResult).
+  fesim::Json reused;
 };
 
 bool Named(const Case& c, const std::string& id) {
@@ -258,8 +271,88 @@ fesim::Json CaseJson(const Case& c) {
   for (const auto& p : c.planted) planted.Push(p);
   j.Set("planted", planted).Set("protocol", c.protocol).Set("effect_ratio", c.effect_ratio);
   if (!c.planted_joint.empty()) j.Set("planted_joint", c.planted_joint);
-  j.Set("right", Right(c)).Set("wall_s", c.wall_s).Set("diagnosis", dg::DiagnosisJson(c.result));
+  j.Set("right", Right(c)).Set("wall_s", c.wall_s);
+  j.Set("diagnosis", c.reused.IsNull() ? dg::DiagnosisJson(c.result) : c.reused);
   return j;
+}
+
+double NumberOr(const fesim::Json* j, double fallback) {
+  return j != nullptr && j->IsNumber() ? j->AsNumber() : fallback;
+}
+
+/// What the Markdown reads of a diagnosis, from its diagnosis.json form (report.h).
+dg::Diagnosis ReusedResult(const fesim::Json& d) {
+  dg::Diagnosis r;
+  r.cause = d.Find("cause")->AsString();
+  r.confidence = NumberOr(d.Find("confidence"), NAN);
+  r.reason = d.Find("reason")->AsString();
+  r.gain = NumberOr(d.Find("gain"), NAN);
+  const auto nrmse = [&](const char* part) {
+    const fesim::Json* o = d.Find(part);
+    return o != nullptr && o->IsObject() ? NumberOr(o->Find("heldout_nrmse"), NAN) : NAN;
+  };
+  r.baseline_heldout_nrmse = nrmse("baseline");
+  r.extended_heldout_nrmse = nrmse("extended");
+  r.reference.heldout_nrmse = nrmse("reference");
+  // Accepted ids in order (extended.mechanisms); each one's label ("id@joint") from the
+  // prefixes of its parameters' names ("label:parameter").
+  const fesim::Json* ext = d.Find("extended");
+  if (ext == nullptr || !ext->IsObject() || ext->Find("mechanisms") == nullptr) return r;
+  const fesim::Json* params = ext->Find("parameters");
+  for (const auto& m : ext->Find("mechanisms")->Items()) {
+    const std::string& id = m.AsString();
+    std::string label = id;
+    if (params != nullptr) {
+      for (const auto& key : params->Keys()) {
+        const std::string prefix = key.substr(0, key.find(':'));
+        if (prefix.substr(0, prefix.find('@')) == id) {
+          label = prefix;
+          break;
+        }
+      }
+    }
+    r.mechanism_ids.push_back(id);
+    r.mechanisms.push_back(label);
+  }
+  return r;
+}
+
+/// --reuse: fills the cases found in `path` (not in o.rerun) from it; returns how many, or
+/// throws std::runtime_error naming the file and the data set that does not match.
+std::size_t ReuseEarlierRun(const Options& o, std::vector<Case>* cases) {
+  const fesim::Json all = fesim::Json::Parse(fesim::ReadFile(o.reuse), o.reuse);
+  if (!all.IsArray()) throw std::runtime_error(o.reuse + ": not a diagnosis_suite --json array");
+  std::map<std::uint64_t, const fesim::Json*> by_seed;
+  for (const auto& j : all.Items()) {
+    by_seed[static_cast<std::uint64_t>(j.Find("seed")->AsNumber())] = &j;
+  }
+  std::size_t n = 0;
+  for (Case& c : *cases) {
+    const auto it = by_seed.find(c.seed);
+    if (it == by_seed.end() || o.rerun.count(c.seed)) continue;
+    const fesim::Json& j = *it->second;
+    std::vector<std::string> planted;
+    for (const auto& p : j.Find("planted")->Items()) planted.push_back(p.AsString());
+    if (j.Find("kind")->AsString() != c.kind || planted != c.planted) {
+      const auto what = [](const std::string& kind, const std::vector<std::string>& effects) {
+        std::string w = kind;
+        for (const auto& e : effects) w += " " + e;
+        return w;
+      };
+      throw std::runtime_error(o.reuse + ": data set " + std::to_string(c.seed) + " is " +
+                               what(j.Find("kind")->AsString(), planted) + " there, " +
+                               what(c.kind, c.planted) +
+                               " here (--reuse needs the same suite options)");
+    }
+    c.reused = *j.Find("diagnosis");
+    c.result = ReusedResult(c.reused);
+    c.effect_ratio = NumberOr(j.Find("effect_ratio"), NAN);
+    c.wall_s = NumberOr(j.Find("wall_s"), NAN);
+    const fesim::Json* joint = j.Find("planted_joint");
+    if (joint != nullptr) c.planted_joint = joint->AsString();
+    ++n;
+  }
+  return n;
 }
 
 /// Rates of the suite beside the targets of docs/diagnosis.md.
@@ -335,7 +428,7 @@ int Usage(const char* why) {
                "diagnosis_suite: %s\nusage: diagnosis_suite --suite foreign|family [--per N] "
                "[--clean N] [--outside N] [--pairs N] [--mechanisms a,b,...] [--floor R] "
                "[--seed S] [--only SEED,...] [--threads N] [--rhs simbody|chain] [--out FILE.md] "
-               "[--json FILE.json] [--verbose 0|1|2]\n",
+               "[--json FILE.json] [--verbose 0|1|2] [--reuse OLD.json [--rerun SEED,...]]\n",
                why);
   return 2;
 }
@@ -377,7 +470,11 @@ int main(int argc, char** argv) {
       o.out = v;
     else if (k == "--json")
       o.json = v;
-    else if (k == "--only") {
+    else if (k == "--reuse")
+      o.reuse = v;
+    else if (k == "--rerun") {
+      for (const auto& s : Split(v)) o.rerun.insert(std::strtoull(s.c_str(), nullptr, 10));
+    } else if (k == "--only") {
       for (const auto& s : Split(v)) o.only.insert(std::strtoull(s.c_str(), nullptr, 10));
     } else {
       return Usage(("unknown option " + k).c_str());
@@ -390,7 +487,17 @@ int main(int argc, char** argv) {
     return Usage("counts must be >= 0 and --threads >= 1");
   }
   const double floor = std::isfinite(o.floor) ? o.floor : (o.suite == "foreign" ? 1.0 : 0.5);
+  if (!o.rerun.empty() && o.reuse.empty()) return Usage("--rerun needs --reuse");
   std::vector<Case> cases = PlanCases(o);
+  std::size_t reused = 0;
+  if (!o.reuse.empty()) {
+    try {
+      reused = ReuseEarlierRun(o, &cases);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "diagnosis_suite: %s\n", e.what());
+      return 2;
+    }
+  }
   const auto t0 = std::chrono::steady_clock::now();
   std::string lines;
   fesim::Json all = fesim::Json::Array();
@@ -404,8 +511,12 @@ int main(int argc, char** argv) {
     std::string md =
         "# Diagnosis suite: " + o.suite + "\n\nGenerated by `build/bin/diagnosis_suite";
     for (int i = 1; i < argc; ++i) md += std::string(" ") + argv[i];
-    md += "` (" + std::to_string(done) + " of " + std::to_string(cases.size()) + " data sets, " +
-          F("%.0f", wall) + " s wall, effect floor " + F("%.2f", floor) +
+    md += "` (" + std::to_string(done) + " of " + std::to_string(cases.size()) + " data sets";
+    if (!o.reuse.empty()) {
+      md += ", " + std::to_string(reused) + " of them read from " + o.reuse +
+            " and the others diagnosed in this run";
+    }
+    md += ", " + F("%.0f", wall) + " s wall, effect floor " + F("%.2f", floor) +
           " × noise RMS).\n\n## Rates\n\n" + RatesTable(o, finished) + "\n## Planted × named\n\n" +
           ConfusionTable(finished) +
           "\n## Data sets\n\nright: single — cause = planted, at the planted joint (@) when the "
@@ -424,6 +535,13 @@ int main(int argc, char** argv) {
     if (!o.json.empty()) fesim::WriteFileAtomic(o.json, all.Dump(1) + "\n");
   };
   for (auto& c : cases) {
+    if (!c.reused.IsNull()) {
+      lines += CaseLine(c) + "\n";
+      all.Push(CaseJson(c));
+      ++done;
+      write();
+      continue;
+    }
     MakeData(o, floor, &c);
     const fesim::Scenario rig = fesim::LoadScenario(SourcePath(c.rig));
     dg::DiagnoseSettings settings;
