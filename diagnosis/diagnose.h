@@ -109,6 +109,10 @@ struct CandidateResult {
   double score = 0.0;               ///< −log10 p_adjusted (0 = no evidence), for ranking.
   double variance_inflation = 1.0;  ///< noise variance along its directions / white variance.
   bool fitted = false;
+  /// Fitted, but another joint of its mechanism had the lower training Σr² and was judged
+  /// instead (Mechanism::joint_by_fit, extension.h): its figures are reported; it is neither a
+  /// cause nor an alternative to one (verdict.h).
+  bool not_judged = false;
   double lr_statistic = 0.0;   ///< robust LR of its fit on the calibrated model.
   double lr_p_adjusted = 1.0;  ///< Bonferroni-adjusted p of it (χ²_p).
   double heldout_nrmse = NAN;  ///< of the extended model (this candidate on the calibrated one).

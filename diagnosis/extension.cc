@@ -765,6 +765,7 @@ std::size_t Extender::LowestCost(const std::vector<Fitted>& fits, std::size_t fi
 void Extender::RecordNotChosen(int c, const Fitted& f, const Judgement& j, int chosen,
                                double chosen_cost) {
   Record(c, f, j);
+  (*results_)[c].not_judged = true;
   (*results_)[c].decision =
       "not judged: the fit at " + lib_[chosen].joint +
       Fmt(" has the lower training sum of squares (%.4g against %.4g here; the joint is chosen "

@@ -89,7 +89,7 @@ int StructureOutsideLibrary(const std::vector<CandidateResult>& candidates,
   int best = -1;
   for (std::size_t c = 0; c < candidates.size(); ++c) {
     const CandidateResult& cr = candidates[c];
-    if (cr.shape.empty() || !cr.fitted || !(cr.lr_p_adjusted < settings.alpha) ||
+    if (cr.shape.empty() || !cr.fitted || cr.not_judged || !(cr.lr_p_adjusted < settings.alpha) ||
         !(cr.heldout_gain > settings.min_heldout_gain)) {
       continue;
     }
@@ -122,7 +122,7 @@ void MakeVerdict(const std::vector<Candidate>& library, const ExtensionOutcome& 
       ReferenceGaps(d->extended_heldout_nrmse_per_output, d->reference, settings);
   double best_gain = 0.0;
   for (const auto& cr : d->candidates) {
-    if (cr.fitted && std::isfinite(cr.heldout_gain))
+    if (cr.fitted && !cr.not_judged && std::isfinite(cr.heldout_gain))
       best_gain = std::max(best_gain, cr.heldout_gain);
   }
   if (extension.cause < 0) {
@@ -183,8 +183,8 @@ void MakeVerdict(const std::vector<Candidate>& library, const ExtensionOutcome& 
   bool alternative_is_control = false;
   for (std::size_t c = 0; c < d->candidates.size(); ++c) {
     const CandidateResult& cr = d->candidates[c];
-    if (!cr.fitted || cr.id == id || !std::isfinite(cr.heldout_gain) || cr.accepted ||
-        !cr.collapsed.empty() || !(cr.lr_p_adjusted < settings.alpha)) {
+    if (!cr.fitted || cr.not_judged || cr.id == id || !std::isfinite(cr.heldout_gain) ||
+        cr.accepted || !cr.collapsed.empty() || !(cr.lr_p_adjusted < settings.alpha)) {
       continue;
     }
     if (std::isfinite(cr.score_on_accepted) &&

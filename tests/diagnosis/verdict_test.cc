@@ -113,6 +113,31 @@ TEST(Verdict, NoneNamesTheCandidateThePersonAtABoundKeptOut) {
   EXPECT_EQ(t.d.reason.find("not named"), std::string::npos) << t.d.reason;
 }
 
+// docs/diagnosis.md, Extension and acceptance: a tremor's joints not chosen by the fit are
+// reported but not judged, so they are no alternative to the cause — foreign 8018 (fatigue, a
+// wrist tremor on top) would otherwise have its fatigue's confidence cut by the MCP tremor's gain.
+TEST(Verdict, AJointNotChosenByTheFitIsNoAlternativeToTheCause) {
+  const auto verdict = [](bool not_judged) {
+    VerdictCase s;
+    s.Fitted("fatigue", 0.20, true);
+    s.Fitted("tremor@wrist_flexion", 0.15, true);
+    s.Fitted("tremor@mcp_flexion", 0.15, false);
+    s.d.candidates[s.Index("tremor@mcp_flexion")].not_judged = not_judged;
+    ExtensionOutcome e = s.Outcome({"fatigue", "tremor@wrist_flexion"}, s.Index("fatigue"));
+    e.cause_lr_p = 1e-6;
+    e.cause_gain = 0.20;
+    MakeVerdict(s.library, e, 0, s.settings, &s.d);
+    return s.d;
+  };
+  const Diagnosis not_chosen = verdict(true);
+  EXPECT_EQ(not_chosen.cause, "fatigue") << not_chosen.reason;
+  EXPECT_GT(not_chosen.confidence, 0.99);
+  // Judged, the same fit is an alternative: (1 − 0.15 / 0.20) leaves fatigue at 0.25, no single
+  // cause.
+  const Diagnosis judged = verdict(false);
+  EXPECT_EQ(judged.cause, "unexplained") << judged.reason;
+}
+
 TEST(Verdict, AMechanismBeyondAControlIsNamedAndAControlAsGoodAsTheMechanismMakesItNone) {
   VerdictCase s;
   // A mechanism accepted on top of a control: named, the control's parameters kept.
