@@ -125,6 +125,9 @@ Json DiagnosisJson(const Diagnosis& d) {
     e.Set("person_at_bound", c.person_at_bound.empty() ? Json() : Json(c.person_at_bound));
     e.Set("lr_p_adjusted", c.fitted ? Json(c.lr_p_adjusted) : Json());
     e.Set("shape_contradiction", c.shape.empty() ? Json() : Json(c.shape));
+    // Judged: its fit went through the acceptance tests (false: another joint of its mechanism
+    // was chosen by the fit, CandidateResult::not_judged; null: not fitted).
+    e.Set("judged", c.fitted ? Json(!c.not_judged) : Json());
     e.Set("accepted", c.accepted).Set("decision", c.decision).Set("evidence", c.evidence);
     cands.Push(e);
   }

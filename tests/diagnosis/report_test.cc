@@ -96,6 +96,24 @@ TEST(Report, CandidateLogLineCarriesTheTestFitAndParameterFigures) {
   EXPECT_NE(line.find(" tremor.amplitude_nm=0.123268"), std::string::npos) << line;
 }
 
+TEST(Report, JsonMarksAJointNotChosenByTheFitAsNotJudged) {
+  // A tremor fitted at the MCP too, whose wrist fit had the lower training Σr² (extension.h):
+  // "judged" true for the judged fit, false for the other joint's, null when not fitted.
+  Diagnosis d = Example();
+  CandidateResult m = d.candidates[0];
+  m.joint = "mcp_flexion";
+  m.label = "tremor@mcp_flexion";
+  m.accepted = false;
+  m.not_judged = true;
+  d.candidates.push_back(m);
+  const Json j = DiagnosisJson(d);
+  const auto& c = j.Find("candidates")->Items();
+  ASSERT_EQ(c.size(), 3u);
+  EXPECT_TRUE(c[0].Find("judged")->AsBool());
+  EXPECT_TRUE(c[1].Find("judged")->IsNull());
+  EXPECT_FALSE(c[2].Find("judged")->AsBool());
+}
+
 TEST(Report, JsonHasTheProductKeysPerCandidateTestsAndTheCalibratedPerson) {
   const Json j = DiagnosisJson(Example());
   const std::string text = j.Dump(0);
