@@ -583,6 +583,7 @@ std::vector<Trial> Extender::HeldoutPrediction(const std::vector<int>& cands,
 void Extender::Record(int c, const Fitted& f, const Judgement& j) {
   CandidateResult& cr = (*results_)[c];
   cr.fitted = true;
+  cr.not_judged = false;  // RecordNotChosen sets it after
   cr.lr_statistic = j.lr;
   cr.lr_p_adjusted = j.lr_p_adj;
   cr.heldout_nrmse = f.heldout_nrmse;
@@ -1087,6 +1088,7 @@ bool Extender::OnTopRound() {
   const int c = members[pick];
   accepted_.push_back(c);
   (*results_)[c].accepted = true;
+  (*results_)[c].not_judged = false;  // judged here, whatever the first round chose
   (*results_)[c].decision = "passes on top of " + lib_[accepted_[0]].label;
   accept_p_[c] = pick_j.lr_p_adj;
   accept_gain_[c] = pick_gain;
