@@ -280,12 +280,22 @@ double NumberOr(const fesim::Json* j, double fallback) {
   return j != nullptr && j->IsNumber() ? j->AsNumber() : fallback;
 }
 
+/// Member `key` of `j`; std::runtime_error naming the file and the key when it is missing.
+const fesim::Json& Need(const fesim::Json& j, const std::string& key, const std::string& file) {
+  const fesim::Json* v = j.IsObject() ? j.Find(key) : nullptr;
+  if (v == nullptr) {
+    throw std::runtime_error(file + ": a data set lacks \"" + key +
+                             "\" (--reuse reads a diagnosis_suite --json output)");
+  }
+  return *v;
+}
+
 /// What the Markdown reads of a diagnosis, from its diagnosis.json form (report.h).
-dg::Diagnosis ReusedResult(const fesim::Json& d) {
+dg::Diagnosis ReusedResult(const fesim::Json& d, const std::string& file) {
   dg::Diagnosis r;
-  r.cause = d.Find("cause")->AsString();
+  r.cause = Need(d, "cause", file).AsString();
   r.confidence = NumberOr(d.Find("confidence"), NAN);
-  r.reason = d.Find("reason")->AsString();
+  r.reason = Need(d, "reason", file).AsString();
   r.gain = NumberOr(d.Find("gain"), NAN);
   const auto nrmse = [&](const char* part) {
     const fesim::Json* o = d.Find(part);
@@ -324,7 +334,7 @@ std::size_t ReuseEarlierRun(const Options& o, std::vector<Case>* cases) {
   if (!all.IsArray()) throw std::runtime_error(o.reuse + ": not a diagnosis_suite --json array");
   std::map<std::uint64_t, const fesim::Json*> by_seed;
   for (const auto& j : all.Items()) {
-    by_seed[static_cast<std::uint64_t>(j.Find("seed")->AsNumber())] = &j;
+    by_seed[static_cast<std::uint64_t>(Need(j, "seed", o.reuse).AsNumber())] = &j;
   }
   std::size_t n = 0;
   for (Case& c : *cases) {
@@ -332,20 +342,20 @@ std::size_t ReuseEarlierRun(const Options& o, std::vector<Case>* cases) {
     if (it == by_seed.end() || o.rerun.count(c.seed)) continue;
     const fesim::Json& j = *it->second;
     std::vector<std::string> planted;
-    for (const auto& p : j.Find("planted")->Items()) planted.push_back(p.AsString());
-    if (j.Find("kind")->AsString() != c.kind || planted != c.planted) {
+    for (const auto& p : Need(j, "planted", o.reuse).Items()) planted.push_back(p.AsString());
+    if (Need(j, "kind", o.reuse).AsString() != c.kind || planted != c.planted) {
       const auto what = [](const std::string& kind, const std::vector<std::string>& effects) {
         std::string w = kind;
         for (const auto& e : effects) w += " " + e;
         return w;
       };
       throw std::runtime_error(o.reuse + ": data set " + std::to_string(c.seed) + " is " +
-                               what(j.Find("kind")->AsString(), planted) + " there, " +
+                               what(Need(j, "kind", o.reuse).AsString(), planted) + " there, " +
                                what(c.kind, c.planted) +
                                " here (--reuse needs the same suite options)");
     }
-    c.reused = *j.Find("diagnosis");
-    c.result = ReusedResult(c.reused);
+    c.reused = Need(j, "diagnosis", o.reuse);
+    c.result = ReusedResult(c.reused, o.reuse);
     c.effect_ratio = NumberOr(j.Find("effect_ratio"), NAN);
     c.wall_s = NumberOr(j.Find("wall_s"), NAN);
     const fesim::Json* joint = j.Find("planted_joint");
