@@ -82,6 +82,7 @@ void BM_RightHandSide(benchmark::State& state, bool simbody) {
       model.system().realize(s, SimTK::Stage::Acceleration);
       benchmark::DoNotOptimize(s.getYDot()[0]);
     } else {
+      ws.ForgetPositions();  // from scratch: the positions' terms too
       model.CalcYDot(s, &ws, ydot.data());
       benchmark::DoNotOptimize(ydot[0]);
     }

@@ -53,15 +53,19 @@ inline Mat33 MulTransposed(const Mat33& a, const Mat33& b) {
   }
   return r;
 }
-/// a − s · u wᵀ.
-inline Mat33 MinusOuter(const Mat33& a, double s, const Vec3& u, const Vec3& w) {
-  Mat33 r;
+/// r = a − s · u wᵀ.
+inline void MinusOuter(const Mat33& a, double s, const Vec3& u, const Vec3& w, Mat33* r) {
   const double* x = Data(a);
-  double* z = Data(r);
+  double* z = Data(*r);
   for (int j = 0; j < 3; ++j) {
     for (int i = 0; i < 3; ++i) z[i + 3 * j] = x[i + 3 * j] - s * u[i] * w[j];
   }
-  return r;
+}
+/// dst = src (SimTK's Mat33 assignment is an out-of-line element loop here).
+inline void Copy(Mat33* dst, const Mat33& src) {
+  double* z = Data(*dst);
+  const double* x = Data(src);
+  for (int k = 0; k < 9; ++k) z[k] = x[k];
 }
 /// dst += src.
 inline void AddTo(Mat33* dst, const Mat33& src) {
@@ -190,36 +194,37 @@ void ChainDynamics::ApplyForceAtStation(ChainWorkspace* ws, int b, const Vec3& p
 
 void ChainDynamics::Accelerations(const double* u, const double* tau, ChainWorkspace* ws,
                                   double* udot) const {
+  ArticulatedInertias(ws);
+  AccelerationsAtInertias(u, tau, ws, udot);
+}
+
+void ChainDynamics::ArticulatedInertias(ChainWorkspace* ws) const {
   const int n = num_bodies();
-  ws->v.resize(n);
-  ws->c.resize(n);
-  ws->p.resize(n);
+  for (auto* m :
+       {&ws->RA, &ws->RB, &ws->RC, &ws->IA, &ws->IB, &ws->IC, &ws->PA, &ws->PB, &ws->PC}) {
+    m->resize(n);
+  }
   ws->U.resize(n);
-  ws->a.resize(n);
-  ws->IA.resize(n);
-  ws->IB.resize(n);
-  ws->IC.resize(n);
   ws->D.resize(n);
-  ws->uu.resize(n);
-  // Pass 1: velocities, velocity-product accelerations c = v ×ₘ S u̇ (Ṡ = v ×ₘ S for an axis
-  // fixed in the moving body), rigid-body inertias about G's origin and bias forces.
+  ws->inv_d.resize(n);
+  // Rigid-body inertias about G's origin (pass 1 of Table 7.1, its position part).
   for (int b = 0; b < n; ++b) {
     const ChainBody& body = bodies_[b];
-    const SpatialVec vj = body.u >= 0 ? ws->S[b] * u[body.u] : SpatialVec(Vec3(0), Vec3(0));
-    ws->v[b] = (body.parent < 0 ? SpatialVec(Vec3(0), Vec3(0)) : ws->v[body.parent]) + vj;
-    ws->c[b] = CrossMotion(ws->v[b], vj);
     if (body.mass_kg > 0.0) {
       const Mat33& R = ws->R_GB[b];
       RigidInertia(body.mass_kg, ws->p_GB[b] + Mul(R, body.com_m),
-                   MulTransposed(Mul(R, inertia_c_[b]), R), &ws->IA[b], &ws->IB[b], &ws->IC[b]);
-      const SpatialVec& v = ws->v[b];
-      ws->p[b] = CrossForce(v, MulInertia(ws->IA[b], ws->IB[b], ws->IC[b], v)) - ws->f[b];
+                   MulTransposed(Mul(R, inertia_c_[b]), R), &ws->RA[b], &ws->RB[b], &ws->RC[b]);
+      Copy(&ws->IA[b], ws->RA[b]);
+      Copy(&ws->IB[b], ws->RB[b]);
+      Copy(&ws->IC[b], ws->RC[b]);
     } else {
-      ws->IA[b] = ws->IB[b] = ws->IC[b] = Diagonal(0.0);
-      ws->p[b] = -ws->f[b];
+      for (Mat33* m : {&ws->IA[b], &ws->IB[b], &ws->IC[b]}) {
+        double* z = Data(*m);
+        for (int k = 0; k < 9; ++k) z[k] = 0.0;
+      }
     }
   }
-  // Pass 2: articulated inertias and bias forces, tip to root (all in G: a child's adds to its
+  // Articulated inertias, tip to root (pass 2's inertia part; all in G: a child's adds to its
   // parent's as it is).
   for (int b = n - 1; b >= 0; --b) {
     const ChainBody& body = bodies_[b];
@@ -229,24 +234,53 @@ void ChainDynamics::Accelerations(const double* u, const double* tau, ChainWorks
       SpatialVec& U = ws->U[b];
       U = MulInertia(ws->IA[b], ws->IB[b], ws->IC[b], S);
       ws->D[b] = Dot(S, U);
-      ws->uu[b] = tau[body.u] - Dot(S, ws->p[b]);
+      ws->inv_d[b] = 1.0 / ws->D[b];
+      const double inv_d = ws->inv_d[b];
+      MinusOuter(ws->IA[b], inv_d, U[0], U[0], &ws->PA[b]);
+      MinusOuter(ws->IB[b], inv_d, U[0], U[1], &ws->PB[b]);
+      MinusOuter(ws->IC[b], inv_d, U[1], U[1], &ws->PC[b]);
     }
+    if (body.parent < 0) continue;
+    // A weld or held pin projects nothing out: its articulated inertia passes as it is.
+    AddTo(&ws->IA[body.parent], moves ? ws->PA[b] : ws->IA[b]);
+    AddTo(&ws->IB[body.parent], moves ? ws->PB[b] : ws->IB[b]);
+    AddTo(&ws->IC[body.parent], moves ? ws->PC[b] : ws->IC[b]);
+  }
+}
+
+void ChainDynamics::AccelerationsAtInertias(const double* u, const double* tau, ChainWorkspace* ws,
+                                            double* udot) const {
+  const int n = num_bodies();
+  ws->v.resize(n);
+  ws->c.resize(n);
+  ws->p.resize(n);
+  ws->a.resize(n);
+  ws->uu.resize(n);
+  // Pass 1: velocities, velocity-product accelerations c = v ×ₘ S u̇ (Ṡ = v ×ₘ S for an axis
+  // fixed in the moving body) and bias forces.
+  for (int b = 0; b < n; ++b) {
+    const ChainBody& body = bodies_[b];
+    const SpatialVec vj = body.u >= 0 ? ws->S[b] * u[body.u] : SpatialVec(Vec3(0), Vec3(0));
+    ws->v[b] = (body.parent < 0 ? SpatialVec(Vec3(0), Vec3(0)) : ws->v[body.parent]) + vj;
+    ws->c[b] = CrossMotion(ws->v[b], vj);
+    if (body.mass_kg > 0.0) {
+      const SpatialVec& v = ws->v[b];
+      ws->p[b] = CrossForce(v, MulInertia(ws->RA[b], ws->RB[b], ws->RC[b], v)) - ws->f[b];
+    } else {
+      ws->p[b] = -ws->f[b];
+    }
+  }
+  // Pass 2: articulated bias forces, tip to root.
+  for (int b = n - 1; b >= 0; --b) {
+    const ChainBody& body = bodies_[b];
+    const bool moves = body.u >= 0 && !body.held;
+    if (moves) ws->uu[b] = tau[body.u] - Dot(ws->S[b], ws->p[b]);
     if (body.parent < 0) continue;
     const int parent = body.parent;
     if (moves) {
-      const SpatialVec& U = ws->U[b];
-      const double inv_d = 1.0 / ws->D[b];
-      const Mat33 A = MinusOuter(ws->IA[b], inv_d, U[0], U[0]);
-      const Mat33 B = MinusOuter(ws->IB[b], inv_d, U[0], U[1]);
-      const Mat33 C = MinusOuter(ws->IC[b], inv_d, U[1], U[1]);
-      AddTo(&ws->IA[parent], A);
-      AddTo(&ws->IB[parent], B);
-      AddTo(&ws->IC[parent], C);
-      ws->p[parent] += ws->p[b] + MulInertia(A, B, C, ws->c[b]) + U * (ws->uu[b] * inv_d);
-    } else {  // a weld or held pin: c = 0, nothing projected out
-      AddTo(&ws->IA[parent], ws->IA[b]);
-      AddTo(&ws->IB[parent], ws->IB[b]);
-      AddTo(&ws->IC[parent], ws->IC[b]);
+      ws->p[parent] += ws->p[b] + MulInertia(ws->PA[b], ws->PB[b], ws->PC[b], ws->c[b]) +
+                       ws->U[b] * (ws->uu[b] * ws->inv_d[b]);
+    } else {  // a weld or held pin: c = 0
       ws->p[parent] += ws->p[b];
     }
   }

@@ -44,8 +44,10 @@ struct ChainWorkspace {
   std::vector<SimTK::SpatialVec> S;  ///< each moving pin's axis as a unit motion
   std::vector<SimTK::SpatialVec> v, c, p, U, a;
   std::vector<SimTK::SpatialVec> f;      ///< applied body forces (ApplyForceAtStation)
-  std::vector<SimTK::Mat33> IA, IB, IC;  ///< articulated inertia blocks [[A, B], [Bᵀ, C]]
-  std::vector<double> D, uu;
+  std::vector<SimTK::Mat33> RA, RB, RC;  ///< rigid-body inertia blocks [[A, B], [Bᵀ, C]] (massive)
+  std::vector<SimTK::Mat33> IA, IB, IC;  ///< articulated inertia blocks
+  std::vector<SimTK::Mat33> PA, PB, PC;  ///< I^A less U D⁻¹ Uᵀ, passed to the parent (moving pins)
+  std::vector<double> D, inv_d, uu;
   std::vector<double> tau;  ///< the caller's mobility forces (UpperLimbModel::CalcYDot)
 };
 
@@ -68,8 +70,19 @@ class ChainDynamics {
                            const SimTK::Vec3& f_G) const;
   /// u̇ (indexed as ChainBody::u) for speeds u and mobility forces τ (both indexed as
   /// ChainBody::u) with gravity and the applied body forces; a held pin's u̇ is 0. After
-  /// Kinematics. O(n): Table 7.1's three passes.
+  /// Kinematics. O(n): Table 7.1's three passes — ArticulatedInertias, then
+  /// AccelerationsAtInertias.
   void Accelerations(const double* u, const double* tau, ChainWorkspace* ws, double* udot) const;
+  /// The part of Table 7.1's passes that depends on the positions alone (after Kinematics): the
+  /// rigid-body and articulated inertias, U = I^A S, D = Sᵀ U and the inertia each body passes to
+  /// its parent. A caller that evaluates several speeds at one position (the speed columns of a
+  /// difference-quotient Jacobian, UpperLimbModel::CalcYDot) calls it once.
+  void ArticulatedInertias(ChainWorkspace* ws) const;
+  /// The speed- and force-dependent rest of Accelerations, on the inertias of the last
+  /// ArticulatedInertias; the same arithmetic in the same order, so the same bits as
+  /// Accelerations.
+  void AccelerationsAtInertias(const double* u, const double* tau, ChainWorkspace* ws,
+                               double* udot) const;
 
  private:
   std::vector<ChainBody> bodies_;

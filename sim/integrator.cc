@@ -756,8 +756,9 @@ class Cvodes {
   /// At most `max_steps` internal steps in all (0: no limit; IntegratorParams::max_steps).
   void SetStepBudget(long max_steps) { step_budget_ = max_steps; }
   /// Advances to exactly t_out (≤ stop) and leaves the solution in the context's state,
-  /// realised to Stage::Instance only (its variables set; Drive realises the observer's stage).
-  void AdvanceTo(double t_out, double stop) {
+  /// realised to Stage::Instance only (its variables set; Drive realises the observer's stage) —
+  /// or, with `load_state` false, only in CVODES' y (Solution; SyncState puts it into the state).
+  void AdvanceTo(double t_out, double stop, bool load_state = true) {
     Check(CVodeSetStopTime(mem_, stop), "CVodeSetStopTime", t_out);
     long left = kMaxSteps;
     if (step_budget_ > 0) {
@@ -789,7 +790,21 @@ class Cvodes {
     // observer that reads state variables alone (the trial records, the full-model fit) pays
     // neither for kinematics (≈ 1/3 of a 140 s, 40 Hz hand-rig simulation) nor for Stage::Time
     // (≈ 5 % of the 60 s default trial at tolerance 3e-3) at every report time.
-    LoadState(ctx_, t_out, N_VGetArrayPointer(y_), SimTK::Stage::Instance);
+    solution_t_ = t_out;
+    state_current_ = load_state;
+    if (load_state) LoadState(ctx_, t_out, N_VGetArrayPointer(y_), SimTK::Stage::Instance);
+  }
+  /// Whether the context's state holds the last solution (AdvanceTo with load_state).
+  bool state_current() const { return state_current_; }
+  /// The time and CVODES components of the last AdvanceTo's solution.
+  double solution_time() const { return solution_t_; }
+  const double* Solution() const { return N_VGetArrayPointer(y_); }
+  /// Loads the last solution into the context's state (realised to Stage::Instance) unless it
+  /// is there: before the stimulation changes at a breakpoint and at the end.
+  void SyncState() {
+    if (state_current_) return;
+    LoadState(ctx_, solution_t_, N_VGetArrayPointer(y_), SimTK::Stage::Instance);
+    state_current_ = true;
   }
   /// Integrate forward sensitivities of `scales.size()` parameters (typical magnitudes |θ_k|)
   /// from the start; call before the first Start.
@@ -833,6 +848,8 @@ class Cvodes {
   std::vector<double> pbar_;  // their parameters' scales
   N_Vector* yS_ = nullptr;
   bool initialised_ = false;
+  bool state_current_ = true;  // the context's state holds the last solution
+  double solution_t_ = 0.0;    // time of the last AdvanceTo
   CvodesContext* ctx_ = nullptr;
 };
 
@@ -844,11 +861,12 @@ bool HasPrescribed(const ModelParams& p) {
 
 /// Walks the report times: advance(t, stop) integrates to t without passing the next
 /// breakpoint `stop`; at each breakpoint the stimulation changes and restart(t) reinitialises
-/// the integrator; observer sees each report time. Shared by both integrators.
-template <typename Advance, typename Restart>
+/// the integrator; observe() sees each report time's solution; now() is the time of the latest
+/// solution (the state's, unless the integrator keeps it elsewhere). Shared by both integrators.
+template <typename Advance, typename Restart, typename Observe, typename Now>
 void Drive(const UpperLimbModel& model, const StimulationSchedule& schedule,
-           const std::vector<double>& report_times, SimTK::State* state, const Observer& observer,
-           SimTK::Stage observe_stage, Advance advance, Restart restart, IntegrationStats* stats) {
+           const std::vector<double>& report_times, SimTK::State* state, Advance advance,
+           Restart restart, Observe observe, Now now, IntegrationStats* stats) {
   const int nc = model.num_channels();
   const double t0 = state->getTime();
   model.SetStimulation(*state, schedule.At(t0, nc));
@@ -857,20 +875,59 @@ void Drive(const UpperLimbModel& model, const StimulationSchedule& schedule,
   restart(t0);
   const double kInf = std::numeric_limits<double>::infinity();
   for (double t_r : report_times) {
-    if (t_r < state->getTime() - 1e-12) throw std::invalid_argument("report times not sorted");
+    if (t_r < now() - 1e-12) throw std::invalid_argument("report times not sorted");
     while (next_break < breaks.size() && breaks[next_break] <= t_r) {
       const double tb = breaks[next_break];
-      if (tb > state->getTime() + kMinInterval) advance(tb, tb);
+      if (tb > now() + kMinInterval) advance(tb, tb);
       model.SetStimulation(*state, schedule.At(tb, nc));
       restart(tb);
       ++stats->breakpoints;
       ++next_break;
     }
     const double stop = next_break < breaks.size() ? breaks[next_break] : kInf;
-    if (t_r > state->getTime() + kMinInterval) advance(t_r, stop);
-    model.system().realize(*state, observe_stage);
-    observer(*state);
+    if (t_r > now() + kMinInterval) advance(t_r, stop);
+    observe();
   }
+}
+
+/// IntegrateTrial's and IntegrateTrialVariables' CVODES path: Drive over CVODES. With
+/// `observe_variables` (and no prescribed coordinate, whose q and u only LoadState sets) a report
+/// advance leaves the solution in CVODES' y and observe(t, y) gets the whole Y from
+/// LoadVariables — or the state's, when the state holds the latest solution (a report at a
+/// breakpoint); otherwise every solution goes into the state and observe's y is the state's.
+template <typename Observe>
+IntegrationStats RunCvodes(const UpperLimbModel& model, const IntegratorParams& params,
+                           const StimulationSchedule& schedule,
+                           const std::vector<double>& report_times, SimTK::State* state,
+                           bool observe_variables, Observe observe) {
+  IntegrationStats stats;
+  CvodesContext ctx(&model, state, HasPrescribed(model.params()), params.simbody_right_hand_side);
+  Cvodes cv(static_cast<int>(ctx.y_index.size()), *params.tolerance * ctx.tolerance_scale,
+            AbsoluteTolerances(ctx, params),
+            params.method == IntegratorParams::Method::kCvodesAdams, &ctx);
+  cv.SetStepBudget(params.max_steps);
+  const bool in_y = observe_variables && !ctx.prescribe;
+  Drive(
+      model, schedule, report_times, state,
+      [&](double t, double stop) { cv.AdvanceTo(t, stop, !in_y); },
+      [&](double t) {
+        cv.SyncState();  // the breakpoint's activations start the new interval (BeginInterval)
+        state->setTime(t);
+        cv.Start(t);
+      },
+      [&] {
+        if (cv.state_current()) {
+          observe(state->getTime(), state->getY().getContiguousScalarData());
+        } else {
+          LoadVariables(&ctx, cv.solution_time(), cv.Solution());
+          observe(cv.solution_time(), ctx.y_all.data());
+        }
+      },
+      [&] { return cv.state_current() ? state->getTime() : cv.solution_time(); }, &stats);
+  cv.SyncState();  // the state ends at the last solution
+  cv.AddStats(&stats);
+  stats.rhs_evaluations = ctx.rhs;
+  return stats;
 }
 
 }  // namespace
@@ -880,27 +937,16 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
                                 const std::vector<double>& report_times, SimTK::State* state,
                                 const Observer& observer, SimTK::Stage observe_stage) {
   const IntegratorParams params = WithTolerance(integrator, model.params());
-  IntegrationStats stats;
   if (params.method != IntegratorParams::Method::kSimbodyRkMerson) {
-    CvodesContext ctx(&model, state, HasPrescribed(model.params()), params.simbody_right_hand_side);
-    Cvodes cv(static_cast<int>(ctx.y_index.size()), *params.tolerance * ctx.tolerance_scale,
-              AbsoluteTolerances(ctx, params),
-              params.method == IntegratorParams::Method::kCvodesAdams, &ctx);
-    cv.SetStepBudget(params.max_steps);
-    Drive(
-        model, schedule, report_times, state, observer, observe_stage,
-        [&](double t, double stop) { cv.AdvanceTo(t, stop); },
-        [&](double t) {
-          state->setTime(t);
-          cv.Start(t);
-        },
-        &stats);
-    cv.AddStats(&stats);
-    stats.rhs_evaluations = ctx.rhs;
-    return stats;
+    return RunCvodes(model, params, schedule, report_times, state, false,
+                     [&](double, const double*) {
+                       model.system().realize(*state, observe_stage);
+                       observer(*state);
+                     });
   }
   // Simbody's Runge–Kutta–Merson, restarted at each breakpoint like CVODES; it integrates the
   // activations' ż.
+  IntegrationStats stats;
   model.SetActivationsInClosedForm(*state, false);
   std::unique_ptr<SimTK::RungeKuttaMersonIntegrator> integ;
   // Simbody's exception text (multi-line, no coordinate) becomes one line with the time, the
@@ -913,7 +959,7 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
                               " (or integrator.method cvodes for a stiff rig)");
   };
   Drive(
-      model, schedule, report_times, state, observer, observe_stage,
+      model, schedule, report_times, state,
       [&](double t, double stop) {
         try {
           while (integ->getTime() < t) integ->stepTo(t, stop);
@@ -939,9 +985,28 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
           throw failure(e, *state);
         }
       },
-      &stats);
+      [&] {
+        model.system().realize(*state, observe_stage);
+        observer(*state);
+      },
+      [&] { return state->getTime(); }, &stats);
   if (integ) stats.steps += integ->getNumStepsTaken();
   return stats;
+}
+
+IntegrationStats IntegrateTrialVariables(const UpperLimbModel& model,
+                                         const IntegratorParams& integrator,
+                                         const StimulationSchedule& schedule,
+                                         const std::vector<double>& report_times,
+                                         SimTK::State* state, const VariablesObserver& observer) {
+  const IntegratorParams params = WithTolerance(integrator, model.params());
+  if (params.method == IntegratorParams::Method::kSimbodyRkMerson) {
+    return IntegrateTrial(
+        model, params, schedule, report_times, state,
+        [&](const SimTK::State& s) { observer(s.getTime(), s.getY().getContiguousScalarData()); },
+        SimTK::Stage::Instance);
+  }
+  return RunCvodes(model, params, schedule, report_times, state, true, observer);
 }
 
 IntegrationStats IntegrateTrialSensitivities(
@@ -1045,8 +1110,7 @@ IntegrationStats IntegrateTrialSensitivities(
   if (np > 0) cv.EnableSensitivities(scales);
   std::vector<double> dq(static_cast<std::size_t>(kNumCoordinates) * np, 0.0);
   Drive(
-      model, schedule, report_times, state, [&](const SimTK::State& st) { observer(st, dq); },
-      SimTK::Stage::Time,
+      model, schedule, report_times, state,
       [&](double t, double stop) {
         cv.AdvanceTo(t, stop);
         for (int k = 0; k < np; ++k) {
@@ -1063,7 +1127,11 @@ IntegrationStats IntegrateTrialSensitivities(
         state->setTime(t);
         cv.Start(t);
       },
-      &stats);
+      [&] {
+        model.system().realize(*state, SimTK::Stage::Time);
+        observer(*state, dq);
+      },
+      [&] { return state->getTime(); }, &stats);
   cv.AddStats(&stats);
   stats.rhs_evaluations = ctx.rhs;
   return stats;

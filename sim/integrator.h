@@ -52,6 +52,23 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
                                 const Observer& observer,
                                 SimTK::Stage observe_stage = SimTK::Stage::Acceleration);
 
+/// Called at each report time with its time t (s) and the whole Y (NY values in Simbody's
+/// layout [q, u, z], the activations in closed form at t): UpperLimbModel::GetQs(layout, y),
+/// GetUs and ComputeMuscles read it.
+using VariablesObserver = std::function<void(double t, const double* y)>;
+
+/// IntegrateTrial for an observer that reads state variables only: with a CVODES method the
+/// solution at a report time is read from CVODES' own vector and never written into `state`
+/// (each such write invalidates Simbody's stages: ≈ 10 % of the 60 s default trial's
+/// instructions at tolerance 3e-3, docs/performance.md "Default model real-time factor"), so
+/// `observer` sees bitwise the values IntegrateTrial's observer would read from the state.
+/// `state` ends at the last report time, as with IntegrateTrial.
+IntegrationStats IntegrateTrialVariables(const UpperLimbModel& model,
+                                         const IntegratorParams& params,
+                                         const StimulationSchedule& schedule,
+                                         const std::vector<double>& report_times,
+                                         SimTK::State* state, const VariablesObserver& observer);
+
 /// One parameter θ_k of a forward-sensitivity integration: the model with θ_k moved by `step`.
 /// The sensitivity right-hand side re-evaluates only what depends on the parameters through
 /// pure functions — recruitment and the electrode matrix (RecruitedFractions), the activation

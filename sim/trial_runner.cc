@@ -195,20 +195,17 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
 
   std::size_t row = 0;
   SimTK::State state = model.MakeInitialState();
-  const auto observer = [&](const SimTK::State& s) {
+  // One report row at time t: the angles q, speeds qd, sensor torques tau (when a torque sensor
+  // needs them) and the muscles (computed only on truth rows).
+  const auto record = [&](double t, const std::vector<double>& q, const std::vector<double>& qd,
+                          const std::vector<double>& tau, const auto& muscles) {
     const std::size_t i = row++;
-    if (progress && (i % 256 == 0 || i + 1 == report.size())) {
-      progress(s.getTime() / req.duration_s);
-    }
-    const std::vector<double> u = commanded(s.getTime());
-    const std::vector<double> q = model.GetQs(s);
-    const std::vector<double> qd = model.GetUs(s);
-    const bool need_torque = !sens.torques.coordinates.empty() && (on_torque[i] || on_truth[i]);
-    const std::vector<double> tau = need_torque ? model.SensorTorques(s) : std::vector<double>();
+    if (progress && (i % 256 == 0 || i + 1 == report.size())) progress(t / req.duration_s);
+    const std::vector<double> u = commanded(t);
     if (on_truth[i]) {
-      const MuscleSnapshot m = model.ComputeMuscles(s);
+      const MuscleSnapshot m = muscles();
       result.fibre_clamped = result.fibre_clamped || m.any_clamped;
-      tr.time.push_back(s.getTime());
+      tr.time.push_back(t);
       for (int k = 0; k < nc; ++k) tr.u[k].push_back(u[k]);
       for (int c = 0; c < kNumCoordinates; ++c) {
         tr.q[c].push_back(q[c]);
@@ -226,9 +223,8 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
     const bool measured_row = (on_angle[i] && !meas.q.empty()) || (on_vel[i] && !meas.qd.empty()) ||
                               (on_torque[i] && !meas.tau.empty());
     if (!measured_row) return;
-    meas.time.push_back(s.getTime());
+    meas.time.push_back(t);
     for (int k = 0; k < nc; ++k) meas.u[k].push_back(u[k]);
-    const double t = s.getTime();
     for (std::size_t k = 0; k < meas.q.size(); ++k) {
       meas.q[k].push_back(on_angle[i]
                               ? angle_art[k].Apply(t, q[sens.angles.coordinates[k]] +
@@ -248,11 +244,27 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
                        : kNaN);
     }
   };
-  // The rows read only state variables (q, u, activations: ComputeMuscles) unless a torque
-  // sensor needs the motion forces, so the kinematics are not realised at every report time.
-  result.stats = IntegrateTrial(
-      model, req.integrator, effective, report, &state, observer,
-      sens.torques.coordinates.empty() ? SimTK::Stage::Instance : SimTK::Stage::Acceleration);
+  if (sens.torques.coordinates.empty()) {
+    // The rows read only state variables (q, u, activations: ComputeMuscles), so they are read
+    // from the integrator's own vector, never written into the state.
+    result.stats = IntegrateTrialVariables(
+        model, req.integrator, effective, report, &state, [&](double t, const double* y) {
+          record(t, model.GetQs(state, y), model.GetUs(state, y), {},
+                 [&] { return model.ComputeMuscles(state, y); });
+        });
+  } else {
+    // A torque sensor needs the motion forces: the state realised to Stage::Acceleration.
+    result.stats = IntegrateTrial(
+        model, req.integrator, effective, report, &state,
+        [&](const SimTK::State& s) {
+          const std::size_t i = row;
+          const bool need_torque = on_torque[i] || on_truth[i];
+          record(s.getTime(), model.GetQs(s), model.GetUs(s),
+                 need_torque ? model.SensorTorques(s) : std::vector<double>(),
+                 [&] { return model.ComputeMuscles(s); });
+        },
+        SimTK::Stage::Acceleration);
+  }
 
   // Baseline-offset removal over the initial rest window, per measured column.
   RemoveBaseline(sens.angles, meas.time, &meas.q);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 
 #include "muscles/activation.h"
@@ -47,20 +48,26 @@ SimTK::Body::Rigid RigidBody(const SegmentParams& s) {
       SimTK::MassProperties(s.mass_kg, com, about_com.shiftFromMassCenter(com, s.mass_kg)));
 }
 
-std::vector<double> QsOf(const CoordinateSlots& slots, const State& s) {
-  const double* q = s.getNQ() > 0 ? s.getQ().getContiguousScalarData() : nullptr;
+/// Every coordinate's q from Simbody's Q `q` (a welded one: its angle).
+std::vector<double> QsOf(const CoordinateSlots& slots, const double* q) {
   std::vector<double> out(slots.q.size());
   for (std::size_t i = 0; i < out.size(); ++i) {
     out[i] = slots.q[i] >= 0 ? q[slots.q[i]] : slots.welded_q[i];
   }
   return out;
 }
+std::vector<double> QsOf(const CoordinateSlots& slots, const State& s) {
+  return QsOf(slots, s.getNQ() > 0 ? s.getQ().getContiguousScalarData() : nullptr);
+}
 
-std::vector<double> UsOf(const CoordinateSlots& slots, const State& s) {
-  const double* u = s.getNU() > 0 ? s.getU().getContiguousScalarData() : nullptr;
+/// Every coordinate's q̇ from Simbody's U `u` (a welded one: 0).
+std::vector<double> UsOf(const CoordinateSlots& slots, const double* u) {
   std::vector<double> out(slots.u.size());
   for (std::size_t i = 0; i < out.size(); ++i) out[i] = slots.u[i] >= 0 ? u[slots.u[i]] : 0.0;
   return out;
+}
+std::vector<double> UsOf(const CoordinateSlots& slots, const State& s) {
+  return UsOf(slots, s.getNU() > 0 ? s.getU().getContiguousScalarData() : nullptr);
 }
 
 /// w_j = H_IRC(Σ_k A_jk u_k) of muscle j (eq. 1, 3) for stimulation u (µs, already clipped).
@@ -345,16 +352,34 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   }
 
   /// The muscles at Simbody's Q and U `q`, `u` and this element's z block `z` into ws->muscles
-  /// (ws's vectors reused).
+  /// (ws's vectors reused): Geometry, then Forces.
   void Compute(const double* q_state, const double* u_state, const double* z,
                RhsWorkspace* ws) const {
+    Geometry(q_state, ws);
+    Forces(u_state, z, ws);
+  }
+
+  /// What depends on the positions alone, into ws: every coordinate's q, each crossing's moment
+  /// arm and each muscle's musculotendon length.
+  void Geometry(const double* q_state, RhsWorkspace* ws) const {
     std::vector<double>& q = ws->q;
-    std::vector<double>& qd = ws->qdot;
     q.resize(slots_->q.size());
-    qd.resize(slots_->u.size());
     for (std::size_t i = 0; i < q.size(); ++i) {
       q[i] = slots_->q[i] >= 0 ? q_state[slots_->q[i]] : slots_->welded_q[i];
     }
+    // Each crossing's moment arm once, for the velocity and τ = R f (same bits as per use).
+    tendons::CrossingMomentArms(paths_, q, &ws->arms);
+    ws->lengths.resize(paths_.size());
+    for (std::size_t j = 0; j < paths_.size(); ++j) {
+      ws->lengths[j] = tendons::MusculotendonLength(paths_[j], q);
+    }
+  }
+
+  /// The muscles' forces and joint torques at Simbody's U `u_state` and z block `z` into
+  /// ws->muscles, on the Geometry in ws.
+  void Forces(const double* u_state, const double* z, RhsWorkspace* ws) const {
+    std::vector<double>& qd = ws->qdot;
+    qd.resize(slots_->u.size());
     for (std::size_t i = 0; i < qd.size(); ++i) {
       qd[i] = slots_->u[i] >= 0 ? u_state[slots_->u[i]] : 0.0;
     }
@@ -365,8 +390,6 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
     out.length_m.resize(nm);
     out.velocity_m_s.resize(nm);
     out.any_clamped = false;
-    // Each crossing's moment arm once, for the velocity and τ = R f (same bits as per use).
-    tendons::CrossingMomentArms(paths_, q, &ws->arms);
     const double* arms_j = ws->arms.data();
     for (int j = 0; j < nm; ++j) {
       out.activation[j] = z[2 * j];
@@ -376,7 +399,7 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
         gain *= 1.0 + params_->mechanisms.potentiation.gain * z[potentiation_offset_ + j];
       }
       const MuscleTendonSample m = MuscleTendonForceAt(
-          params_->muscles[j], tendons::MusculotendonLength(paths_[j], q),
+          params_->muscles[j], ws->lengths[j],
           tendons::MusculotendonVelocity(paths_[j], arms_j, qd), out.activation[j], gain);
       arms_j += paths_[j].crossings.size();
       out.any_clamped = out.any_clamped || m.clamped;
@@ -384,7 +407,7 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
       out.length_m[j] = m.length_m;
       out.velocity_m_s[j] = m.velocity_m_s;
     }
-    tendons::JointTorques(paths_, ws->arms, out.force_n, q.size(), &out.joint_torque_nm);
+    tendons::JointTorques(paths_, ws->arms, out.force_n, ws->q.size(), &out.joint_torque_nm);
   }
 
   const Vector& Stimulation(const State& s) const {
@@ -629,27 +652,36 @@ void UpperLimbModel::CalcYDot(const State& s, double t, const double* y, RhsWork
   const double* q = nq > 0 ? y : nullptr;
   const double* u = nu > 0 ? y + nq : nullptr;
   ChainWorkspace* chain = &ws->chain;
-  chain_->Kinematics(q, chain);
-  ForEachSupportForce(
-      *params_, up_, [&](int segment) { return segment_chain_[segment] < 0; },
-      [&](int segment, const Vec3& p_B) {
-        return chain_->StationInGround(*chain, segment_chain_[segment], p_B);
-      },
-      [&](int segment, const Vec3& p_B, const Vec3& f_G) {
-        chain_->ApplyForceAtStation(chain, segment_chain_[segment], p_B, f_G);
-      });
+  const bool same_positions =
+      ws->positions_of == this && ws->positions_q.size() == static_cast<std::size_t>(nq) &&
+      (nq == 0 || std::memcmp(ws->positions_q.data(), q, nq * sizeof(double)) == 0);
+  if (!same_positions) {
+    chain_->Kinematics(q, chain);
+    ForEachSupportForce(
+        *params_, up_, [&](int segment) { return segment_chain_[segment] < 0; },
+        [&](int segment, const Vec3& p_B) {
+          return chain_->StationInGround(*chain, segment_chain_[segment], p_B);
+        },
+        [&](int segment, const Vec3& p_B, const Vec3& f_G) {
+          chain_->ApplyForceAtStation(chain, segment_chain_[segment], p_B, f_G);
+        });
+    chain_->ArticulatedInertias(chain);
+    muscle_force_->Geometry(q, ws);
+    ws->positions_of = this;
+    ws->positions_q.assign(q, q + nq);
+  }
   std::fill(ydot, ydot + nq + nu + nz, 0.0);
   double* tau = ydot + nq;  // τ first, then u̇ in its place
   AddPassiveMobilityForces(*slots_, *params_, q, u, t, tau);
   // This element's z block in y and in ẏ.
   const int z_block =
       nq + nu + s.getZStart(forces_->getMySubsystemIndex()) + muscle_force_->ZStart();
-  muscle_force_->Compute(q, u, y + z_block, ws);
+  muscle_force_->Forces(u, y + z_block, ws);
   for (int i = 0; i < kNumCoordinates; ++i) {
     if (slots_->u[i] >= 0) tau[slots_->u[i]] += ws->muscles.joint_torque_nm[i];
   }
   chain->tau.assign(tau, tau + nu);
-  chain_->Accelerations(u, chain->tau.data(), chain, tau);
+  chain_->AccelerationsAtInertias(u, chain->tau.data(), chain, tau);
   for (int b = 0; b < chain_->num_bodies(); ++b) {
     const ChainBody& body = chain_->body(b);
     if (body.q >= 0) ydot[body.q] = body.held ? 0.0 : u[body.u];  // a pin's q̇ = u
@@ -737,6 +769,25 @@ std::vector<int> UpperLimbModel::LockedYIndices(const State& s) const {
 
 MuscleSnapshot UpperLimbModel::ComputeMuscles(const State& s) const {
   return muscle_force_->Compute(s);
+}
+
+double UpperLimbModel::GetQ(const State& /*layout*/, const double* y, int coordinate) const {
+  return Welded(coordinate) ? slots_->welded_q[coordinate] : y[slots_->q[coordinate]];
+}
+std::vector<double> UpperLimbModel::GetQs(const State& /*layout*/, const double* y) const {
+  return QsOf(*slots_, y);
+}
+std::vector<double> UpperLimbModel::GetUs(const State& layout, const double* y) const {
+  return UsOf(*slots_, y + layout.getNQ());
+}
+MuscleSnapshot UpperLimbModel::ComputeMuscles(const State& layout, const double* y) const {
+  const int nq = layout.getNQ(), nu = layout.getNU();
+  RhsWorkspace ws;
+  muscle_force_->Compute(
+      y, y + nq,
+      y + nq + nu + layout.getZStart(forces_->getMySubsystemIndex()) + muscle_force_->ZStart(),
+      &ws);
+  return std::move(ws.muscles);
 }
 
 std::vector<double> UpperLimbModel::MuscleMobilityForces(const State& s) const {

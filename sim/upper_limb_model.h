@@ -69,11 +69,22 @@ struct CoordinateSlots;  // where each coordinate's q and u sit in the state (up
 
 /// Scratch of UpperLimbModel::CalcYDot, one per thread; reused between calls, so that a
 /// right-hand side allocates nothing once the vectors have their sizes.
+///
+/// It also keeps what depends on the positions alone — the bodies' poses, the arm support's
+/// forces, the articulated inertias, the muscles' lengths and moment arms — with the model and
+/// the Simbody Q they are of: a call at the same model and bitwise the same Q (the speed columns
+/// of CVODES' difference-quotient Jacobian) reuses them, and gives the same bits as one that
+/// computes them (UpperLimbModel.RightHandSideAtTheSamePositionsReusesThemBitwise).
 struct RhsWorkspace {
   ChainWorkspace chain;
-  MuscleSnapshot muscles;       ///< the muscles at the last call's state
-  std::vector<double> q, qdot;  ///< every coordinate's q, q̇ (welded: its angle, 0)
-  std::vector<double> arms;     ///< each crossing's moment arm (tendons::CrossingMomentArms)
+  MuscleSnapshot muscles;              ///< the muscles at the last call's state
+  std::vector<double> q, qdot;         ///< every coordinate's q, q̇ (welded: its angle, 0)
+  std::vector<double> arms;            ///< each crossing's moment arm (tendons::CrossingMomentArms)
+  std::vector<double> lengths;         ///< each muscle's l_MT at q, m
+  const void* positions_of = nullptr;  ///< the model whose position terms are kept (null: none)
+  std::vector<double> positions_q;     ///< the Simbody Q they are of
+  /// Drops the kept position terms: the next call computes them (a benchmark from scratch).
+  void ForgetPositions() { positions_of = nullptr; }
 };
 
 /// How the Simbody system of an UpperLimbModel is built; not a model parameter (the same
@@ -131,6 +142,13 @@ class UpperLimbModel {
   double GetQ(const SimTK::State& state, int coordinate) const;
   std::vector<double> GetQs(const SimTK::State& state) const;
   std::vector<double> GetUs(const SimTK::State& state) const;
+  /// The same read from a whole Y `y` (NY values in Simbody's layout [q, u, z], e.g. an
+  /// integrator's VariablesObserver's) instead of the state's variables; `layout` gives only the
+  /// layout. ComputeMuscles too (the stimulation is not read).
+  double GetQ(const SimTK::State& layout, const double* y, int coordinate) const;
+  std::vector<double> GetQs(const SimTK::State& layout, const double* y) const;
+  std::vector<double> GetUs(const SimTK::State& layout, const double* y) const;
+  MuscleSnapshot ComputeMuscles(const SimTK::State& layout, const double* y) const;
 
   /// Recruited fraction w_j = H_IRC(A u) of every muscle for the state's stimulation (eq. 1, 3).
   std::vector<double> RecruitedFractions(const SimTK::State& state) const;

@@ -143,10 +143,9 @@ sim::StimulationSchedule DelayedSchedule(const sim::ModelParams& model, const Si
 
 /// Simulated angles q[column][sample] (rad) of `plan` on `model`: the rig's initial state at
 /// t = 0, the schedule delayed by the electromechanical delay (as sim::RunTrial does), CVODES with
-/// `integrator`'s settings, q read at exactly the sample times from a state realised only to
-/// Stage::Instance (no kinematics per sample: 173 → 129 ms CPU for a 140 s, 40 Hz data set, bench/
-/// fullmodel_bench.cc BM_SimulateDataSet/4, and not Stage::Time either), without RunTrial's sensor
-/// and truth records.
+/// `integrator`'s settings, q read at exactly the sample times from CVODES' own vector
+/// (sim::IntegrateTrialVariables: no state write, kinematics or Stage::Time per sample), without
+/// RunTrial's sensor and truth records.
 std::vector<std::vector<double>> SimulatePlan(const sim::ModelParams& model, const SimPlan& plan,
                                               const sim::IntegratorParams& integrator) {
   const sim::UpperLimbModel limb(model, kFitBuild);
@@ -154,14 +153,12 @@ std::vector<std::vector<double>> SimulatePlan(const sim::ModelParams& model, con
   SimTK::State state = limb.MakeInitialState();
   std::vector<std::vector<double>> q(plan.coords.size());
   for (auto& column : q) column.reserve(plan.times.size());
-  sim::IntegrateTrial(
-      limb, integrator, delayed, plan.times, &state,
-      [&](const SimTK::State& s) {
-        for (std::size_t k = 0; k < plan.coords.size(); ++k) {
-          q[k].push_back(limb.GetQ(s, plan.coords[k]));
-        }
-      },
-      SimTK::Stage::Instance);
+  sim::IntegrateTrialVariables(limb, integrator, delayed, plan.times, &state,
+                               [&](double, const double* y) {
+                                 for (std::size_t k = 0; k < plan.coords.size(); ++k) {
+                                   q[k].push_back(limb.GetQ(state, y, plan.coords[k]));
+                                 }
+                               });
   return q;
 }
 

@@ -55,6 +55,55 @@ TEST(Integrator, CvodesAndSimbodyAgreeOnFiveSecondTrial) {
               worst, moved);
 }
 
+TEST(Integrator, VariablesObserverSeesTheSameBitsAsTheStateObserver) {
+  // Report times on the breakpoints (1.0, 2.5 s) and between them, closer together than the
+  // steps; the observer reads q, u and the muscles from CVODES' vector instead of the state.
+  // Also on the default model with its hand rig locked (components left out of CVODES).
+  for (const bool locked : {false, true}) {
+    ModelParams p = DefaultModelParams();
+    if (locked) {
+      for (int c = 0; c < kWristFlexion; ++c) p.coordinates[c].mode = CoordinateMode::kLocked;
+    }
+    const UpperLimbModel model(p);
+    StimulationSchedule stim;
+    stim.times = {0.0, 1.0, 2.5};
+    stim.values = {{0, 0, 0, 0, 0, 0}, {180, 60, 150, 0, 100, 50}, {40, 220, 0, 160, 30, 120}};
+    const auto times = Times(3.0, 0.01);
+    const IntegratorParams cv{IntegratorParams::Method::kCvodes, 1e-4};
+    std::vector<std::vector<double>> from_state, from_y;
+    SimTK::State s1 = model.MakeInitialState();
+    IntegrateTrial(
+        model, cv, stim, times, &s1,
+        [&](const SimTK::State& s) {
+          std::vector<double> row = model.GetQs(s);
+          for (double x : model.GetUs(s)) row.push_back(x);
+          for (double x : model.ComputeMuscles(s).force_n) row.push_back(x);
+          row.push_back(s.getTime());
+          from_state.push_back(row);
+        },
+        SimTK::Stage::Instance);
+    SimTK::State s2 = model.MakeInitialState();
+    IntegrateTrialVariables(model, cv, stim, times, &s2, [&](double t, const double* y) {
+      std::vector<double> row = model.GetQs(s2, y);
+      for (double x : model.GetUs(s2, y)) row.push_back(x);
+      for (double x : model.ComputeMuscles(s2, y).force_n) row.push_back(x);
+      row.push_back(t);
+      from_y.push_back(row);
+    });
+    ASSERT_EQ(from_y.size(), times.size());
+    ASSERT_EQ(from_state.size(), times.size());
+    for (std::size_t k = 0; k < times.size(); ++k) {
+      for (std::size_t i = 0; i < from_y[k].size(); ++i) {
+        ASSERT_EQ(from_y[k][i], from_state[k][i])
+            << "locked " << locked << " row " << k << " value " << i;
+      }
+    }
+    // Both states end at the last report's solution.
+    EXPECT_EQ(s2.getTime(), s1.getTime());
+    for (int k = 0; k < s1.getNY(); ++k) EXPECT_EQ(s2.getY()[k], s1.getY()[k]) << "Y index " << k;
+  }
+}
+
 TEST(Integrator, LockedActivationFollowsAnalyticStepResponse) {
   // With every coordinate locked the activation of each muscle is exactly eq. (6)'s step
   // response to w = H_IRC(A u): checks the z-state wiring, the schedule and the breakpoints.

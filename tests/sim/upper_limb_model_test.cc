@@ -357,6 +357,55 @@ TEST(UpperLimbModel, FastDerivativesMatchSimbody) {
                std::logic_error);
 }
 
+TEST(UpperLimbModel, RightHandSideAtTheSamePositionsReusesThemBitwise) {
+  // The speed columns of a difference-quotient Jacobian: the same Q, other U. The scratch keeps
+  // the position terms of the last Q (RhsWorkspace); a call that reuses them gives the same bits
+  // as one that computes them, and a new Q or another model computes them again.
+  ModelParams p = DefaultModelParams();
+  const UpperLimbModel model(p);
+  p.segments[kHand].mass_kg *= 1.5;
+  const UpperLimbModel heavier(p);
+  SimTK::State s = model.MakeInitialState();
+  model.SetStimulation(s, {150, 90, 60, 200, 120, 30});
+  model.SetActivationsInClosedForm(s, true);
+  std::vector<double> y(s.getY().getContiguousScalarData(),
+                        s.getY().getContiguousScalarData() + s.getNY());
+  for (int k = 0; k < s.getNQ() + s.getNU(); ++k) y[k] += 0.1 * std::sin(1.7 * k + 0.3);
+  const int a0 = model.ActivationYIndex(s);
+  for (int j = 0; j < model.num_muscles(); ++j) y[a0 + 2 * j] = 0.3 + 0.03 * j;
+  const auto fresh = [&](const UpperLimbModel& m, const std::vector<double>& at) {
+    RhsWorkspace ws;
+    std::vector<double> out(at.size(), NAN);
+    m.CalcYDot(s, 0.2, at.data(), &ws, out.data());
+    return out;
+  };
+  RhsWorkspace ws;
+  std::vector<double> ydot(y.size());
+  model.CalcYDot(s, 0.2, y.data(), &ws, ydot.data());
+  const auto expect_same = [&](const std::vector<double>& a, const std::vector<double>& b,
+                               const char* what) {
+    for (std::size_t k = 0; k < a.size(); ++k) {
+      if (static_cast<int>(k) >= a0 && static_cast<int>(k) < a0 + 2 * model.num_muscles()) continue;
+      ASSERT_EQ(a[k], b[k]) << what << ", Y index " << k;
+    }
+  };
+  std::vector<double> other_u = y;
+  other_u[s.getNQ() + 3] += 1e-7;
+  other_u[s.getNQ() + 8] -= 0.4;
+  model.CalcYDot(s, 0.2, other_u.data(), &ws, ydot.data());
+  expect_same(ydot, fresh(model, other_u), "other U, positions kept");
+  std::vector<double> other_q = other_u;
+  other_q[2] += 1e-9;
+  model.CalcYDot(s, 0.2, other_q.data(), &ws, ydot.data());
+  expect_same(ydot, fresh(model, other_q), "other Q");
+  heavier.CalcYDot(s, 0.2, other_q.data(), &ws, ydot.data());
+  expect_same(ydot, fresh(heavier, other_q), "another model at the same Q");
+  bool differs = false;
+  const std::vector<double> light = fresh(model, other_q);
+  for (int k = s.getNQ(); k < s.getNQ() + s.getNU(); ++k) differs = differs || ydot[k] != light[k];
+  EXPECT_TRUE(differs) << "the heavier hand changes the accelerations";
+}
+
 TEST(UpperLimbModel, StimulationIsClippedToPulseWidthLimits) {
   const UpperLimbModel model(DefaultModelParams());
   SimTK::State s = model.MakeInitialState();
