@@ -8,8 +8,11 @@
 // maximum over the ten coordinates and the 6001 samples at 100 Hz, degrees. Cost: CPU seconds
 // (CLOCK_PROCESS_CPUTIME_ID) of one whole 60 s simulation, the median of its runs over --repeats
 // rounds (a cheap setting runs several times per round: RunsPerRound):
-//   fesim   UpperLimbModel construction (Simbody topology) + RunTrial (integration, the 100 Hz
-//           truth record with muscle forces, the scenario's sensors with noise);
+//   fesim   UpperLimbModel construction (Simbody topology) + the integration with q recorded at
+//           100 Hz (sim::IntegrateTrialVariables, as the fits simulate: kCoordinates, method
+//           "CVODES BDF") — the output MuJoCo's rows record — and, as rows of their own, the
+//           same with RunTrial's records (the 100 Hz truth with muscle forces and the scenario's
+//           sensors with noise, as `fesim simulate` makes them: kTrialRecords);
 //   MuJoCo  ActivationTrack (recruitment, eq. 3) + WriteMjcf + mj_loadXML from memory (parse and
 //           compile) + mj_makeData + the step loop (activation as ctrl at each step's midpoint,
 //           eq. 6 in closed form) + recording q at 100 Hz.
@@ -42,7 +45,9 @@
 #include "bench/default_trial.h"
 #include "render/plot.h"
 #include "scenarios/scenario.h"
+#include "sim/integrator.h"
 #include "sim/mjcf.h"
+#include "sim/sensors.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
 
@@ -119,7 +124,35 @@ struct Run {
   double build_cpu_s = 0.0;             // of cpu_s: building the model (see the header)
 };
 
-Run RunFesim(const fesim::Scenario& sc, double tolerance) {
+/// What a fesim run records besides integrating (the file header).
+enum class FesimRecord { kCoordinates, kTrialRecords };
+
+/// The method label of a fesim row.
+std::string FesimMethod(FesimRecord record) {
+  return record == FesimRecord::kCoordinates ? "CVODES BDF" : "CVODES BDF + trial records";
+}
+
+/// q at the 100 Hz samples of the trial through sim::IntegrateTrialVariables.
+Angles SimulateCoordinates(const fesim::sim::UpperLimbModel& model, const fesim::Scenario& sc,
+                           const fesim::sim::IntegratorParams& integrator, long* steps) {
+  const std::vector<double> times = fesim::sim::SampleTimes(1.0 / kSampleS, sc.trial.duration_s);
+  Angles q;
+  q.reserve(times.size());
+  SimTK::State state = model.MakeInitialState();
+  const fesim::sim::IntegrationStats stats = fesim::sim::IntegrateTrialVariables(
+      model, integrator, fesim::sim::MuscleStimulation(model.params(), sc.trial.stimulation), times,
+      &state,
+      [&](double, const double* y) {
+        std::array<double, kNumCoordinates> row{};
+        for (int c = 0; c < kNumCoordinates; ++c) row[c] = model.GetQ(state, y, c);
+        q.push_back(row);
+      },
+      fesim::sim::VariablesObserved::kPositionsAndSpeeds);
+  *steps = stats.steps;
+  return q;
+}
+
+Run RunFesim(const fesim::Scenario& sc, double tolerance, FesimRecord record) {
   fesim::sim::TrialRequest trial = sc.trial;
   trial.integrator.tolerance = tolerance;
   Run run;
@@ -127,13 +160,18 @@ Run RunFesim(const fesim::Scenario& sc, double tolerance) {
   try {
     const fesim::sim::UpperLimbModel model(sc.model);
     run.build_cpu_s = CpuSeconds() - t0;
-    const fesim::sim::TrialResult r = fesim::sim::RunTrial(model, trial);
-    run.cpu_s = CpuSeconds() - t0;
-    run.steps = r.stats.steps;
-    run.q.resize(r.truth.size());
-    for (int c = 0; c < kNumCoordinates; ++c) {
-      const auto& col = r.truth.Column("q." + fesim::sim::CoordinateNames()[c]);
-      for (std::size_t i = 0; i < col.size(); ++i) run.q[i][c] = col[i];
+    if (record == FesimRecord::kCoordinates) {
+      run.q = SimulateCoordinates(model, sc, trial.integrator, &run.steps);
+      run.cpu_s = CpuSeconds() - t0;
+    } else {
+      const fesim::sim::TrialResult r = fesim::sim::RunTrial(model, trial);
+      run.cpu_s = CpuSeconds() - t0;
+      run.steps = r.stats.steps;
+      run.q.resize(r.truth.size());
+      for (int c = 0; c < kNumCoordinates; ++c) {
+        const auto& col = r.truth.Column("q." + fesim::sim::CoordinateNames()[c]);
+        for (std::size_t i = 0; i < col.size(); ++i) run.q[i][c] = col[i];
+      }
     }
   } catch (const std::exception& e) {
     run.cpu_s = CpuSeconds() - t0;
@@ -385,27 +423,35 @@ void WritePlot(const std::string& path, const std::vector<Point>& points) {
   fesim::render::WriteLinePlotPng(path, axes, series);
 }
 
-/// The cheapest point of an engine whose RMS error is ≤ target, or nullptr.
-const Point* Cheapest(const std::vector<Point>& points, const std::string& engine, double target) {
+/// Whether point p is of `engine` and, unless `method` is empty, of `method`.
+bool Of(const Point& p, const std::string& engine, const std::string& method) {
+  return p.engine == engine && (method.empty() || p.method == method);
+}
+
+/// The cheapest point of an engine (and method, unless empty) whose RMS error is ≤ target, or
+/// nullptr.
+const Point* Cheapest(const std::vector<Point>& points, const std::string& engine,
+                      const std::string& method, double target) {
   const Point* best = nullptr;
   for (const Point& p : points) {
-    if (p.engine != engine || !p.ok || !(p.error.rms_deg <= target)) continue;
+    if (!Of(p, engine, method) || !p.ok || !(p.error.rms_deg <= target)) continue;
     if (!best || p.cpu_s < best->cpu_s) best = &p;
   }
   return best;
 }
 
-/// An engine's CPU seconds at exactly RMS error `target`: per method, between the two neighbouring
-/// settings of its grid whose errors bracket the target, log-cost interpolated linearly in
-/// log-error; the cheapest over the methods and bracketing pairs (NaN: no pair brackets it). Free
-/// of where a grid point happens to fall below the target.
+/// An engine's CPU seconds at exactly RMS error `target`: per method (or only `method`, unless
+/// empty), between the two neighbouring settings of its grid whose errors bracket the target,
+/// log-cost interpolated linearly in log-error; the cheapest over the methods and bracketing
+/// pairs (NaN: no pair brackets it). Free of where a grid point happens to fall below the target.
 double InterpolatedCost(const std::vector<Point>& points, const std::string& engine,
-                        double target) {
+                        const std::string& method, double target) {
   double best = NAN;
   for (std::size_t i = 0; i + 1 < points.size(); ++i) {
     const Point& a = points[i];
     const Point& b = points[i + 1];
-    if (a.engine != engine || b.engine != engine || a.method != b.method || !a.ok || !b.ok) {
+    if (!Of(a, engine, method) || !Of(b, engine, method) || a.method != b.method || !a.ok ||
+        !b.ok) {
       continue;
     }
     const double ea = a.error.rms_deg, eb = b.error.rms_deg;
@@ -417,30 +463,52 @@ double InterpolatedCost(const std::vector<Point>& points, const std::string& eng
   return best;
 }
 
+/// Per accuracy target and fesim recording: both engines' costs, interpolated and at the
+/// cheapest grid point, and their ratio.
 std::string Summary(const std::vector<Point>& points) {
   std::string md;
   for (double target : kTargetsDeg) {
-    const double fi = InterpolatedCost(points, "fesim", target);
-    const double mi = InterpolatedCost(points, "MuJoCo", target);
-    if (std::isfinite(fi) && std::isfinite(mi)) {
-      md += "- RMS = " + Fmt("%g", target) + "° interpolated (InterpolatedCost): fesim " +
-            Fmt("%.3f", fi) + " s, MuJoCo " + Fmt("%.3f", mi) + " s; fesim is " +
-            Fmt("%.2f", mi / fi) + "× MuJoCo's speed\n";
+    const double mi = InterpolatedCost(points, "MuJoCo", "", target);
+    const Point* m = Cheapest(points, "MuJoCo", "", target);
+    for (FesimRecord record : {FesimRecord::kCoordinates, FesimRecord::kTrialRecords}) {
+      const std::string method = FesimMethod(record);
+      const double fi = InterpolatedCost(points, "fesim", method, target);
+      if (std::isfinite(fi) && std::isfinite(mi)) {
+        md += "- RMS = " + Fmt("%g", target) + "° interpolated (InterpolatedCost): fesim " +
+              method + " " + Fmt("%.3f", fi) + " s, MuJoCo " + Fmt("%.3f", mi) + " s; fesim is " +
+              Fmt("%.2f", mi / fi) + "× MuJoCo's speed\n";
+      }
+      const Point* f = Cheapest(points, "fesim", method, target);
+      md += "- RMS ≤ " + Fmt("%g", target) + "°: fesim " + method + " " +
+            (f ? f->setting + " (" + Fmt("%.3f", f->cpu_s) + " s, " +
+                     Fmt("%.0f", kDurationS / f->cpu_s) + "× real time)"
+               : std::string("none")) +
+            ", MuJoCo " +
+            (m ? m->method + " " + m->setting + " (" + Fmt("%.3f", m->cpu_s) + " s, " +
+                     Fmt("%.0f", kDurationS / m->cpu_s) + "×)"
+               : std::string("none"));
+      if (f && m) md += "; fesim is " + Fmt("%.2f", m->cpu_s / f->cpu_s) + "× MuJoCo's speed";
+      md += "\n";
     }
-    const Point* f = Cheapest(points, "fesim", target);
-    const Point* m = Cheapest(points, "MuJoCo", target);
-    md += "- RMS ≤ " + Fmt("%g", target) + "°: fesim " +
-          (f ? f->setting + " (" + Fmt("%.3f", f->cpu_s) + " s, " +
-                   Fmt("%.0f", kDurationS / f->cpu_s) + "× real time)"
-             : std::string("none")) +
-          ", MuJoCo " +
-          (m ? m->method + " " + m->setting + " (" + Fmt("%.3f", m->cpu_s) + " s, " +
-                   Fmt("%.0f", kDurationS / m->cpu_s) + "×)"
-             : std::string("none"));
-    if (f && m) md += "; fesim is " + Fmt("%.2f", m->cpu_s / f->cpu_s) + "× MuJoCo's speed";
-    md += "\n";
   }
   return md;
+}
+
+/// Whether both fesim recordings gave the same errors and steps at every tolerance (they
+/// integrate one trajectory; only what is recorded differs).
+std::string RecordingsAgree(const std::vector<Point>& points) {
+  for (const Point& a : points) {
+    if (!Of(a, "fesim", FesimMethod(FesimRecord::kCoordinates))) continue;
+    for (const Point& b : points) {
+      if (!Of(b, "fesim", FesimMethod(FesimRecord::kTrialRecords)) || b.value != a.value) continue;
+      if (a.error.rms_deg != b.error.rms_deg || a.error.max_deg != b.error.max_deg ||
+          a.steps != b.steps) {
+        return "- the two fesim recordings differ at " + a.setting + "\n";
+      }
+    }
+  }
+  return "- the two fesim recordings give the same errors and steps at every tolerance (one "
+         "trajectory; only the records differ)\n";
 }
 
 /// Where the two models' trajectories differ (each engine's reference against the other's) and
@@ -489,7 +557,7 @@ std::string ModelNotes(const fesim::Scenario& sc, const Run& fesim_ref, const Ru
 
 std::vector<Point> MeasureAll(const fesim::Scenario& sc, int repeats, bool fesim_only,
                               Run* fesim_ref, Run* mujoco_ref) {
-  *fesim_ref = RunFesim(sc, kFesimReferenceTolerance);
+  *fesim_ref = RunFesim(sc, kFesimReferenceTolerance, FesimRecord::kCoordinates);
   if (!fesim_ref->ok) throw std::runtime_error("fesim reference failed: " + fesim_ref->note);
   std::fprintf(stderr, "fesim reference (tol %g): %.3f s CPU\n", kFesimReferenceTolerance,
                fesim_ref->cpu_s);
@@ -500,14 +568,16 @@ std::vector<Point> MeasureAll(const fesim::Scenario& sc, int repeats, bool fesim
                  mujoco_ref->cpu_s);
   }
   std::vector<Setting> settings;
-  for (double tol : kFesimTolerances) {
-    // The shipped default of trial generation (sim/task_tolerances.h) is marked in the table.
-    const bool shipped = tol == fesim::sim::TaskTolerances::kTrialGeneration;
-    settings.push_back({MakePoint("fesim", "CVODES BDF",
-                                  "tol " + Fmt("%.0e", tol) + (shipped ? " (default)" : ""), tol),
-                        [&sc, tol] { return RunFesim(sc, tol); },
-                        &fesim_ref->q,
-                        {}});
+  for (FesimRecord record : {FesimRecord::kCoordinates, FesimRecord::kTrialRecords}) {
+    for (double tol : kFesimTolerances) {
+      // The shipped default of trial generation (sim/task_tolerances.h) is marked in the table.
+      const bool shipped = tol == fesim::sim::TaskTolerances::kTrialGeneration;
+      settings.push_back({MakePoint("fesim", FesimMethod(record),
+                                    "tol " + Fmt("%.0e", tol) + (shipped ? " (default)" : ""), tol),
+                          [&sc, tol, record] { return RunFesim(sc, tol, record); },
+                          &fesim_ref->q,
+                          {}});
+    }
   }
   for (MjcfIntegrator integrator :
        fesim_only ? std::vector<MjcfIntegrator>{}
@@ -545,7 +615,7 @@ int main(int argc, char** argv) {
     const double load_start = LoadAverage();
     const std::vector<Point> points =
         MeasureAll(sc, args.repeats, args.fesim_only, &fesim_ref, &mujoco_ref);
-    const Run fesim_check = RunFesim(sc, 10 * kFesimReferenceTolerance);
+    const Run fesim_check = RunFesim(sc, 10 * kFesimReferenceTolerance, FesimRecord::kCoordinates);
     const Error fesim_ref_check = Compare(fesim_check.q, fesim_ref.q);
 
     std::string md = "Work–precision, default model, 60 s trial (" + std::to_string(args.repeats) +
@@ -553,7 +623,8 @@ int main(int argc, char** argv) {
                      "settings under 0.5 s; " +
                      (args.fesim_only ? std::string("fesim only")
                                       : "MuJoCo " + std::string(mj_versionString())) +
-                     ")\n\n" + MarkdownTable(points) + "\n" + Summary(points);
+                     ")\n\n" + MarkdownTable(points) + "\n" + Summary(points) +
+                     RecordingsAgree(points);
     md += "- references: fesim tol " + Fmt("%.0e", kFesimReferenceTolerance) + " (" +
           Fmt("%.2f", fesim_ref.cpu_s) + " s; tol " + Fmt("%.0e", 10 * kFesimReferenceTolerance) +
           " is " + Fmt("%.1e", fesim_ref_check.rms_deg) + "° RMS from it)";

@@ -11,6 +11,8 @@
 #include "bench/default_trial.h"
 #include "scenarios/scenario.h"
 #include "sim/chain_dynamics.h"
+#include "sim/integrator.h"
+#include "sim/sensors.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
 
@@ -57,11 +59,44 @@ void BM_DefaultModel60sAtTolerance(benchmark::State& state, double tolerance, bo
   state.counters["jacobians"] = static_cast<double>(stats.jacobian_evaluations);
 }
 // Unformatted: clang-format would space the names (tol_3e - 3).
+// The same trial recording only q at 100 Hz, as the fits simulate and as MuJoCo's rows of
+// bench/mujoco_work_precision.cc record (sim::IntegrateTrialVariables): model build included,
+// no truth or sensor records.
+fesim::sim::IntegrationStats SimulateCoordinates60s(const fesim::Scenario& sc,
+                                                    std::vector<double>* q) {
+  const fesim::sim::UpperLimbModel model(sc.model);
+  const std::vector<double> times = fesim::sim::SampleTimes(100.0, sc.trial.duration_s);
+  q->clear();
+  SimTK::State state = model.MakeInitialState();
+  return fesim::sim::IntegrateTrialVariables(
+      model, sc.trial.integrator,
+      fesim::sim::MuscleStimulation(model.params(), sc.trial.stimulation), times, &state,
+      [&](double, const double* y) {
+        for (int c = 0; c < fesim::sim::kNumCoordinates; ++c) q->push_back(model.GetQ(state, y, c));
+      },
+      fesim::sim::VariablesObserved::kPositionsAndSpeeds);
+}
+
+void BM_DefaultModel60sCoordinates(benchmark::State& state, double tolerance) {
+  fesim::Scenario sc = fesim::bench::DefaultModelTrial(60.0);
+  sc.trial.integrator.tolerance = tolerance;
+  fesim::sim::IntegrationStats stats;
+  std::vector<double> q;
+  for (auto _ : state) {
+    stats = SimulateCoordinates60s(sc, &q);
+    benchmark::DoNotOptimize(q.data());
+  }
+  state.counters["steps"] = static_cast<double>(stats.steps);
+  state.counters["rhs_evals"] = static_cast<double>(stats.rhs_evaluations);
+}
+
 // clang-format off
 BENCHMARK_CAPTURE(BM_DefaultModel60sAtTolerance, tol_3e-3, 3e-3, false)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_DefaultModel60sAtTolerance, tol_3e-4, 3e-4, false)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_DefaultModel60sAtTolerance, tol_3e-3_simbody, 3e-3, true)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_DefaultModel60sAtTolerance, tol_3e-4_simbody, 3e-4, true)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_DefaultModel60sCoordinates, tol_3e-3, 3e-3)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+BENCHMARK_CAPTURE(BM_DefaultModel60sCoordinates, tol_3e-4, 3e-4)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
 // clang-format on
 
 // One right-hand-side evaluation from scratch (new time and state): Simbody's realisation to

@@ -216,12 +216,14 @@ void LoadState(CvodesContext* c, double t, const double* y,
 
 /// The whole Y at (t, y) into c->y_all, as LoadState would put it into the state: the state's
 /// Y with y at the CVODES components and the closed-form activations at t (computed again only
-/// when t changes). Writes nothing into the state.
-void LoadVariables(CvodesContext* c, double t, const double* y) {
+/// when t changes; not at all without `activations`: then they are the state's, stale). Writes
+/// nothing into the state.
+void LoadVariables(CvodesContext* c, double t, const double* y, bool activations = true) {
   const SimTK::Vector& Y = c->state->getY();
   const double* from = Y.getContiguousScalarData();
   c->y_all.assign(from, from + Y.size());
   for (std::size_t i = 0; i < c->y_index.size(); ++i) c->y_all[c->y_index[i]] = y[i];
+  if (!activations) return;
   double* act = c->y_all.data() + c->activation_index;
   if (SameBits(c->y_all_activations_time, t)) {
     std::copy(c->activations_at_t.begin(), c->activations_at_t.end(), act);
@@ -893,13 +895,14 @@ void Drive(const UpperLimbModel& model, const StimulationSchedule& schedule,
 /// IntegrateTrial's and IntegrateTrialVariables' CVODES path: Drive over CVODES. With
 /// `observe_variables` (and no prescribed coordinate, whose q and u only LoadState sets) a report
 /// advance leaves the solution in CVODES' y and observe(t, y) gets the whole Y from
-/// LoadVariables — or the state's, when the state holds the latest solution (a report at a
-/// breakpoint); otherwise every solution goes into the state and observe's y is the state's.
+/// LoadVariables (its activations only with `observe_activations`) — or the state's, when the
+/// state holds the latest solution (a report at a breakpoint); otherwise every solution goes into
+/// the state and observe's y is the state's.
 template <typename Observe>
 IntegrationStats RunCvodes(const UpperLimbModel& model, const IntegratorParams& params,
                            const StimulationSchedule& schedule,
                            const std::vector<double>& report_times, SimTK::State* state,
-                           bool observe_variables, Observe observe) {
+                           bool observe_variables, bool observe_activations, Observe observe) {
   IntegrationStats stats;
   CvodesContext ctx(&model, state, HasPrescribed(model.params()), params.simbody_right_hand_side);
   Cvodes cv(static_cast<int>(ctx.y_index.size()), *params.tolerance * ctx.tolerance_scale,
@@ -919,7 +922,7 @@ IntegrationStats RunCvodes(const UpperLimbModel& model, const IntegratorParams& 
         if (cv.state_current()) {
           observe(state->getTime(), state->getY().getContiguousScalarData());
         } else {
-          LoadVariables(&ctx, cv.solution_time(), cv.Solution());
+          LoadVariables(&ctx, cv.solution_time(), cv.Solution(), observe_activations);
           observe(cv.solution_time(), ctx.y_all.data());
         }
       },
@@ -938,7 +941,7 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
                                 const Observer& observer, SimTK::Stage observe_stage) {
   const IntegratorParams params = WithTolerance(integrator, model.params());
   if (params.method != IntegratorParams::Method::kSimbodyRkMerson) {
-    return RunCvodes(model, params, schedule, report_times, state, false,
+    return RunCvodes(model, params, schedule, report_times, state, false, true,
                      [&](double, const double*) {
                        model.system().realize(*state, observe_stage);
                        observer(*state);
@@ -998,7 +1001,8 @@ IntegrationStats IntegrateTrialVariables(const UpperLimbModel& model,
                                          const IntegratorParams& integrator,
                                          const StimulationSchedule& schedule,
                                          const std::vector<double>& report_times,
-                                         SimTK::State* state, const VariablesObserver& observer) {
+                                         SimTK::State* state, const VariablesObserver& observer,
+                                         VariablesObserved observe) {
   const IntegratorParams params = WithTolerance(integrator, model.params());
   if (params.method == IntegratorParams::Method::kSimbodyRkMerson) {
     return IntegrateTrial(
@@ -1006,7 +1010,8 @@ IntegrationStats IntegrateTrialVariables(const UpperLimbModel& model,
         [&](const SimTK::State& s) { observer(s.getTime(), s.getY().getContiguousScalarData()); },
         SimTK::Stage::Instance);
   }
-  return RunCvodes(model, params, schedule, report_times, state, true, observer);
+  return RunCvodes(model, params, schedule, report_times, state, true,
+                   observe == VariablesObserved::kAll, observer);
 }
 
 IntegrationStats IntegrateTrialSensitivities(

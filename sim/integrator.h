@@ -57,17 +57,23 @@ IntegrationStats IntegrateTrial(const UpperLimbModel& model, const IntegratorPar
 /// GetUs and ComputeMuscles read it.
 using VariablesObserver = std::function<void(double t, const double* y)>;
 
+/// Which entries of a VariablesObserver's y are current.
+enum class VariablesObserved {
+  kAll,                ///< q, u and every z (the closed-form activations computed at t).
+  kPositionsAndSpeeds  ///< q and u (the activations not computed: stale; ≈ 14 exp per row).
+};
+
 /// IntegrateTrial for an observer that reads state variables only: with a CVODES method the
 /// solution at a report time is read from CVODES' own vector and never written into `state`
-/// (each such write invalidates Simbody's stages: ≈ 10 % of the 60 s default trial's
-/// instructions at tolerance 3e-3, docs/performance.md "Default model real-time factor"), so
-/// `observer` sees bitwise the values IntegrateTrial's observer would read from the state.
-/// `state` ends at the last report time, as with IntegrateTrial.
+/// (each such write invalidates Simbody's stages, docs/performance.md "Default model real-time
+/// factor"), so `observer` sees bitwise the values IntegrateTrial's observer would read from the
+/// state (those `observe` names). `state` ends at the last report time, as with IntegrateTrial.
 IntegrationStats IntegrateTrialVariables(const UpperLimbModel& model,
                                          const IntegratorParams& params,
                                          const StimulationSchedule& schedule,
                                          const std::vector<double>& report_times,
-                                         SimTK::State* state, const VariablesObserver& observer);
+                                         SimTK::State* state, const VariablesObserver& observer,
+                                         VariablesObserved observe = VariablesObserved::kAll);
 
 /// One parameter θ_k of a forward-sensitivity integration: the model with θ_k moved by `step`.
 /// The sensitivity right-hand side re-evaluates only what depends on the parameters through

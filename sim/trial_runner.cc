@@ -134,6 +134,13 @@ void SetMetadata(const TrialRequest& req, Trial* m, Trial* t) {
 
 }  // namespace
 
+StimulationSchedule MuscleStimulation(const ModelParams& model,
+                                      const StimulationSchedule& commanded) {
+  StimulationSchedule delayed = commanded;
+  for (double& t : delayed.times) t += model.mechanisms.electromechanical_delay_s;
+  return delayed;
+}
+
 TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
                      const std::function<void(double)>& progress) {
   if (!(req.duration_s > 0.0)) throw std::invalid_argument("trial duration must be > 0");
@@ -185,8 +192,7 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
   }
   // Electromechanical delay: the muscles see the stimulation δ late; the trial records what was
   // commanded (clipped to the stimulator's 0–300 µs, as the model clips it).
-  StimulationSchedule effective = req.stimulation;
-  for (double& t : effective.times) t += model.params().mechanisms.electromechanical_delay_s;
+  const StimulationSchedule effective = MuscleStimulation(model.params(), req.stimulation);
   const auto commanded = [&](double t) {
     std::vector<double> u = req.stimulation.At(t, nc);
     for (double& x : u) x = std::clamp(x, 0.0, 300.0);

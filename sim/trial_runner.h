@@ -39,6 +39,12 @@ struct TrialResult {
   bool fibre_clamped = false;  ///< some fibre reached its minimum length during the trial.
 };
 
+/// The stimulation as the muscles receive it: `commanded` delayed by the model's
+/// electromechanical delay (mechanisms.electromechanical_delay_s). RunTrial integrates this and
+/// records `commanded`; a simulation of a recorded trial does the same.
+StimulationSchedule MuscleStimulation(const ModelParams& model,
+                                      const StimulationSchedule& commanded);
+
 /// Runs one trial from the model's initial state. Throws std::runtime_error on integration
 /// failure (message names the time and coordinate).
 /// `progress`, when given, is called with the fraction of simulated time done (0–1).

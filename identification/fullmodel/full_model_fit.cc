@@ -133,14 +133,6 @@ SimPlan PlanFor(const sim::ModelParams& model, const Trial& trial) {
   return plan;
 }
 
-/// The plan's stimulation as `model` receives it: delayed by the electromechanical delay (as
-/// sim::RunTrial does).
-sim::StimulationSchedule DelayedSchedule(const sim::ModelParams& model, const SimPlan& plan) {
-  sim::StimulationSchedule delayed = plan.schedule;
-  for (double& t : delayed.times) t += model.mechanisms.electromechanical_delay_s;
-  return delayed;
-}
-
 /// Simulated angles q[column][sample] (rad) of `plan` on `model`: the rig's initial state at
 /// t = 0, the schedule delayed by the electromechanical delay (as sim::RunTrial does), CVODES with
 /// `integrator`'s settings, q read at exactly the sample times from CVODES' own vector
@@ -149,16 +141,18 @@ sim::StimulationSchedule DelayedSchedule(const sim::ModelParams& model, const Si
 std::vector<std::vector<double>> SimulatePlan(const sim::ModelParams& model, const SimPlan& plan,
                                               const sim::IntegratorParams& integrator) {
   const sim::UpperLimbModel limb(model, kFitBuild);
-  const sim::StimulationSchedule delayed = DelayedSchedule(model, plan);
+  const sim::StimulationSchedule delayed = sim::MuscleStimulation(model, plan.schedule);
   SimTK::State state = limb.MakeInitialState();
   std::vector<std::vector<double>> q(plan.coords.size());
   for (auto& column : q) column.reserve(plan.times.size());
-  sim::IntegrateTrialVariables(limb, integrator, delayed, plan.times, &state,
-                               [&](double, const double* y) {
-                                 for (std::size_t k = 0; k < plan.coords.size(); ++k) {
-                                   q[k].push_back(limb.GetQ(state, y, plan.coords[k]));
-                                 }
-                               });
+  sim::IntegrateTrialVariables(
+      limb, integrator, delayed, plan.times, &state,
+      [&](double, const double* y) {
+        for (std::size_t k = 0; k < plan.coords.size(); ++k) {
+          q[k].push_back(limb.GetQ(state, y, plan.coords[k]));
+        }
+      },
+      sim::VariablesObserved::kPositionsAndSpeeds);
   return q;
 }
 
@@ -346,7 +340,7 @@ std::vector<std::vector<double>> PlanSensitivities(
     const sim::ModelParams& model, const std::vector<sim::ParameterPerturbation>& perturbed,
     const SimPlan& plan, double tolerance) {
   const sim::UpperLimbModel limb(model, kFitBuild);
-  const sim::StimulationSchedule delayed = DelayedSchedule(model, plan);
+  const sim::StimulationSchedule delayed = sim::MuscleStimulation(model, plan.schedule);
   sim::IntegratorParams integrator;
   integrator.tolerance = tolerance;
   SimTK::State state = limb.MakeInitialState();
@@ -683,7 +677,7 @@ SimulationSensitivities SimulateLikeSensitivities(
     const sim::IntegratorParams& integrator) {
   const SimPlan plan = PlanFor(model, trial);
   const sim::UpperLimbModel limb(model, kFitBuild);
-  const sim::StimulationSchedule delayed = DelayedSchedule(model, plan);
+  const sim::StimulationSchedule delayed = sim::MuscleStimulation(model, plan.schedule);
   SimTK::State state = limb.MakeInitialState();
   const std::size_t p = perturbed.size(), nq = plan.coords.size();
   std::vector<std::vector<double>> q(nq);

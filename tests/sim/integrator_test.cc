@@ -98,6 +98,21 @@ TEST(Integrator, VariablesObserverSeesTheSameBitsAsTheStateObserver) {
             << "locked " << locked << " row " << k << " value " << i;
       }
     }
+    // Observing positions and speeds only (no activations computed): the same q and u.
+    SimTK::State s3 = model.MakeInitialState();
+    std::size_t row = 0;
+    IntegrateTrialVariables(
+        model, cv, stim, times, &s3,
+        [&](double, const double* y) {
+          const std::vector<double> q = model.GetQs(s3, y), u = model.GetUs(s3, y);
+          for (int i = 0; i < kNumCoordinates; ++i) {
+            ASSERT_EQ(q[i], from_state[row][i]) << "row " << row;
+            ASSERT_EQ(u[i], from_state[row][kNumCoordinates + i]) << "row " << row;
+          }
+          ++row;
+        },
+        VariablesObserved::kPositionsAndSpeeds);
+    EXPECT_EQ(row, times.size());
     // Both states end at the last report's solution.
     EXPECT_EQ(s2.getTime(), s1.getTime());
     for (int k = 0; k < s1.getNY(); ++k) EXPECT_EQ(s2.getY()[k], s1.getY()[k]) << "Y index " << k;
