@@ -209,7 +209,7 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
     if (progress && (i % 256 == 0 || i + 1 == report.size())) progress(t / req.duration_s);
     const std::vector<double> u = commanded(t);
     if (on_truth[i]) {
-      const MuscleSnapshot m = muscles();
+      const MuscleSnapshot& m = muscles();
       result.fibre_clamped = result.fibre_clamped || m.any_clamped;
       tr.time.push_back(t);
       for (int k = 0; k < nc; ++k) tr.u[k].push_back(u[k]);
@@ -253,10 +253,13 @@ TrialResult RunTrial(const UpperLimbModel& model, const TrialRequest& req,
   if (sens.torques.coordinates.empty()) {
     // The rows read only state variables (q, u, activations: ComputeMuscles), so they are read
     // from the integrator's own vector, never written into the state.
+    RhsWorkspace muscles_ws;  // the truth rows' muscles, its vectors reused row to row
     result.stats = IntegrateTrialVariables(
         model, req.integrator, effective, report, &state, [&](double t, const double* y) {
           record(t, model.GetQs(state, y), model.GetUs(state, y), {},
-                 [&] { return model.ComputeMuscles(state, y); });
+                 [&]() -> const MuscleSnapshot& {
+                   return model.ComputeMuscles(state, y, &muscles_ws);
+                 });
         });
   } else {
     // A torque sensor needs the motion forces: the state realised to Stage::Acceleration.

@@ -781,13 +781,18 @@ std::vector<double> UpperLimbModel::GetUs(const State& layout, const double* y) 
   return UsOf(*slots_, y + layout.getNQ());
 }
 MuscleSnapshot UpperLimbModel::ComputeMuscles(const State& layout, const double* y) const {
-  const int nq = layout.getNQ(), nu = layout.getNU();
   RhsWorkspace ws;
+  ComputeMuscles(layout, y, &ws);
+  return std::move(ws.muscles);
+}
+const MuscleSnapshot& UpperLimbModel::ComputeMuscles(const State& layout, const double* y,
+                                                     RhsWorkspace* ws) const {
+  const int nq = layout.getNQ(), nu = layout.getNU();
+  ws->ForgetPositions();  // Geometry overwrites the lengths and arms CalcYDot keeps
   muscle_force_->Compute(
       y, y + nq,
-      y + nq + nu + layout.getZStart(forces_->getMySubsystemIndex()) + muscle_force_->ZStart(),
-      &ws);
-  return std::move(ws.muscles);
+      y + nq + nu + layout.getZStart(forces_->getMySubsystemIndex()) + muscle_force_->ZStart(), ws);
+  return ws->muscles;
 }
 
 std::vector<double> UpperLimbModel::MuscleMobilityForces(const State& s) const {

@@ -149,6 +149,10 @@ class UpperLimbModel {
   std::vector<double> GetQs(const SimTK::State& layout, const double* y) const;
   std::vector<double> GetUs(const SimTK::State& layout, const double* y) const;
   MuscleSnapshot ComputeMuscles(const SimTK::State& layout, const double* y) const;
+  /// The same into ws->muscles (ws's vectors reused: a record of many rows allocates nothing
+  /// per row); drops the position terms ws keeps for CalcYDot.
+  const MuscleSnapshot& ComputeMuscles(const SimTK::State& layout, const double* y,
+                                       RhsWorkspace* ws) const;
 
   /// Recruited fraction w_j = H_IRC(A u) of every muscle for the state's stimulation (eq. 1, 3).
   std::vector<double> RecruitedFractions(const SimTK::State& state) const;

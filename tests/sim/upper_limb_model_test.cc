@@ -398,6 +398,13 @@ TEST(UpperLimbModel, RightHandSideAtTheSamePositionsReusesThemBitwise) {
   other_q[2] += 1e-9;
   model.CalcYDot(s, 0.2, other_q.data(), &ws, ydot.data());
   expect_same(ydot, fresh(model, other_q), "other Q");
+  // ComputeMuscles on the same scratch at another Q overwrites the kept lengths and arms: the
+  // next right-hand side at the kept Q computes them again.
+  std::vector<double> elsewhere = other_q;
+  elsewhere[9] += 0.3;
+  model.ComputeMuscles(s, elsewhere.data(), &ws);
+  model.CalcYDot(s, 0.2, other_q.data(), &ws, ydot.data());
+  expect_same(ydot, fresh(model, other_q), "after ComputeMuscles elsewhere");
   heavier.CalcYDot(s, 0.2, other_q.data(), &ws, ydot.data());
   expect_same(ydot, fresh(heavier, other_q), "another model at the same Q");
   bool differs = false;
