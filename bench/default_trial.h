@@ -7,6 +7,10 @@
 #include <vector>
 
 #include "scenarios/scenario.h"
+#include "sim/integrator.h"
+#include "sim/sensors.h"
+#include "sim/trial_runner.h"
+#include "sim/upper_limb_model.h"
 
 namespace fesim::bench {
 
@@ -26,6 +30,26 @@ inline Scenario DefaultModelTrial(double duration_s = 60.0) {
     stim.values.push_back(u);
   }
   return sc;
+}
+
+/// The scenario's trial on `model` recording only q (rad) at `rate_hz`, as the fits simulate and
+/// as MuJoCo's rows of bench/mujoco_work_precision.cc record (sim::IntegrateTrialVariables, no
+/// truth or sensor records): q[sample * kNumCoordinates + coordinate] into *q (cleared first).
+inline sim::IntegrationStats SimulateCoordinates(const sim::UpperLimbModel& model,
+                                                 const Scenario& sc,
+                                                 const sim::IntegratorParams& integrator,
+                                                 double rate_hz, std::vector<double>* q) {
+  const std::vector<double> times = sim::SampleTimes(rate_hz, sc.trial.duration_s);
+  q->clear();
+  q->reserve(times.size() * sim::kNumCoordinates);
+  SimTK::State state = model.MakeInitialState();
+  return sim::IntegrateTrialVariables(
+      model, integrator, sim::MuscleStimulation(model.params(), sc.trial.stimulation), times,
+      &state,
+      [&](double, const double* y) {
+        for (int c = 0; c < sim::kNumCoordinates; ++c) q->push_back(model.GetQ(state, y, c));
+      },
+      sim::VariablesObserved::kPositionsAndSpeeds);
 }
 
 }  // namespace fesim::bench

@@ -45,9 +45,7 @@
 #include "bench/default_trial.h"
 #include "render/plot.h"
 #include "scenarios/scenario.h"
-#include "sim/integrator.h"
 #include "sim/mjcf.h"
-#include "sim/sensors.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
 
@@ -132,26 +130,6 @@ std::string FesimMethod(FesimRecord record) {
   return record == FesimRecord::kCoordinates ? "CVODES BDF" : "CVODES BDF + trial records";
 }
 
-/// q at the 100 Hz samples of the trial through sim::IntegrateTrialVariables.
-Angles SimulateCoordinates(const fesim::sim::UpperLimbModel& model, const fesim::Scenario& sc,
-                           const fesim::sim::IntegratorParams& integrator, long* steps) {
-  const std::vector<double> times = fesim::sim::SampleTimes(1.0 / kSampleS, sc.trial.duration_s);
-  Angles q;
-  q.reserve(times.size());
-  SimTK::State state = model.MakeInitialState();
-  const fesim::sim::IntegrationStats stats = fesim::sim::IntegrateTrialVariables(
-      model, integrator, fesim::sim::MuscleStimulation(model.params(), sc.trial.stimulation), times,
-      &state,
-      [&](double, const double* y) {
-        std::array<double, kNumCoordinates> row{};
-        for (int c = 0; c < kNumCoordinates; ++c) row[c] = model.GetQ(state, y, c);
-        q.push_back(row);
-      },
-      fesim::sim::VariablesObserved::kPositionsAndSpeeds);
-  *steps = stats.steps;
-  return q;
-}
-
 Run RunFesim(const fesim::Scenario& sc, double tolerance, FesimRecord record) {
   fesim::sim::TrialRequest trial = sc.trial;
   trial.integrator.tolerance = tolerance;
@@ -161,8 +139,14 @@ Run RunFesim(const fesim::Scenario& sc, double tolerance, FesimRecord record) {
     const fesim::sim::UpperLimbModel model(sc.model);
     run.build_cpu_s = CpuSeconds() - t0;
     if (record == FesimRecord::kCoordinates) {
-      run.q = SimulateCoordinates(model, sc, trial.integrator, &run.steps);
+      std::vector<double> q;
+      run.steps =
+          fesim::bench::SimulateCoordinates(model, sc, trial.integrator, 1.0 / kSampleS, &q).steps;
       run.cpu_s = CpuSeconds() - t0;
+      run.q.resize(q.size() / kNumCoordinates);
+      for (std::size_t i = 0; i < run.q.size(); ++i) {
+        for (int c = 0; c < kNumCoordinates; ++c) run.q[i][c] = q[i * kNumCoordinates + c];
+      }
     } else {
       const fesim::sim::TrialResult r = fesim::sim::RunTrial(model, trial);
       run.cpu_s = CpuSeconds() - t0;

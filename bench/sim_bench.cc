@@ -11,8 +11,6 @@
 #include "bench/default_trial.h"
 #include "scenarios/scenario.h"
 #include "sim/chain_dynamics.h"
-#include "sim/integrator.h"
-#include "sim/sensors.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
 
@@ -59,31 +57,15 @@ void BM_DefaultModel60sAtTolerance(benchmark::State& state, double tolerance, bo
   state.counters["jacobians"] = static_cast<double>(stats.jacobian_evaluations);
 }
 // Unformatted: clang-format would space the names (tol_3e - 3).
-// The same trial recording only q at 100 Hz, as the fits simulate and as MuJoCo's rows of
-// bench/mujoco_work_precision.cc record (sim::IntegrateTrialVariables): model build included,
-// no truth or sensor records.
-fesim::sim::IntegrationStats SimulateCoordinates60s(const fesim::Scenario& sc,
-                                                    std::vector<double>* q) {
-  const fesim::sim::UpperLimbModel model(sc.model);
-  const std::vector<double> times = fesim::sim::SampleTimes(100.0, sc.trial.duration_s);
-  q->clear();
-  SimTK::State state = model.MakeInitialState();
-  return fesim::sim::IntegrateTrialVariables(
-      model, sc.trial.integrator,
-      fesim::sim::MuscleStimulation(model.params(), sc.trial.stimulation), times, &state,
-      [&](double, const double* y) {
-        for (int c = 0; c < fesim::sim::kNumCoordinates; ++c) q->push_back(model.GetQ(state, y, c));
-      },
-      fesim::sim::VariablesObserved::kPositionsAndSpeeds);
-}
-
+// The same trial recording only q at 100 Hz (bench::SimulateCoordinates), model build included.
 void BM_DefaultModel60sCoordinates(benchmark::State& state, double tolerance) {
   fesim::Scenario sc = fesim::bench::DefaultModelTrial(60.0);
   sc.trial.integrator.tolerance = tolerance;
   fesim::sim::IntegrationStats stats;
   std::vector<double> q;
   for (auto _ : state) {
-    stats = SimulateCoordinates60s(sc, &q);
+    const fesim::sim::UpperLimbModel model(sc.model);
+    stats = fesim::bench::SimulateCoordinates(model, sc, sc.trial.integrator, 100.0, &q);
     benchmark::DoNotOptimize(q.data());
   }
   state.counters["steps"] = static_cast<double>(stats.steps);
