@@ -13,7 +13,12 @@
 //   diagnosis_suite --suite foreign|family [--per N] [--clean N] [--outside N] [--pairs N]
 //                   [--mechanisms a,b,…] [--floor R] [--seed S] [--only SEED,…] [--threads N]
 //                   [--rhs simbody|chain] [--out FILE.md] [--json FILE.json] [--verbose 0|1|2]
-//                   [--reuse OLD.json [--rerun SEED,…]]
+//                   [--reuse OLD.json [--rerun SEED,…]] [--data DIR] [--diagnose 0|1]
+//
+// --data: each data set's trials are also written as DIR/<seed>/trial<k>.csv (the last the
+// held-out one), so that `fesim diagnose DIR/<seed>/trial1.csv,… --scenario <rig>` diagnoses the
+// same data with its report, plots and cache (the rig is in the data set's line of --json);
+// --diagnose 0 writes them without diagnosing.
 //
 // --reuse: the data sets found in an earlier run's --json output (same seed, kind and planted
 // effects) are taken from it instead of being diagnosed again, except those --rerun lists; the
@@ -33,6 +38,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <map>
 #include <set>
 #include <sstream>
@@ -80,6 +86,8 @@ struct Options {
   bool simbody_rhs = false;       // --rhs
   std::string reuse;              // --reuse
   std::set<std::uint64_t> rerun;  // --rerun
+  std::string data;               // --data
+  bool diagnose = true;           // --diagnose
 };
 
 /// One data set of a suite and what the diagnosis said.
@@ -202,6 +210,16 @@ std::string SourcePath(const std::string& rel) {
 }
 
 /// Simulates a case's data (its trials, effect ratio, planted values).
+/// Writes a data set's trials as `dir`/<seed>/trial<k>.csv, k = 1, 2, … (throws on failure).
+void WriteTrials(const std::string& dir, const Case& c) {
+  const std::filesystem::path at = std::filesystem::path(dir) / std::to_string(c.seed);
+  std::filesystem::create_directories(at);
+  for (std::size_t k = 0; k < c.trials.size(); ++k) {
+    fesim::WriteFileAtomic((at / ("trial" + std::to_string(k + 1) + ".csv")).string(),
+                           fesim::FormatTrialCsv(c.trials[k]));
+  }
+}
+
 void MakeData(const Options& o, double floor, Case* c) {
   if (o.suite == "foreign") {
     fesim::foreign::DatasetSpec spec;
@@ -438,7 +456,8 @@ int Usage(const char* why) {
                "diagnosis_suite: %s\nusage: diagnosis_suite --suite foreign|family [--per N] "
                "[--clean N] [--outside N] [--pairs N] [--mechanisms a,b,...] [--floor R] "
                "[--seed S] [--only SEED,...] [--threads N] [--rhs simbody|chain] [--out FILE.md] "
-               "[--json FILE.json] [--verbose 0|1|2] [--reuse OLD.json [--rerun SEED,...]]\n",
+               "[--json FILE.json] [--verbose 0|1|2] [--reuse OLD.json [--rerun SEED,...]] "
+               "[--data DIR] [--diagnose 0|1]\n",
                why);
   return 2;
 }
@@ -482,6 +501,12 @@ int main(int argc, char** argv) {
       o.json = v;
     else if (k == "--reuse")
       o.reuse = v;
+    else if (k == "--data")
+      o.data = v;
+    else if (k == "--diagnose" && (v == "0" || v == "1"))
+      o.diagnose = v == "1";
+    else if (k == "--diagnose")
+      return Usage(("--diagnose " + v + ": allowed 0, 1").c_str());
     else if (k == "--rerun") {
       for (const auto& s : Split(v)) o.rerun.insert(std::strtoull(s.c_str(), nullptr, 10));
     } else if (k == "--only") {
@@ -498,6 +523,7 @@ int main(int argc, char** argv) {
   }
   const double floor = std::isfinite(o.floor) ? o.floor : (o.suite == "foreign" ? 1.0 : 0.5);
   if (!o.rerun.empty() && o.reuse.empty()) return Usage("--rerun needs --reuse");
+  if (!o.diagnose && o.data.empty()) return Usage("--diagnose 0 needs --data DIR");
   std::vector<Case> cases = PlanCases(o);
   std::size_t reused = 0;
   if (!o.reuse.empty()) {
@@ -553,6 +579,19 @@ int main(int argc, char** argv) {
       continue;
     }
     MakeData(o, floor, &c);
+    if (!o.data.empty()) {
+      try {
+        WriteTrials(o.data, c);
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "diagnosis_suite: --data %s: %s\n", o.data.c_str(), e.what());
+        return 2;
+      }
+    }
+    if (!o.diagnose) {
+      std::fprintf(stderr, "%llu: %s/%llu (%s)\n", static_cast<unsigned long long>(c.seed),
+                   o.data.c_str(), static_cast<unsigned long long>(c.seed), c.rig.c_str());
+      continue;
+    }
     const fesim::Scenario rig = fesim::LoadScenario(SourcePath(c.rig));
     dg::DiagnoseSettings settings;
     settings.fit.simbody_right_hand_side = o.simbody_rhs;
