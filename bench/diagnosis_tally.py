@@ -19,8 +19,8 @@ import tempfile
 
 COLUMNS = ["seed", "kind", "planted", "effect/noise", "cause", "named", "confidence",
            "calibrated", "black box", "extended", "wall s", "right"]
-TARGETS = {"single": "≥ 80 %", "clean": "`none` ≥ 90 %", "outside": "never named at ≥ 0.5",
-           "pair": "—"}
+TARGETS = {"single": "≥ 80 % each mechanism", "clean": "`none` ≥ 90 %",
+           "outside": "never a mechanism at confidence ≥ 0.5", "pair": "—"}
 
 
 def fail(msg):
@@ -79,9 +79,20 @@ def tally(records):
     return rows
 
 
-def is_named(r):
-    """A mechanism named at confidence ≥ 0.5 (the out-of-library criterion)."""
-    return r["cause"] not in ("none", "unexplained") and float(r["confidence"]) >= 0.5
+def confident(r):
+    return float(r["confidence"]) >= 0.5
+
+
+def right_confident(r):
+    """Right, and for a single effect at confidence ≥ 0.5 (the suite's own column)."""
+    return r["right"] and (r["kind"] != "single" or confident(r))
+
+
+def wrong_confident(r):
+    """A mechanism other than the planted ones named at confidence ≥ 0.5."""
+    planted = {mechanism(p) for p in r["planted"].split("+")} if r["kind"] in ("single", "pair") \
+        else set()
+    return r["cause"] not in ("none", "unexplained") and r["cause"] not in planted and confident(r)
 
 
 def write(out, records, rows):
@@ -92,29 +103,27 @@ def write(out, records, rows):
     kinds = collections.OrderedDict((k, [r for r in rows if r["kind"] == k])
                                     for k in ("single", "clean", "outside", "pair"))
     singles = kinds["single"]
-    lines += ["## Rates", "", "| data sets | right | named at confidence ≥ 0.5 | target |",
-              "|---|---|---|---|"]
-    lines.append(f"| in-library effects | {rate(sum(r['right'] for r in singles), len(singles))} "
-                 f"| {sum(is_named(r) for r in singles)}/{len(singles)} | ≥ 80 % each |")
-    for kind in ("clean", "outside", "pair"):
-        rs = kinds[kind]
-        lines.append(f"| {kind} | {rate(sum(r['right'] for r in rs), len(rs))} "
-                     f"| {sum(is_named(r) for r in rs)}/{len(rs)} | {TARGETS[kind]} |")
+    lines += ["## Rates", "",
+              "| data sets | right | right at confidence ≥ 0.5 | another mechanism named at "
+              "confidence ≥ 0.5 | target |", "|---|---|---|---|---|"]
+    for kind, rs in kinds.items():
+        name = "in-library effects" if kind == "single" else kind
+        lines.append(f"| {name} | {rate(sum(r['right'] for r in rs), len(rs))} "
+                     f"| {sum(right_confident(r) for r in rs)}/{len(rs)} "
+                     f"| {sum(wrong_confident(r) for r in rs)}/{len(rs)} | {TARGETS[kind]} |")
     lines += ["", "## Per planted mechanism", "",
-              "| mechanism | data sets | right | wrongly named (a mechanism, confidence ≥ 0.5) "
-              "| verdicts |", "|---|---|---|---|---|"]
+              "| mechanism | data sets | right | right at confidence ≥ 0.5 | another mechanism "
+              "named at confidence ≥ 0.5 | verdicts |", "|---|---|---|---|---|---|"]
     by_mech = collections.defaultdict(list)
     for r in singles:
         by_mech[mechanism(r["planted"])].append(r)
     for mech in sorted(by_mech):
         rs = by_mech[mech]
-        verdicts = collections.Counter(r["named"] if r["right"] else
-                                       (r["named"] if r["named"] != "-" else r["cause"])
-                                       for r in rs)
-        wrong = sum(1 for r in rs if not r["right"] and is_named(r))
+        verdicts = collections.Counter(r["named"] if r["named"] != "-" else r["cause"] for r in rs)
         text = ", ".join(f"{v} {n}" for v, n in sorted(verdicts.items(), key=lambda x: -x[1]))
         lines.append(f"| {mech} | {len(rs)} | {rate(sum(r['right'] for r in rs), len(rs))} "
-                     f"| {wrong} | {text} |")
+                     f"| {sum(right_confident(r) for r in rs)}/{len(rs)} "
+                     f"| {sum(wrong_confident(r) for r in rs)} | {text} |")
     clean = kinds["clean"]
     if clean:
         misses = [f"{r['seed']} {r['named'] if r['named'] != '-' else r['cause']}"

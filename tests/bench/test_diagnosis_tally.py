@@ -34,6 +34,8 @@ def test_rates_count_a_shared_data_set_once(tmp_path):
         row(2, "single", "stiction@wrist_flexion", "1.50", "none", "-", "0.50", False),
         row(3, "clean", "clean", "0.00", "none", "-", "1.00", True, "0.3", "0.2"),
         row(4, "outside", "slip", "2.00", "unexplained", "-", "1.00", True),
+        row(6, "pair", "fatigue+tremor", "3.00", "tremor", "tremor@wrist_flexion", "0.90", False),
+        row(7, "pair", "delay+tremor", "3.00", "stiction", "stiction@wrist_flexion", "0.60", False),
     ])
     # seed 1 again with the same effect and ratio (the same data), and seed 2 with another effect
     b = record(tmp_path / "b.md", "suite --per 2", [
@@ -45,14 +47,16 @@ def test_rates_count_a_shared_data_set_once(tmp_path):
     r = run(["--out", str(out), a, b])
     assert r.returncode == 0, r.stderr
     text = out.read_text(encoding="utf-8")
-    assert "| in-library effects | 1/3 (33 %) | 2/3 |" in text
-    assert "| clean | 1/2 (50 %) | 1/2 |" in text
-    assert "| outside | 1/1 (100 %) | 0/1 |" in text
-    assert "| fatigue | 1 | 1/1 (100 %) | 0 | fatigue 1 |" in text
-    assert "| delay | 1 | 0/1 (0 %) | 1 | potentiation 1 |" in text
-    assert "| stiction | 1 | 0/1 (0 %) | 0 | none 1 |" in text
+    assert "| in-library effects | 1/3 (33 %) | 1/3 | 1/3 |" in text
+    assert "| clean | 1/2 (50 %) | 1/2 | 1/2 |" in text
+    assert "| outside | 1/1 (100 %) | 1/1 | 0/1 |" in text
+    assert "| fatigue | 1 | 1/1 (100 %) | 1/1 | 0 | fatigue 1 |" in text
+    assert "| delay | 1 | 0/1 (0 %) | 0/1 | 1 | potentiation 1 |" in text
+    assert "| stiction | 1 | 0/1 (0 %) | 0/1 | 0 | none 1 |" in text
+    assert "| pair | 0/2 (0 %) | 0/2 | 1/2 |" in text
     assert "missed: 5 crosstalk" in text
     assert "NRMSE 1.50–2.00" in text and "within 1.5 × on 1/2" in text
+    assert "| [a.md](a.md) | `suite --per 1` | 6 | 6 |" in text
     assert "| [b.md](b.md) | `suite --per 2` | 3 | 2 |" in text
 
 
