@@ -27,8 +27,8 @@ void CheckSettings(const DiagnoseSettings& s, const DiagnoseExecution& e) {
     fail("max_fitted, max_screened and max_accepted must be >= 1");
   }
   if (!(s.alpha > 0.0 && s.alpha < 1.0)) fail("alpha must be in (0, 1)");
-  if (!(s.reference_gate >= 1.0) || !(s.reference_margin >= 0.0)) {
-    fail("reference_gate must be >= 1 and reference_margin >= 0");
+  if (!(s.reference_gate >= 1.0) || !(s.reference_margin >= 0.0) || !(s.profile_gate >= 1.0)) {
+    fail("reference_gate and profile_gate must be >= 1 and reference_margin >= 0");
   }
   if (s.person.iterations < 1 || s.screen_iterations < 1 || s.refit_iterations < 1) {
     fail("iteration counts must be >= 1");
@@ -141,10 +141,11 @@ void UpdatePersonTable(const std::vector<ModelParameter>& person, const FitResul
 
 std::string DiagnoseSettings::KeyText() const {
   std::string s;
-  for (const double v : {holdout_fraction, alpha, min_heldout_gain, clear_heldout_gain,
-                         reference_gate, reference_margin, person.identifiable_information,
-                         fit.relative_tolerance, fit.fd_step, fit.tolerance, fit.speed_time_scale_s,
-                         fit.max_steps_per_s, fit.jacobian_tolerance_factor}) {
+  for (const double v :
+       {holdout_fraction, alpha, min_heldout_gain, clear_heldout_gain, reference_gate,
+        reference_margin, profile_gate, person.identifiable_information, fit.relative_tolerance,
+        fit.fd_step, fit.tolerance, fit.speed_time_scale_s, fit.max_steps_per_s,
+        fit.jacobian_tolerance_factor}) {
     s += ExactNumberText(v) + ",";
   }
   for (const int v : {max_fitted, max_screened, max_accepted, person.iterations, screen_iterations,
@@ -255,7 +256,8 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   d.candidates = TestResults(library, screen, d.signatures);
   // extend, refit
   const bool reference_gap =
-      !ReferenceGaps(d.baseline_heldout_nrmse_per_output, d.reference, settings).empty();
+      !ReferenceGaps(d.baseline_heldout_nrmse_per_output, d.reference, settings.profile_gate, 0.0)
+           .empty();
   const ExtensionOutcome extension = Extend(ctx, library, calibration, person, screen,
                                             std::move(directions), reference_gap, &d.candidates);
   if (extension.baseline_refit) {

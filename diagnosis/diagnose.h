@@ -52,6 +52,10 @@ struct DiagnoseSettings {
   /// box's plus reference_margin does not reach the black box there (verdict.h).
   double reference_gate = 1.5;
   double reference_margin = 0.02;
+  /// Candidates with profile starts are profiled and fitted whatever their score test when the
+  /// calibrated model's held-out NRMSE on some output exceeds profile_gate × the black box's
+  /// (extension.h), ≥ 1.
+  double profile_gate = 1.0;
   PersonCalibrationOptions person;
   int screen_iterations = 5;  ///< LM steps of a candidate's own parameters.
   int refit_iterations = 3;   ///< LM steps of an extension with the person parameters.

@@ -34,13 +34,15 @@
 // significant test, here and on top, and only its fit of lowest training Σr² is judged: the
 // choice uses the training data alone, so the held-out test stays one test per mechanism
 // (DiagnoseForeign.AWristTremorIsNamedAtTheWristWhereAFingerJointScoresHigher). When the calibrated
-// model misses the black box on some output (`reference_gap`, verdict.h ReferenceGaps), a
+// model predicts some output worse than the black box (`reference_gap`: held-out NRMSE above
+// DiagnoseSettings::profile_gate × the black box's, verdict.h ReferenceGaps), a
 // candidate with profile starts (Candidate::profile_starts: arm_support, crosstalk) is fitted
 // whatever its score test, and also from the lowest of the person fits with it held at each
 // (two parabolic refinements when one parameter varies, ParabolaVertex); the lower Σr² is kept:
 // a mechanism that the person parameters mimic along a curved valley (a strong crosstalk that
 // stronger, stiffer muscles half-reproduce) leaves little along its direction at "off", where
-// the test looks, and much beyond it — and leaves the calibrated model short of the black box.
+// the test looks, and much beyond it — and leaves the calibrated model short of the black box
+// (DiagnoseForeign.ACrosstalkThePersonAbsorbsIsProfiledWhereTheModelIsWorseThanTheBlackBox).
 // Without such a gap the profile is not run (its person fits, up to the calibration's iteration
 // limit each, cost more than the rest of the screen: 130 of 285 s on the clean
 // BM_DiagnoseClean3x60s, docs/performance.md).

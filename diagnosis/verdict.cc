@@ -101,17 +101,19 @@ int StructureOutsideLibrary(const std::vector<CandidateResult>& candidates,
 }  // namespace
 
 std::vector<int> ReferenceGaps(const std::vector<double>& nrmse, const ReferenceResult& reference,
-                               const DiagnoseSettings& settings) {
+                               double gate, double margin) {
   std::vector<int> gaps;
   if (reference.method.empty()) return gaps;
   for (std::size_t o = 0; o < nrmse.size() && o < reference.heldout_nrmse_per_output.size(); ++o) {
     const double b = reference.heldout_nrmse_per_output[o];
-    if (std::isfinite(b) &&
-        !(nrmse[o] <= settings.reference_gate * b + settings.reference_margin)) {
-      gaps.push_back(static_cast<int>(o));
-    }
+    if (std::isfinite(b) && !(nrmse[o] <= gate * b + margin)) gaps.push_back(static_cast<int>(o));
   }
   return gaps;
+}
+
+std::vector<int> ReferenceGaps(const std::vector<double>& nrmse, const ReferenceResult& reference,
+                               const DiagnoseSettings& settings) {
+  return ReferenceGaps(nrmse, reference, settings.reference_gate, settings.reference_margin);
 }
 
 void MakeVerdict(const std::vector<Candidate>& library, const ExtensionOutcome& extension,

@@ -32,6 +32,9 @@ namespace fesim::diagnosis {
 /// Outputs (indices) whose held-out NRMSE `nrmse` misses the black box (see above).
 std::vector<int> ReferenceGaps(const std::vector<double>& nrmse, const ReferenceResult& reference,
                                const DiagnoseSettings& settings);
+/// Outputs whose held-out NRMSE exceeds `gate` × the black box's plus `margin`.
+std::vector<int> ReferenceGaps(const std::vector<double>& nrmse, const ReferenceResult& reference,
+                               double gate, double margin);
 
 /// Fills cause, confidence, reason, mechanisms and extension parameters of `d` (its candidates,
 /// held-out figures and reference already set; candidates in library order).

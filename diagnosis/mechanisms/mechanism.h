@@ -72,7 +72,8 @@ struct Candidate {
   std::vector<double> refit_scan_factors;
   /// Profile starts of the screening (full vectors over `params`; empty: none): with the
   /// candidate held at each, the person parameters are fitted, then everything together from the
-  /// lowest — when the calibrated model misses the black box (extension.h). For a mechanism the
+  /// lowest — when the calibrated model predicts an output worse than the black box
+  /// (extension.h, DiagnoseSettings::profile_gate). For a mechanism the
   /// person parameters mimic along a curved valley (arm_support: a lifting force f·W at the
   /// forearm's centre of mass is statically a stronger, stiffer person by 1/(1 − f)).
   std::vector<Eigen::VectorXd> profile_starts;
