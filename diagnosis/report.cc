@@ -77,6 +77,21 @@ std::string CandidateLogLine(const CandidateResult& c) {
   return line + params;
 }
 
+namespace {
+
+/// {name: {value, ci95, unit}} of fitted extension parameters.
+Json ParametersJson(const std::vector<NamedValue>& parameters) {
+  Json params = Json::Object();
+  for (const auto& p : parameters) {
+    Json v = Json::Object();
+    v.Set("value", p.value).Set("ci95", p.ci95).Set("unit", p.unit);
+    params.Set(p.name, v);
+  }
+  return params;
+}
+
+}  // namespace
+
 Json DiagnosisJson(const Diagnosis& d) {
   Json j = Json::Object();
   j.Set("cause", d.cause);
@@ -94,13 +109,7 @@ Json DiagnosisJson(const Diagnosis& d) {
   Json ids = Json::Array();
   for (const auto& m : d.mechanism_ids) ids.Push(m);
   ext.Set("mechanisms", ids);
-  Json params = Json::Object();
-  for (const auto& p : d.extension_parameters) {
-    Json v = Json::Object();
-    v.Set("value", p.value).Set("ci95", p.ci95).Set("unit", p.unit);
-    params.Set(p.name, v);
-  }
-  ext.Set("parameters", params);
+  ext.Set("parameters", ParametersJson(d.extension_parameters));
   ext.Set("heldout_nrmse", d.extended_heldout_nrmse);
   Json ext_per = Json::Object();
   for (std::size_t o = 0; o < d.heldout.outputs.size(); ++o) {
@@ -125,6 +134,7 @@ Json DiagnosisJson(const Diagnosis& d) {
     e.Set("person_at_bound", c.person_at_bound.empty() ? Json() : Json(c.person_at_bound));
     e.Set("lr_p_adjusted", c.fitted ? Json(c.lr_p_adjusted) : Json());
     e.Set("shape_contradiction", c.shape.empty() ? Json() : Json(c.shape));
+    e.Set("parameters", c.fitted ? ParametersJson(c.parameters) : Json());
     // Judged: its fit went through the acceptance tests (false: another joint of its mechanism
     // was chosen by the fit, CandidateResult::not_judged; null: not fitted).
     e.Set("judged", c.fitted ? Json(!c.not_judged) : Json());

@@ -31,6 +31,7 @@ Diagnosis Example() {
   c.heldout_gain = 0.5;
   c.heldout_own_gain = 0.45;
   c.heldout_own_z = 7.5;
+  c.parameters = {{"tremor.amplitude_nm", "N*m", 0.08, 0.002}};
   c.accepted = true;
   c.evidence = "peak at 6 Hz";
   CandidateResult n;
@@ -142,6 +143,12 @@ TEST(Report, JsonHasTheProductKeysPerCandidateTestsAndTheCalibratedPerson) {
   EXPECT_TRUE(c0.Find("person_at_bound")->IsNull());
   EXPECT_EQ(j.Find("candidates")->Items()[1].Find("person_at_bound")->AsString(),
             "k.wrist_flexion");
+  // A fitted candidate's own fit, whether accepted or not; null when not fitted.
+  const Json& amplitude = *c0.Find("parameters")->Find("tremor.amplitude_nm");
+  EXPECT_EQ(amplitude.Find("value")->AsNumber(), 0.08);
+  EXPECT_EQ(amplitude.Find("ci95")->AsNumber(), 0.002);
+  EXPECT_EQ(amplitude.Find("unit")->AsString(), "N*m");
+  EXPECT_TRUE(j.Find("candidates")->Items()[1].Find("parameters")->IsNull());
   // The person: values with units and intervals, and what was not calibrated says so.
   const Json& k = *j.Find("person")->Find("k.wrist_flexion");
   EXPECT_EQ(k.Find("value")->AsNumber(), 1.1);
