@@ -17,7 +17,9 @@
 //       ones; nothing when its score test on top of them is no longer significant); capped at 0.45
 //       when a gap
 //       to the black box remains after the extension (the reason names the outputs): never a
-//       confident name on a model that does not fit. Below 0.25 another candidate explains about
+//       confident name on a model that does not fit; capped likewise when a fit whose signature
+//       the residual contradicts (Mechanism::shape_contradiction: a structure outside the
+//       library) passed its training test and gains more than the cause. Below 0.25 another candidate explains about
 //       as much: `unexplained` naming both ("no single cause"), confidence 1 − c — or `none`
 //       when that other candidate is a control (normal variation explains as much).
 #pragma once

@@ -218,5 +218,38 @@ TEST(Verdict, AFitThatGainsButWhoseSignatureTheResidualContradictsIsUnexplainedW
   EXPECT_EQ(weak.d.cause, "none");
 }
 
+// A mechanism accepted beside a contradicted fit that gains more (foreign glove slip 1018:
+// moment_arm_posture@pip 1.4 %, the slip as a drift 10.5 %, its score test on top of the
+// mechanism no longer significant, so no alternative): named at most at 0.45, the reason naming
+// the larger structure; a contradicted fit that gains less leaves the confidence as it is.
+TEST(Verdict, ACauseBesideALargerStructureOutsideTheLibraryIsNotConfident) {
+  const auto verdict = [](double cause_gain, double drift_gain) {
+    VerdictCase s;
+    s.Fitted("moment_arm_posture@pip_flexion", cause_gain, true);
+    s.Fitted("sensor_drift", drift_gain, false);
+    CandidateResult& drift = s.d.candidates[s.Index("sensor_drift")];
+    drift.shape =
+        "the offset steps rather than drifts (q.pip_flexion steps by -0.054 rad at 30.1 s)";
+    drift.score_on_accepted = 0.5;
+    ExtensionOutcome e =
+        s.Outcome({"moment_arm_posture@pip_flexion"}, s.Index("moment_arm_posture@pip_flexion"));
+    e.cause_lr_p = 1e-6;
+    e.cause_gain = cause_gain;
+    MakeVerdict(s.library, e, 0, s.settings, &s.d);
+    return s.d;
+  };
+  const Diagnosis larger = verdict(0.014, 0.105);
+  EXPECT_EQ(larger.cause, "moment_arm_posture") << larger.reason;
+  EXPECT_LE(larger.confidence, 0.45);
+  EXPECT_NE(larger.reason.find("would gain 10.5 % on the held-out data (this cause 1.4 %)"),
+            std::string::npos)
+      << larger.reason;
+  EXPECT_NE(larger.reason.find("steps by -0.054 rad"), std::string::npos) << larger.reason;
+  const Diagnosis smaller = verdict(0.05, 0.03);
+  EXPECT_EQ(smaller.cause, "moment_arm_posture") << smaller.reason;
+  EXPECT_GT(smaller.confidence, 0.99) << smaller.reason;
+  EXPECT_EQ(smaller.reason.find("larger structure"), std::string::npos) << smaller.reason;
+}
+
 }  // namespace
 }  // namespace fesim::diagnosis
