@@ -12,6 +12,17 @@
 namespace fesim::diagnosis {
 namespace {
 
+/// {name: {value, ci95, unit}} of fitted extension parameters.
+Json ParametersJson(const std::vector<NamedValue>& parameters) {
+  Json params = Json::Object();
+  for (const auto& p : parameters) {
+    Json v = Json::Object();
+    v.Set("value", p.value).Set("ci95", p.ci95).Set("unit", p.unit);
+    params.Set(p.name, v);
+  }
+  return params;
+}
+
 std::string F(const char* fmt, double v) {
   char buf[64];
   std::snprintf(buf, sizeof buf, fmt, v);
@@ -76,21 +87,6 @@ std::string CandidateLogLine(const CandidateResult& c) {
                 c.score_on_accepted, c.heldout_gain_on_accepted);
   return line + params;
 }
-
-namespace {
-
-/// {name: {value, ci95, unit}} of fitted extension parameters.
-Json ParametersJson(const std::vector<NamedValue>& parameters) {
-  Json params = Json::Object();
-  for (const auto& p : parameters) {
-    Json v = Json::Object();
-    v.Set("value", p.value).Set("ci95", p.ci95).Set("unit", p.unit);
-    params.Set(p.name, v);
-  }
-  return params;
-}
-
-}  // namespace
 
 Json DiagnosisJson(const Diagnosis& d) {
   Json j = Json::Object();

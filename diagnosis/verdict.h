@@ -15,13 +15,13 @@
 //       c = (1 − p_LR) · (1 − g_alt / g), g_alt the best held-out gain of another id not accepted
 //       whose fit passed its training test (less the share it still removes on top of the accepted
 //       ones; nothing when its score test on top of them is no longer significant); capped at 0.45
-//       when a gap
-//       to the black box remains after the extension (the reason names the outputs): never a
-//       confident name on a model that does not fit; capped likewise when a fit whose signature
-//       the residual contradicts (Mechanism::shape_contradiction: a structure outside the
-//       library) passed its training test and gains more than the cause. Below 0.25 another candidate explains about
-//       as much: `unexplained` naming both ("no single cause"), confidence 1 − c — or `none`
-//       when that other candidate is a control (normal variation explains as much).
+//       when a gap to the black box remains after the extension (the reason names the outputs):
+//       never a confident name on a model that does not fit; capped likewise when a fit whose
+//       signature the residual contradicts (Mechanism::shape_contradiction: a structure outside
+//       the library) passed its training test and gains more than the cause. Below 0.25 another
+//       candidate explains about as much: `unexplained` naming both ("no single cause"),
+//       confidence 1 − c — or `none` when that other candidate is a control (normal variation
+//       explains as much).
 #pragma once
 
 #include <string>
