@@ -14,6 +14,7 @@
 //                   [--mechanisms a,b,…] [--floor R] [--seed S] [--only SEED,…] [--threads N]
 //                   [--rhs simbody|chain] [--out FILE.md] [--json FILE.json] [--verbose 0|1|2]
 //                   [--reuse OLD.json [--rerun SEED,…]] [--data DIR] [--diagnose 0|1]
+//                   [--twin 0|1]
 //
 // --data: each data set's trials are also written as DIR/<seed>/trial<k>.csv (the last the
 // held-out one), so that `fesim diagnose DIR/<seed>/trial1.csv,… --scenario <rig>` diagnoses the
@@ -25,6 +26,15 @@
 // Markdown says how many were read. For a change whose effect is confined to data sets one can
 // name (e.g. those that fitted a given candidate): the others' diagnoses are the same by
 // determinism (fixed seeds, results independent of the thread count).
+//
+// --twin 1 (foreign suite): every data set with planted effects is diagnosed a second time
+// without them — its clean twin: the same person, stimulation, noise and dropouts, the effects off
+// (foreign::MakeDataset with no effects, the same seeds). Beside each such data set the Markdown
+// gives the twin's verdict and, on the held-out trial, the planted effect's RMS (noiseless reads
+// with − without) and what the calibrated model leaves of it: the RMS of that difference minus the
+// difference of the two calibrated models' held-out predictions, both over the noise σ. An effect
+// the calibration reproduces leaves ≈ 0 for any mechanism to explain; --json holds the twin's
+// whole diagnosis. Not with --reuse (the twin needs the planted run's predictions).
 //
 // --rhs: the fits' right-hand side (diagnosis::FitOptions::simbody_right_hand_side; chain, the
 // articulated-body one and the default, or simbody), to see which verdicts turn on round-off.
@@ -88,6 +98,17 @@ struct Options {
   std::set<std::uint64_t> rerun;  // --rerun
   std::string data;               // --data
   bool diagnose = true;           // --diagnose
+  bool twin = false;              // --twin
+};
+
+/// The clean twin of a planted data set (--twin) and what the calibration left of the effect.
+struct Twin {
+  bool run = false;
+  dg::Diagnosis result;
+  double wall_s = 0.0;
+  double heldout_effect = NAN;  // RMS of the planted effect on the held-out trial / noise σ
+  double heldout_left = NAN;    // RMS of what the calibrated model leaves of it / noise σ
+  double heldout_misfit = NAN;  // RMS of the twin's calibrated held-out residual / noise σ
 };
 
 /// One data set of a suite and what the diagnosis said.
@@ -98,6 +119,8 @@ struct Case {
   std::string protocol;       // family suite: steps / grid
   double effect_ratio = 0.0;  // effect RMS / noise RMS
   std::vector<fesim::Trial> trials;
+  std::vector<fesim::Trial> truth;             // foreign suite: noiseless reads
+  double noise_rad = NAN;                      // foreign suite: noise σ, rad
   std::string rig;                             // scenario file of the rig
   std::vector<dg::NamedValue> planted_values;  // family suite
   std::string planted_joint;  // single: the joint a joint-local effect acts at, else empty
@@ -106,6 +129,7 @@ struct Case {
   /// --reuse: the earlier run's "diagnosis" object (null: diagnosed in this run); `result` then
   /// holds only what the Markdown reads (ReusedResult).
   fesim::Json reused;
+  Twin twin;
 };
 
 bool Named(const Case& c, const std::string& id) {
@@ -220,15 +244,23 @@ void WriteTrials(const std::string& dir, const Case& c) {
   }
 }
 
+/// A foreign data set of `seed` with `planted` at the floor (none: the clean person).
+fesim::foreign::Dataset ForeignData(std::uint64_t seed, const std::vector<std::string>& planted,
+                                    double floor) {
+  fesim::foreign::DatasetSpec spec;
+  spec.person_seed = seed;
+  spec.seed = seed;
+  spec.floor = floor;
+  for (const auto& id : planted) spec.effects.push_back({id, 1.0});
+  return fesim::foreign::MakeDataset(spec);
+}
+
 void MakeData(const Options& o, double floor, Case* c) {
   if (o.suite == "foreign") {
-    fesim::foreign::DatasetSpec spec;
-    spec.person_seed = c->seed;
-    spec.seed = c->seed;
-    spec.floor = floor;
-    for (const auto& id : c->planted) spec.effects.push_back({id, 1.0});
-    const fesim::foreign::Dataset d = fesim::foreign::MakeDataset(spec);
+    const fesim::foreign::Dataset d = ForeignData(c->seed, c->planted, floor);
     c->trials = d.trials;
+    c->truth = d.truth;
+    c->noise_rad = d.noise_rms_rad;
     c->effect_ratio = d.effect_rms_rad / d.noise_rms_rad;
     c->rig = "scenarios/hand_rig.yaml";
     if (c->kind == "single") {
@@ -264,6 +296,100 @@ void MakeData(const Options& o, double floor, Case* c) {
   }
 }
 
+/// Diagnoses `trials` on the case's rig with the suite's settings; its wall time into *wall_s.
+dg::Diagnosis DiagnoseTrials(const Options& o, const Case& c,
+                             const std::vector<fesim::Trial>& trials, double* wall_s) {
+  const fesim::Scenario rig = fesim::LoadScenario(SourcePath(c.rig));
+  dg::DiagnoseSettings settings;
+  settings.fit.simbody_right_hand_side = o.simbody_rhs;
+  dg::DiagnoseExecution exec;
+  exec.threads = o.threads;
+  const auto tc = std::chrono::steady_clock::now();
+  if (o.verbose >= 1) {
+    exec.progress = [&](double f, const std::string& stage) {
+      std::fprintf(stderr, "  %6.1f s %3.0f %% %s\n",
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - tc).count(),
+                   100 * f, stage.c_str());
+    };
+  }
+  dg::Diagnosis d = dg::Diagnose(rig.model, trials, settings, exec);
+  *wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - tc).count();
+  return d;
+}
+
+/// The held-out trial's figures of Twin: over the samples where both measured records have the
+/// output, the RMS of (noiseless with − without) and of that minus (calibrated prediction with −
+/// without), each over the noise σ. Throws std::runtime_error when the records' grids differ.
+void HeldoutEffect(const Case& c, const std::vector<fesim::Trial>& twin_trials,
+                   const std::vector<fesim::Trial>& twin_truth, Twin* twin) {
+  const fesim::Trial& y1 = c.trials.back();
+  const fesim::Trial& y0 = twin_trials.back();
+  const fesim::Trial& t1 = c.truth.back();
+  const fesim::Trial& t0 = twin_truth.back();
+  const fesim::Trial& p1 = c.result.heldout_baseline.back();
+  const fesim::Trial& p0 = twin->result.heldout_baseline.back();
+  for (const fesim::Trial* t : {&y0, &t1, &t0, &p1, &p0}) {
+    if (t->size() != y1.size()) {
+      throw std::runtime_error("--twin: held-out records of " + std::to_string(c.seed) +
+                               " on different time grids");
+    }
+  }
+  double effect = 0.0, left = 0.0, misfit = 0.0;
+  long n = 0;
+  for (const std::string& q : y1.NamesWithPrefix("q.")) {
+    if (!p1.Has(q) || !p0.Has(q)) continue;
+    for (std::size_t i = 0; i < y1.size(); ++i) {
+      if (!std::isfinite(y1.Column(q)[i]) || !std::isfinite(y0.Column(q)[i])) continue;
+      const double de = t1.Column(q)[i] - t0.Column(q)[i];
+      const double dp = p1.Column(q)[i] - p0.Column(q)[i];
+      effect += de * de;
+      left += (de - dp) * (de - dp);
+      misfit += (y0.Column(q)[i] - p0.Column(q)[i]) * (y0.Column(q)[i] - p0.Column(q)[i]);
+      ++n;
+    }
+  }
+  const double m = static_cast<double>(std::max<long>(1, n));
+  twin->heldout_effect = std::sqrt(effect / m) / c.noise_rad;
+  twin->heldout_left = std::sqrt(left / m) / c.noise_rad;
+  twin->heldout_misfit = std::sqrt(misfit / m) / c.noise_rad;
+}
+
+/// --twin: diagnoses the case's clean twin and measures what the calibration left of the effect.
+void DiagnoseTwin(const Options& o, Case* c) {
+  const fesim::foreign::Dataset d = ForeignData(c->seed, {}, 0.0);
+  c->twin.result = DiagnoseTrials(o, *c, d.trials, &c->twin.wall_s);
+  c->twin.run = true;
+  HeldoutEffect(*c, d.trials, d.truth, &c->twin);
+  std::fprintf(stderr,
+               "  twin: %s (%.2f), held-out effect %.2f σ, left %.2f σ, twin residual %.2f σ\n",
+               c->twin.result.cause.c_str(), c->twin.result.confidence, c->twin.heldout_effect,
+               c->twin.heldout_left, c->twin.heldout_misfit);
+}
+
+/// --twin: one row per data set with a twin.
+std::string TwinTable(const std::vector<Case>& cases) {
+  std::string md =
+      "| seed | planted | named | right | held-out effect / σ | left by the calibration / σ | "
+      "twin's residual / σ | twin's cause | twin's confidence | calibrated, with / twin | wall s "
+      "|\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& c : cases) {
+    if (!c.twin.run) continue;
+    std::string planted;
+    for (const auto& p : c.planted) planted += (planted.empty() ? "" : "+") + p;
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "| %llu | %s | %s | %s | %.2f | %.2f | %.2f | %s | %.2f | %.3f / %.3f | %.1f |\n",
+                  static_cast<unsigned long long>(c.seed), planted.c_str(), c.result.cause.c_str(),
+                  Right(c) ? "yes" : "no", c.twin.heldout_effect, c.twin.heldout_left,
+                  c.twin.heldout_misfit, c.twin.result.cause.c_str(), c.twin.result.confidence,
+                  c.result.baseline_heldout_nrmse, c.twin.result.baseline_heldout_nrmse,
+                  c.twin.wall_s);
+    md += buf;
+  }
+  return md;
+}
+
 std::string CaseLine(const Case& c) {
   std::string planted;
   for (const auto& p : c.planted) planted += (planted.empty() ? "" : "+") + p;
@@ -291,6 +417,15 @@ fesim::Json CaseJson(const Case& c) {
   if (!c.planted_joint.empty()) j.Set("planted_joint", c.planted_joint);
   j.Set("right", Right(c)).Set("wall_s", c.wall_s);
   j.Set("diagnosis", c.reused.IsNull() ? dg::DiagnosisJson(c.result) : c.reused);
+  if (c.twin.run) {
+    fesim::Json t = fesim::Json::Object();
+    t.Set("heldout_effect_noise", c.twin.heldout_effect)
+        .Set("heldout_left_noise", c.twin.heldout_left)
+        .Set("heldout_twin_residual_noise", c.twin.heldout_misfit)
+        .Set("wall_s", c.twin.wall_s)
+        .Set("diagnosis", dg::DiagnosisJson(c.twin.result));
+    j.Set("twin", t);
+  }
   return j;
 }
 
@@ -457,7 +592,7 @@ int Usage(const char* why) {
                "[--clean N] [--outside N] [--pairs N] [--mechanisms a,b,...] [--floor R] "
                "[--seed S] [--only SEED,...] [--threads N] [--rhs simbody|chain] [--out FILE.md] "
                "[--json FILE.json] [--verbose 0|1|2] [--reuse OLD.json [--rerun SEED,...]] "
-               "[--data DIR] [--diagnose 0|1]\n",
+               "[--data DIR] [--diagnose 0|1] [--twin 0|1]\n",
                why);
   return 2;
 }
@@ -507,6 +642,10 @@ int main(int argc, char** argv) {
       o.diagnose = v == "1";
     else if (k == "--diagnose")
       return Usage(("--diagnose " + v + ": allowed 0, 1").c_str());
+    else if (k == "--twin" && (v == "0" || v == "1"))
+      o.twin = v == "1";
+    else if (k == "--twin")
+      return Usage(("--twin " + v + ": allowed 0, 1").c_str());
     else if (k == "--rerun") {
       for (const auto& s : Split(v)) o.rerun.insert(std::strtoull(s.c_str(), nullptr, 10));
     } else if (k == "--only") {
@@ -524,6 +663,9 @@ int main(int argc, char** argv) {
   const double floor = std::isfinite(o.floor) ? o.floor : (o.suite == "foreign" ? 1.0 : 0.5);
   if (!o.rerun.empty() && o.reuse.empty()) return Usage("--rerun needs --reuse");
   if (!o.diagnose && o.data.empty()) return Usage("--diagnose 0 needs --data DIR");
+  if (o.twin && (o.suite != "foreign" || !o.reuse.empty() || !o.diagnose)) {
+    return Usage("--twin 1 needs --suite foreign, --diagnose 1 and no --reuse");
+  }
   std::vector<Case> cases = PlanCases(o);
   std::size_t reused = 0;
   if (!o.reuse.empty()) {
@@ -563,6 +705,15 @@ int main(int argc, char** argv) {
           "confidence | calibrated | black box | extended | wall s | right |\n|---|---|---|---|---|"
           "---|---|---|---|---|---|---|\n" +
           lines;
+    if (o.twin) {
+      md +=
+          "\n## Clean twins\n\nEach data set with planted effects diagnosed again without them "
+          "(--twin). Held-out trial: the effect's RMS and what the calibrated model leaves of "
+          "it, and the twin's calibrated residual (its misfit and the noise), over the noise σ; "
+          "the calibrated model's held-out NRMSE with the effect and of the "
+          "twin.\n\n" +
+          TwinTable(finished);
+    }
     if (o.out.empty()) {
       if (done == cases.size()) std::fputs(md.c_str(), stdout);
     } else {
@@ -592,21 +743,7 @@ int main(int argc, char** argv) {
                    o.data.c_str(), static_cast<unsigned long long>(c.seed), c.rig.c_str());
       continue;
     }
-    const fesim::Scenario rig = fesim::LoadScenario(SourcePath(c.rig));
-    dg::DiagnoseSettings settings;
-    settings.fit.simbody_right_hand_side = o.simbody_rhs;
-    dg::DiagnoseExecution exec;
-    exec.threads = o.threads;
-    const auto tc = std::chrono::steady_clock::now();
-    if (o.verbose >= 1) {
-      exec.progress = [&](double f, const std::string& stage) {
-        std::fprintf(stderr, "  %6.1f s %3.0f %% %s\n",
-                     std::chrono::duration<double>(std::chrono::steady_clock::now() - tc).count(),
-                     100 * f, stage.c_str());
-      };
-    }
-    c.result = dg::Diagnose(rig.model, c.trials, settings, exec);
-    c.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - tc).count();
+    c.result = DiagnoseTrials(o, c, c.trials, &c.wall_s);
     const std::string line = CaseLine(c);
     std::fprintf(stderr, "%s\n", line.c_str());
     if (o.verbose >= 2) {
@@ -616,6 +753,14 @@ int main(int argc, char** argv) {
           std::fprintf(stderr, "    %s | %s\n", dg::CandidateLogLine(cr).c_str(),
                        cr.decision.c_str());
         }
+      }
+    }
+    if (o.twin && !c.planted.empty()) {
+      try {
+        DiagnoseTwin(o, &c);
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "diagnosis_suite: %s\n", e.what());
+        return 2;
       }
     }
     lines += line + "\n";
