@@ -134,6 +134,11 @@ Json DiagnosisJson(const Diagnosis& d) {
     // Judged: its fit went through the acceptance tests (false: another joint of its mechanism
     // was chosen by the fit, CandidateResult::not_judged; null: not fitted).
     e.Set("judged", c.fitted ? Json(!c.not_judged) : Json());
+    // Second round, on top of the mechanism(s) accepted before it (null: not tested or fitted).
+    e.Set("score_on_accepted",
+          std::isfinite(c.score_on_accepted) ? Json(c.score_on_accepted) : Json());
+    e.Set("heldout_gain_on_accepted",
+          std::isfinite(c.heldout_gain_on_accepted) ? Json(c.heldout_gain_on_accepted) : Json());
     e.Set("accepted", c.accepted).Set("decision", c.decision).Set("evidence", c.evidence);
     cands.Push(e);
   }

@@ -38,6 +38,8 @@ Diagnosis Example() {
   n.id = "fatigue";
   n.label = "fatigue";
   n.person_at_bound = "k.wrist_flexion";
+  n.score_on_accepted = 12.5;
+  n.heldout_gain_on_accepted = 0.03;
   d.candidates = {c, n};
   d.split = "test";
   d.reason = "a tremor (periodic joint torque) explains what the calibrated model misses";
@@ -143,6 +145,11 @@ TEST(Report, JsonHasTheProductKeysPerCandidateTestsAndTheCalibratedPerson) {
   EXPECT_TRUE(c0.Find("person_at_bound")->IsNull());
   EXPECT_EQ(j.Find("candidates")->Items()[1].Find("person_at_bound")->AsString(),
             "k.wrist_flexion");
+  // The second round's figures, on top of the accepted tremor; null where not tested.
+  EXPECT_TRUE(c0.Find("score_on_accepted")->IsNull());
+  EXPECT_TRUE(c0.Find("heldout_gain_on_accepted")->IsNull());
+  EXPECT_EQ(j.Find("candidates")->Items()[1].Find("score_on_accepted")->AsNumber(), 12.5);
+  EXPECT_EQ(j.Find("candidates")->Items()[1].Find("heldout_gain_on_accepted")->AsNumber(), 0.03);
   // A fitted candidate's own fit, whether accepted or not; null when not fitted.
   const Json& amplitude = *c0.Find("parameters")->Find("tremor.amplitude_nm");
   EXPECT_EQ(amplitude.Find("value")->AsNumber(), 0.08);
