@@ -455,6 +455,37 @@ TEST(Mechanisms, PotentiationCollapsesIntoAConstantGainAtItsShortestRiseTime) {
   EXPECT_GT(hi5 - lo5, 0.3);
 }
 
+TEST(Mechanisms, PotentiationDecayTimeIsFittedSoAGainThatFadesFasterIsTheCandidates) {
+  // A person's potentiation fades at its own rate: the foreign simulator's in 30 s
+  // (foreign/effects.cc), the model's nominal 60 s. The candidate's third parameter sets T_decay
+  // of dp/dt = a (1 − p) / T_rise − p / T_decay; after the stimulation stops, p falls as
+  // e^(−t / T_decay).
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  for (const auto& c : CandidateLibrary(rig, HandContext())) {
+    if (c.params.empty() || c.params[0].name != "potentiation.gain") continue;
+    ASSERT_EQ(c.params.size(), 3u);
+    const ModelParameter& decay = c.params[2];
+    EXPECT_EQ(decay.name, "potentiation.decay_time_s");
+    EXPECT_EQ(decay.start, rig.mechanisms.potentiation.decay_time_s);  // the model as it is
+    EXPECT_LE(decay.lower, 30.0);
+    EXPECT_GE(decay.upper, 300.0);
+    EXPECT_FALSE(decay.range_is_plausible);  // its upper bound: no fading within a recording
+    Eigen::VectorXd x(3);
+    x << 0.5, 5.0, 30.0;
+    const sim::ModelParams m = ApplyModelParameters(rig, c.params, x);
+    ASSERT_TRUE(m.mechanisms.potentiation.enabled);
+    constexpr double kDt = 1e-3;
+    double p = 0.0;
+    for (int i = 0; i < 30000; ++i) {  // 10 s at full activation, then 20 s of rest
+      p += kDt * sim::PotentiationDerivative(m.mechanisms.potentiation, i < 10000 ? 1.0 : 0.0, p);
+      if (i == 9999) x(0) = p;
+    }
+    EXPECT_NEAR(p / x(0), std::exp(-20.0 / 30.0), 2e-3);
+    return;
+  }
+  FAIL() << "no potentiation candidate";
+}
+
 /// Two training trials × two outputs of 60 s at 60 Hz: white noise (0.01 rad) plus `offset`(t)
 /// on output q.mcp_flexion of trial 2.
 std::vector<ResidualSeries> SlowOffset(const std::function<double(double)>& offset) {
