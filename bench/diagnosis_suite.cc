@@ -111,6 +111,13 @@ struct Twin {
   double heldout_misfit = NAN;  // RMS of the twin's calibrated held-out residual / noise σ
 };
 
+/// The names joined by "+" ("" for none).
+std::string Joined(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : "+") + n;
+  return out;
+}
+
 /// One data set of a suite and what the diagnosis said.
 struct Case {
   std::string kind;                  // single, clean, outside, pair
@@ -338,13 +345,14 @@ void HeldoutEffect(const Case& c, const std::vector<fesim::Trial>& twin_trials,
   long n = 0;
   for (const std::string& q : y1.NamesWithPrefix("q.")) {
     if (!p1.Has(q) || !p0.Has(q)) continue;
-    for (std::size_t i = 0; i < y1.size(); ++i) {
-      if (!std::isfinite(y1.Column(q)[i]) || !std::isfinite(y0.Column(q)[i])) continue;
-      const double de = t1.Column(q)[i] - t0.Column(q)[i];
-      const double dp = p1.Column(q)[i] - p0.Column(q)[i];
+    const std::vector<double>&ya = y1.Column(q), &yb = y0.Column(q), &ta = t1.Column(q),
+          &tb = t0.Column(q), &pa = p1.Column(q), &pb = p0.Column(q);
+    for (std::size_t i = 0; i < ya.size(); ++i) {
+      if (!std::isfinite(ya[i]) || !std::isfinite(yb[i])) continue;
+      const double de = ta[i] - tb[i], dp = pa[i] - pb[i], r0 = yb[i] - pb[i];
       effect += de * de;
       left += (de - dp) * (de - dp);
-      misfit += (y0.Column(q)[i] - p0.Column(q)[i]) * (y0.Column(q)[i] - p0.Column(q)[i]);
+      misfit += r0 * r0;
       ++n;
     }
   }
@@ -375,8 +383,7 @@ std::string TwinTable(const std::vector<Case>& cases) {
       "|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& c : cases) {
     if (!c.twin.run) continue;
-    std::string planted;
-    for (const auto& p : c.planted) planted += (planted.empty() ? "" : "+") + p;
+    const std::string planted = Joined(c.planted);
     char buf[512];
     std::snprintf(buf, sizeof buf,
                   "| %llu | %s | %s | %s | %.2f | %.2f | %.2f | %s | %.2f | %.3f / %.3f | %.1f |\n",
@@ -391,12 +398,10 @@ std::string TwinTable(const std::vector<Case>& cases) {
 }
 
 std::string CaseLine(const Case& c) {
-  std::string planted;
-  for (const auto& p : c.planted) planted += (planted.empty() ? "" : "+") + p;
+  std::string planted = Joined(c.planted);
   if (planted.empty()) planted = "clean";
   if (!c.planted_joint.empty()) planted += "@" + c.planted_joint;
-  std::string named;
-  for (const auto& m : c.result.mechanisms) named += (named.empty() ? "" : "+") + m;
+  const std::string named = Joined(c.result.mechanisms);
   const double ref = c.result.reference.heldout_nrmse;
   char buf[512];
   std::snprintf(buf, sizeof buf,
@@ -564,8 +569,7 @@ std::string ConfusionTable(const std::vector<Case>& cases) {
   std::set<std::string> causes;
   std::map<std::string, std::map<std::string, int>> m;
   for (const auto& c : cases) {
-    std::string planted;
-    for (const auto& p : c.planted) planted += (planted.empty() ? "" : "+") + p;
+    std::string planted = Joined(c.planted);
     if (planted.empty()) planted = "clean";
     causes.insert(c.result.cause);
     m[planted][c.result.cause]++;

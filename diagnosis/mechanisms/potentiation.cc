@@ -24,6 +24,10 @@ Mechanism PotentiationMechanism() {
     c.params.push_back(
         Param("potentiation.rise_time_s", "s", rise, 0.5, 60.0, rise,
               [](double v, sim::ModelParams* p) { p->mechanisms.potentiation.rise_time_s = v; }));
+    // At the shortest rise time p ≈ 1 within a second of any stimulation and decays over
+    // T_decay (60 s nominal): a constant gain 1 + g on the active force, i.e. a stronger person
+    // (registry_test: PotentiationCollapsesIntoAConstantGainAtItsShortestRiseTime).
+    c.params.back().collapses_at = 0.5;
     const double decay = rig.mechanisms.potentiation.decay_time_s;
     c.params.push_back(
         Param("potentiation.decay_time_s", "s", decay, 10.0, 600.0, decay,
@@ -32,10 +36,6 @@ Mechanism PotentiationMechanism() {
     // like any other, not a fit standing in for misfit (ParameterAtRangeBound): in fesim's own
     // data a planted 60 s decay fitted there (in-family 1002, docs/diagnosis.md Validation).
     c.params.back().range_is_plausible = false;
-    // At the shortest rise time p ≈ 1 within a second of any stimulation and decays over
-    // T_decay (60 s nominal): a constant gain 1 + g on the active force, i.e. a stronger person
-    // (registry_test: PotentiationCollapsesIntoAConstantGainAtItsShortestRiseTime).
-    c.params[1].collapses_at = 0.5;
     c.probes = {ProbeAt(c.params, 0, 0.1)};
     c.one_sided = {true};
     return std::vector<Candidate>{c};
