@@ -17,7 +17,7 @@ Mechanism ForceLengthVelocityMechanism() {
     std::vector<double> vmax;
     vmax.reserve(forearm.size());
     for (int k : forearm) vmax.push_back(rig.muscles[k].hill.max_contraction_velocity);
-    c.params.push_back(Sensed(Param("hill.vmax_scale", "1", 1.0, 0.05, 5.0, 1.0,
+    c.params.push_back(Sensed(Param("hill.vmax_scale", "1", 1.0, 0.05, 1.0, 1.0,
                                     [forearm, vmax](double v, sim::ModelParams* p) {
                                       for (std::size_t i = 0; i < forearm.size(); ++i) {
                                         p->muscles[forearm[i]].hill.max_contraction_velocity =
@@ -25,7 +25,7 @@ Mechanism ForceLengthVelocityMechanism() {
                                       }
                                     })));
     c.probes = {ProbeAt(c.params, 0, 0.5)};
-    c.one_sided = {false};
+    c.one_sided = {true};
     return std::vector<Candidate>{c};
   };
   m.plant = [](const PlantContext& ctx, sim::ModelParams* truth, sim::SensorSuite*,
