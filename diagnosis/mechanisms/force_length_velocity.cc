@@ -1,6 +1,7 @@
 // force_length_velocity: a different force–velocity property of the forearm muscles (eq. 7 of
-// papers/000_0a6c0de9fc69df7c.txt, muscles/hill.h). Extension: hill.vmax_scale s, v_max × s.
-// Planted: v_max × 1/(1 + 2 s).
+// papers/000_0a6c0de9fc69df7c.txt, muscles/hill.h). Extension: hill.vmax_scale s, v_max × s,
+// slower only (s ≤ 1, one-sided score test): a faster fit took up generic misfit on clean persons
+// (docs/diagnosis.md, "Why force–velocity is slower only"). Planted: v_max × 1/(1 + 2 s).
 #include "diagnosis/mechanisms/library.h"
 
 namespace fesim::diagnosis {
