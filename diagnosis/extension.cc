@@ -339,7 +339,7 @@ const Eigen::MatrixXd& Extender::DirectionOf(int c) {
 }
 
 bool Extender::LacksSensitivities(const std::vector<int>& cands) const {
-  // Fatigue and potentiation add states the sensitivity integration lacks.
+  // Fatigue, potentiation and the stretch reflex add states the sensitivity integration lacks.
   Eigen::VectorXd x = cal_.fit.x;
   std::vector<ModelParameter> params = person_;
   for (int c : cands) {
@@ -347,7 +347,7 @@ bool Extender::LacksSensitivities(const std::vector<int>& cands) const {
     x = Concat(x, lib_[c].probes.empty() ? Starts(lib_[c].params) : lib_[c].probes[0]);
   }
   const sim::ModelParams m = ApplyModelParameters(ctx_.rig, params, x);
-  return m.mechanisms.fatigue.enabled || m.mechanisms.potentiation.enabled;
+  return sim::HasMechanismStates(m.mechanisms);
 }
 
 std::vector<int> Extender::FreePerson(const std::vector<int>& cands) {

@@ -496,7 +496,8 @@ void LoadStimulation(const Node& n, const std::string& path, const sim::ModelPar
 }
 
 void LoadMechanisms(const Node& n, sim::ModelParams* m) {
-  n.Keys({"fatigue", "potentiation", "electromechanical_delay_s", "tremor", "crosstalk"});
+  n.Keys({"fatigue", "potentiation", "electromechanical_delay_s", "tremor", "crosstalk",
+          "stretch_reflex"});
   auto& mech = m->mechanisms;
   if (n.Has("fatigue")) {
     const Node f = n.Child("fatigue");
@@ -534,6 +535,20 @@ void LoadMechanisms(const Node& n, sim::ModelParams* m) {
     c.Keys({"fraction", "spread_m"});
     c.Number("fraction", 0, 1, &mech.crosstalk.fraction);
     c.Number("spread_m", 1e-4, 0.2, &mech.crosstalk.spread_m);
+  }
+  if (n.Has("stretch_reflex")) {
+    const Node r = n.Child("stretch_reflex");
+    r.Keys({"gain", "threshold_per_s", "loop_delay_s", "muscles"});
+    auto& sr = mech.stretch_reflex;
+    r.Number("gain", 0, 10, &sr.gain);
+    r.Number("threshold_per_s", 0, 10, &sr.threshold_per_s);
+    r.Number("loop_delay_s", 0.001, 1, &sr.loop_delay_s);
+    sr.muscles = r.Child("muscles").TextList();
+    for (const auto& name : sr.muscles) {
+      const bool known = std::any_of(m->muscles.begin(), m->muscles.end(),
+                                     [&](const sim::MuscleParams& x) { return x.name == name; });
+      if (!known) r.Fail("muscles: unknown muscle '" + name + "'");
+    }
   }
 }
 

@@ -14,8 +14,9 @@
 //                    rest_deg, min_deg, max_deg, stiffness_nm_per_rad, damping_nms_per_rad,
 //                    limit_stiffness_nm_per_rad, limit_sharpness_per_rad, coulomb_friction_nm,
 //                    static_friction_nm, stribeck_velocity_rad_s (stiction),
-//                    reflex_gain_nms_per_rad, reflex_threshold_deg_s, reflex_direction_bias (spasticity),
-//                    prescription: {offset_deg, amplitude_deg, frequency_hz, phase_deg}}
+//                    reflex_gain_nms_per_rad, reflex_threshold_deg_s, reflex_direction_bias
+//                    (spasticity), prescription: {offset_deg, amplitude_deg, frequency_hz,
+//                    phase_deg}}
 //   muscles:
 //     <muscle>: {max_isometric_force_n, optimal_fibre_length_m, tendon_slack_length_m,
 //                pennation_deg, omega_rad_s, alpha, beta_per_us, gamma}
@@ -34,6 +35,8 @@
 //     tremor: {coordinate, frequency_hz: 3–12, amplitude_nm, amplitude_modulation,
 //              modulation_hz, frequency_drift_hz_per_s, phase_deg}
 //     crosstalk: {fraction: 0–1, spread_m}
+//     stretch_reflex: {gain: 0–10, threshold_per_s: 0–10, loop_delay_s: 0.001–1,
+//                      muscles: [<muscle>…]}
 //   stimulation:
 //     duration_s: > 0                            (required)
 //     type: constant | steps | csv | protocol | reaching   (required)

@@ -1024,8 +1024,9 @@ IntegrationStats IntegrateTrialSensitivities(
     throw std::invalid_argument("sensitivities need a CVODES integrator method");
   }
   const ModelParams& base = model.params();
-  if (base.mechanisms.fatigue.enabled || base.mechanisms.potentiation.enabled) {
-    throw std::invalid_argument("sensitivities: fatigue and potentiation states are not supported");
+  if (HasMechanismStates(base.mechanisms)) {
+    throw std::invalid_argument(
+        "sensitivities: fatigue, potentiation and stretch-reflex states are not supported");
   }
   CvodesContext ctx(&model, state, HasPrescribed(base), params.simbody_right_hand_side);
   SensitivityData d;

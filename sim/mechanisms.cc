@@ -2,9 +2,12 @@
 
 #include <cmath>
 
+#include "muscles/activation.h"
+
 namespace fesim::sim {
 namespace {
 constexpr double kTwoPi = 6.283185307179586476925;
+constexpr double kReflexRampSmoothingPerS = 0.05;  // ε of the stretch reflex's ramp (header)
 }  // namespace
 
 double FitnessDerivative(const FatigueParams& p, double a, double fitness) {
@@ -21,6 +24,22 @@ double TremorTorque(const TremorParams& p, double t) {
   const double envelope = 1.0 + p.amplitude_modulation * std::sin(kTwoPi * p.modulation_hz * t);
   const double phase = kTwoPi * (p.frequency_hz * t + 0.5 * p.frequency_drift_hz_per_s * t * t);
   return p.amplitude_nm * envelope * std::sin(phase + p.phase_rad);
+}
+
+bool HasMechanismStates(const MechanismParams& m) {
+  return m.fatigue.enabled || m.potentiation.enabled || m.stretch_reflex.enabled();
+}
+
+double StretchReflexDrive(const StretchReflexParams& p, double stretch_per_s) {
+  const double x = stretch_per_s - p.threshold_per_s;
+  const double eps = kReflexRampSmoothingPerS;
+  return p.gain * 0.5 * (x + std::sqrt(x * x + eps * eps));
+}
+
+std::array<double, 3> StretchReflexDerivative(const StretchReflexParams& p, double omega,
+                                              double drive, const std::array<double, 3>& s) {
+  const auto act = muscles::ActivationDerivative(omega, s[0], {s[1], s[2]});
+  return {(drive - s[0]) / p.loop_delay_s, act.a, act.a_dot};
 }
 
 double ReflexTorque(double gain, double threshold, double qdot, double direction_bias) {

@@ -18,10 +18,24 @@
 //                flexion: β = 0 a reflex of both groups, β = 1 of the flexors alone (the
 //                upper-limb pattern after stroke), β = −1 of the extensors alone
 //                (Lance 1980's velocity-dependent resistance)
+//  stretch reflex  spasticity at the muscles (Lance 1980's "velocity-dependent increase in tonic
+//                stretch reflexes"): each listed muscle's drive gains
+//                  d = G ramp(ṽ − ṽ_th),  ṽ = (dl_MT/dt) / l_opt  (1/s, > 0 lengthening),
+//                ramp(x) = ½ (x + √(x² + ε²)) with ε = 0.05 /s (smooth for the integrator), after
+//                a first-order loop lag τ_d (ẋ = (d − x)/τ_d; the short-latency stretch reflex of
+//                the forearm flexors, ≈ 30–50 ms: Matthews 1991, Trends Neurosci 14:87), then
+//                through the muscle's own eq. (6) activation (Ω_i): a reflex activation r added to
+//                the stimulated one (eq. 6 is linear, so the two superpose; a + r is clipped to
+//                [0, 1] in the force). It acts at every joint the muscle crosses, unlike the
+//                joint-level spasticity above.
 //  stiction      Stribeck friction: τ = −(F_c + (F_s − F_c) e^{−(q̇/v_s)²}) tanh(q̇/v_c)
 //                ([Spagnol 2013] static friction of the exoskeleton)
 //  sensor drift, dropouts, outliers: see sensors.h / SensorArtefacts.
 #pragma once
+
+#include <array>
+#include <string>
+#include <vector>
 
 namespace fesim::sim {
 
@@ -55,13 +69,27 @@ struct CrosstalkParams {
   double spread_m = 0.03;  ///< σ_x, m, > 0.
 };
 
+struct StretchReflexParams {
+  double gain = 0.0;                 ///< G, activation per l_opt/s of stretch, ≥ 0 (0 = off).
+  double threshold_per_s = 0.1;      ///< ṽ_th, l_opt/s, ≥ 0.
+  double loop_delay_s = 0.04;        ///< τ_d, s, > 0.
+  std::vector<std::string> muscles;  ///< names of the muscles with the reflex.
+
+  bool enabled() const { return gain > 0.0 && !muscles.empty(); }
+};
+
 struct MechanismParams {
   FatigueParams fatigue;
   PotentiationParams potentiation;
   double electromechanical_delay_s = 0.0;  ///< δ, s, ≥ 0.
   TremorParams tremor;
   CrosstalkParams crosstalk;
+  StretchReflexParams stretch_reflex;
 };
+
+/// True when a mechanism adds integrated states to the model (fatigue, potentiation, the
+/// stretch reflex): the forward-sensitivity integration does not carry them.
+bool HasMechanismStates(const MechanismParams& m);
 
 /// dφ/dt of the fitness model for activation a (0–1) and fitness φ.
 double FitnessDerivative(const FatigueParams& p, double activation, double fitness);
@@ -71,6 +99,12 @@ double PotentiationDerivative(const PotentiationParams& p, double activation, do
 double TremorTorque(const TremorParams& p, double t_s);
 /// Stretch-reflex torque (N·m) for gain G (N·m·s/rad, ≥ 0), threshold v_th (rad/s) and direction
 /// bias β ∈ [−1, 1] (header: the gain on extension is G (1 + β), on flexion G (1 − β)).
+/// The stretch reflex's drive d = G ramp(ṽ − ṽ_th) (header) for normalised lengthening velocity
+/// ṽ = (dl_MT/dt)/l_opt, 1/s; dimensionless, ≥ 0.
+double StretchReflexDrive(const StretchReflexParams& p, double stretch_per_s);
+/// d/dt of one muscle's reflex states {x, r, ṙ} (loop lag, then eq. 6 with Ω rad/s) for drive d.
+std::array<double, 3> StretchReflexDerivative(const StretchReflexParams& p, double omega_rad_s,
+                                              double drive, const std::array<double, 3>& state);
 double ReflexTorque(double gain_nms_per_rad, double threshold_rad_s, double qdot_rad_s,
                     double direction_bias = 0.0);
 

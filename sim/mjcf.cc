@@ -110,10 +110,10 @@ void CheckRepresentable(const ModelParams& p, const MjcfOptions& options) {
     }
   }
   const MechanismParams& m = p.mechanisms;
-  if (m.fatigue.enabled || m.potentiation.enabled || m.tremor.enabled ||
-      m.electromechanical_delay_s != 0.0) {
+  if (HasMechanismStates(m) || m.tremor.enabled || m.electromechanical_delay_s != 0.0) {
     throw std::invalid_argument(
-        "WriteMjcf: fatigue, potentiation, tremor and electromechanical delay are not written");
+        "WriteMjcf: fatigue, potentiation, the stretch reflex, tremor and electromechanical delay "
+        "are not written");
   }
   for (const auto& b : p.bands) {
     if (b.segment < 0 || b.segment >= kNumSegments) {

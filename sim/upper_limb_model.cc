@@ -259,13 +259,28 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
         params_(std::move(params)),
         array_(std::move(array)) {
     for (const auto& m : params_->muscles) paths_.push_back(m.path);
+    reflex_slot_.assign(params_->muscles.size(), -1);
+    const StretchReflexParams& reflex = params_->mechanisms.stretch_reflex;
+    if (!reflex.enabled()) return;
+    for (const std::string& name : reflex.muscles) {
+      const auto it = std::find_if(params_->muscles.begin(), params_->muscles.end(),
+                                   [&](const MuscleParams& m) { return m.name == name; });
+      if (it == params_->muscles.end()) {
+        throw std::invalid_argument("mechanisms.stretch_reflex.muscles: unknown muscle '" + name +
+                                    "'");
+      }
+      int& slot = reflex_slot_[it - params_->muscles.begin()];
+      if (slot < 0) slot = num_reflex_++;
+    }
   }
 
   void realizeTopology(State& s) const override {
     const int nm = static_cast<int>(params_->muscles.size());
-    // z = [a_0, ȧ_0, …, a_{n−1}, ȧ_{n−1}, φ_0…φ_{n−1} (fatigue), p_0…p_{n−1} (potentiation)].
+    // z = [a_0, ȧ_0, …, a_{n−1}, ȧ_{n−1}, φ_0…φ_{n−1} (fatigue), p_0…p_{n−1} (potentiation),
+    //      {x, r, ṙ} of each stretch-reflex muscle (mechanisms.h)].
     const auto& mech = params_->mechanisms;
-    const int n_extra = (mech.fatigue.enabled ? nm : 0) + (mech.potentiation.enabled ? nm : 0);
+    const int n_extra =
+        (mech.fatigue.enabled ? nm : 0) + (mech.potentiation.enabled ? nm : 0) + 3 * num_reflex_;
     Vector z0(2 * nm + n_extra, 0.0);
     if (mech.fatigue.enabled) {
       for (int j = 0; j < nm; ++j) z0[2 * nm + j] = 1.0;  // fully fit at t = 0
@@ -274,6 +289,7 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
     fitness_offset_ = mech.fatigue.enabled ? 2 * nm : -1;
     potentiation_offset_ =
         mech.potentiation.enabled ? 2 * nm + (mech.fatigue.enabled ? nm : 0) : -1;
+    reflex_offset_ = num_reflex_ > 0 ? 2 * nm + n_extra - 3 * num_reflex_ : -1;
     stim_index_ = forces_.allocateDiscreteVariable(
         s, SimTK::Stage::Dynamics,
         new SimTK::Value<Vector>(Vector(static_cast<int>(params_->channels.size()), 0.0)));
@@ -290,7 +306,10 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
 
   void realizeDynamics(const State& s) const override {
     if (params_->muscles.empty()) return;
-    if (fitness_offset_ < 0 && potentiation_offset_ < 0 && ClosedFormActivations(s)) return;
+    if (fitness_offset_ < 0 && potentiation_offset_ < 0 && reflex_offset_ < 0 &&
+        ClosedFormActivations(s)) {
+      return;
+    }
     Vector& zdot = forces_.updZDot(s);
     ZDot(s, &zdot[z_start_]);
   }
@@ -298,13 +317,19 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   /// ż of this element's z block (from ZStart) into zdot[0…]: ȧ, ä of eq. (6) driven by
   /// w = H_IRC(A u) — unless an integrator advances the activations in closed form
   /// (SetActivationsInClosedForm): then nothing reads them and they are left unwritten — and the
-  /// fatigue and potentiation states' ż. Reads only state variables (no stage needed).
-  void ZDot(const State& s, double* zdot) const { ZDot(s, ZBlock(s), zdot); }
+  /// fatigue, potentiation and stretch-reflex states' ż. Reads only state variables (no stage
+  /// needed).
+  void ZDot(const State& s, double* zdot) const {
+    const MuscleSnapshot snap = reflex_offset_ >= 0 ? Compute(s) : MuscleSnapshot{};
+    ZDot(s, ZBlock(s), snap.velocity_m_s.data(), zdot);
+  }
   /// The same for this element's z block `z` instead of the state's (`s` gives the stimulation
-  /// and the closed-form flag).
-  void ZDot(const State& s, const double* z, double* zdot) const {
+  /// and the closed-form flag) and the muscles' dl_MT/dt `velocity_m_s` (m/s; read only with the
+  /// stretch reflex on).
+  void ZDot(const State& s, const double* z, const double* velocity_m_s, double* zdot) const {
     const int nm = static_cast<int>(params_->muscles.size());
     if (nm == 0) return;
+    if (reflex_offset_ >= 0) ReflexZDot(z, velocity_m_s, zdot);
     const bool closed_form = ClosedFormActivations(s);
     const Vector* u = closed_form ? nullptr : &Stimulation(s);
     for (int j = 0; j < nm; ++j) {
@@ -326,6 +351,27 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
         zdot[k] = PotentiationDerivative(params_->mechanisms.potentiation, a, z[k]);
       }
     }
+  }
+
+  /// ż of the stretch-reflex states {x, r, ṙ} of each reflex muscle (mechanisms.h).
+  void ReflexZDot(const double* z, const double* velocity_m_s, double* zdot) const {
+    const StretchReflexParams& reflex = params_->mechanisms.stretch_reflex;
+    for (std::size_t j = 0; j < reflex_slot_.size(); ++j) {
+      if (reflex_slot_[j] < 0) continue;
+      const MuscleParams& m = params_->muscles[j];
+      const int k = reflex_offset_ + 3 * reflex_slot_[j];
+      const double drive =
+          StretchReflexDrive(reflex, velocity_m_s[j] / m.hill.optimal_fibre_length_m);
+      const auto d = StretchReflexDerivative(reflex, m.activation_omega_rad_s, drive,
+                                             {z[k], z[k + 1], z[k + 2]});
+      std::copy(d.begin(), d.end(), zdot + k);
+    }
+  }
+
+  /// Muscle j's activation a (eq. 6) plus its reflex activation r when it has the stretch reflex.
+  double Activation(const double* z, int j) const {
+    const int slot = reflex_slot_[j];
+    return slot < 0 ? z[2 * j] : z[2 * j] + z[reflex_offset_ + 3 * slot + 1];
   }
 
   void calcForce(const State& s, SimTK::Vector_<SimTK::SpatialVec>& /*body_forces*/,
@@ -392,7 +438,7 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
     out.any_clamped = false;
     const double* arms_j = ws->arms.data();
     for (int j = 0; j < nm; ++j) {
-      out.activation[j] = z[2 * j];
+      out.activation[j] = Activation(z, j);
       double gain = 1.0;
       if (fitness_offset_ >= 0) gain *= z[fitness_offset_ + j];
       if (potentiation_offset_ >= 0) {
@@ -436,6 +482,9 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   mutable SimTK::ZIndex z_start_;
   mutable int fitness_offset_ = -1;       // from z_start_, −1 when fatigue is off
   mutable int potentiation_offset_ = -1;  // from z_start_, −1 when potentiation is off
+  mutable int reflex_offset_ = -1;        // from z_start_, −1 when the stretch reflex is off
+  std::vector<int> reflex_slot_;          // [muscle] its reflex block (0, 1, …) or −1
+  int num_reflex_ = 0;                    // muscles with the stretch reflex
   mutable SimTK::DiscreteVariableIndex stim_index_;
   mutable SimTK::DiscreteVariableIndex closed_form_index_;  // bool: activations in closed form
 };
@@ -686,7 +735,7 @@ void UpperLimbModel::CalcYDot(const State& s, double t, const double* y, RhsWork
     const ChainBody& body = chain_->body(b);
     if (body.q >= 0) ydot[body.q] = body.held ? 0.0 : u[body.u];  // a pin's q̇ = u
   }
-  muscle_force_->ZDot(s, y + z_block, ydot + z_block);
+  muscle_force_->ZDot(s, y + z_block, ws->muscles.velocity_m_s.data(), ydot + z_block);
 }
 
 bool UpperLimbModel::Welded(int coordinate) const { return slots_->q.at(coordinate) < 0; }

@@ -125,6 +125,7 @@ TEST(Scenario, MechanismsAndArtefacts) {
   electromechanical_delay_s: 0.04
   tremor: {coordinate: elbow_flexion, frequency_hz: 5, amplitude_nm: 0.1}
   crosstalk: {fraction: 0.1, spread_m: 0.04}
+  stretch_reflex: {gain: 0.2, threshold_per_s: 0.3, muscles: [FCR, FDS]}
 coordinates:
   elbow_flexion: {static_friction_nm: 0.4, coulomb_friction_nm: 0.2, reflex_gain_nms_per_rad: 1,
                   reflex_threshold_deg_s: 60, reflex_direction_bias: 0.5}
@@ -141,6 +142,10 @@ sensors:
   EXPECT_TRUE(m.tremor.enabled);
   EXPECT_EQ(m.tremor.coordinate, sim::kElbowFlexion);
   EXPECT_EQ(m.crosstalk.fraction, 0.1);
+  EXPECT_TRUE(m.stretch_reflex.enabled());
+  EXPECT_EQ(m.stretch_reflex.threshold_per_s, 0.3);
+  EXPECT_EQ(m.stretch_reflex.loop_delay_s, 0.04);
+  EXPECT_EQ(m.stretch_reflex.muscles, (std::vector<std::string>{"FCR", "FDS"}));
   const auto& elbow = s.model.coordinates[sim::kElbowFlexion].passive;
   EXPECT_EQ(elbow.static_friction_nm, 0.4);
   EXPECT_NEAR(elbow.reflex_threshold_rad_s, 60 * kDeg, 1e-12);
@@ -149,6 +154,9 @@ sensors:
   EXPECT_NEAR(s.trial.sensors.angles.outlier_std, 10 * kDeg, 1e-12);
   EXPECT_EQ(ErrorOf(std::string(kMinimal) + "mechanisms: {tremor: {frequency_hz: 20}}\n"),
             "s.yaml: mechanisms.tremor.frequency_hz: 20 is outside [3, 12]");
+  EXPECT_EQ(ErrorOf(std::string(kMinimal) +
+                    "mechanisms: {stretch_reflex: {gain: 0.2, muscles: [FCR, XYZ]}}\n"),
+            "s.yaml: mechanisms.stretch_reflex: muscles: unknown muscle 'XYZ'");
 }
 
 TEST(Scenario, ProtocolStimulation) {

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 
 namespace fesim::sim {
@@ -25,6 +26,51 @@ TEST(Mechanisms, PotentiationBuildsWithActivityAndDecaysAtRest) {
   EXPECT_NEAR(PotentiationDerivative(p, 0.0, 0.6), -0.01, kTol);
   const double steady = (1.0 / 5.0) / (1.0 / 5.0 + 1.0 / 60.0);
   EXPECT_NEAR(PotentiationDerivative(p, 1.0, steady), 0.0, kTol);
+}
+
+TEST(Mechanisms, StretchReflexDriveIsASmoothRampAboveThreshold) {
+  StretchReflexParams p;
+  p.gain = 0.5;
+  p.threshold_per_s = 0.1;
+  // Far from the threshold the ramp is G·max(0, ṽ − ṽ_th) within G ε²/(4 |ṽ − ṽ_th|) (ε 0.05 /s).
+  EXPECT_NEAR(StretchReflexDrive(p, 1.1), 0.5 * 1.0, 0.5 * 0.0025 / 4.0);
+  EXPECT_NEAR(StretchReflexDrive(p, -0.9), 0.0, 0.5 * 0.0025 / 4.0);
+  EXPECT_NEAR(StretchReflexDrive(p, 0.1), 0.5 * 0.5 * 0.05, kTol);  // G ε / 2 at the threshold
+  for (double v = -1.0; v < 1.0; v += 0.01) {
+    EXPECT_LT(StretchReflexDrive(p, v), StretchReflexDrive(p, v + 0.01));
+  }
+  p.gain = 0.0;
+  EXPECT_EQ(StretchReflexDrive(p, 2.0), 0.0);
+}
+
+TEST(Mechanisms, StretchReflexActivationStepHasUnitGainAndTheCascadesMeanDelay) {
+  // Step of drive D from rest through the loop lag τ_d and eq. (6) (Ω): r → D, and the area
+  // between D and r is D (τ_d + 2/Ω) — the mean delays of a first-order lag (τ_d) and of a
+  // critically damped second-order stage (2/Ω) add.
+  StretchReflexParams p;
+  p.loop_delay_s = 0.04;
+  const double omega = 7.0, drive = 0.3, h = 1e-4;
+  std::array<double, 3> x{0.0, 0.0, 0.0};
+  double deficit = 0.0;
+  auto f = [&](const std::array<double, 3>& s) {
+    return StretchReflexDerivative(p, omega, drive, s);
+  };
+  for (int i = 0; i < 100000; ++i) {  // 10 s, classical RK4
+    const auto k1 = f(x);
+    std::array<double, 3> y;
+    for (int k = 0; k < 3; ++k) y[k] = x[k] + 0.5 * h * k1[k];
+    const auto k2 = f(y);
+    for (int k = 0; k < 3; ++k) y[k] = x[k] + 0.5 * h * k2[k];
+    const auto k3 = f(y);
+    for (int k = 0; k < 3; ++k) y[k] = x[k] + h * k3[k];
+    const auto k4 = f(y);
+    const double before = x[1];
+    for (int k = 0; k < 3; ++k) x[k] += h / 6.0 * (k1[k] + 2 * k2[k] + 2 * k3[k] + k4[k]);
+    deficit += h * (drive - 0.5 * (before + x[1]));
+  }
+  EXPECT_NEAR(x[0], drive, 1e-9);
+  EXPECT_NEAR(x[1], drive, 1e-9);
+  EXPECT_NEAR(deficit, drive * (0.04 + 2.0 / omega), 1e-6);
 }
 
 TEST(Mechanisms, TremorIsASinusoidAtItsFrequency) {

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <complex>
 
@@ -168,6 +169,57 @@ TEST(TrialRunner, SpasticityAddsVelocityDependentResistanceAboveThreshold) {
     active += expected != 0.0;
   }
   EXPECT_GT(active, 50);
+}
+
+TEST(TrialRunner, StretchReflexActivatesAStretchedFlexorThroughItsLoopLagAndActivation) {
+  // The wrist moved by a prescribed sine, no stimulation: FCR's activation is its reflex
+  // activation alone, the cascade of mechanisms.h driven by its stretch velocity
+  // ṽ = −d q̇ / l_opt (FCR's wrist moment arm d is constant; the other joints are locked). A
+  // reference integration of that cascade by RK4 must give the trial's a.FCR; EDC, without the
+  // reflex, stays at 0.
+  ModelParams p = LockedRig();
+  auto& wrist = p.coordinates[kWristFlexion];
+  wrist.mode = CoordinateMode::kPrescribed;
+  wrist.prescription = {0.0, 30 * kDeg, 1.0, 0.0};  // peak speed 3.3 rad/s
+  p.mechanisms.stretch_reflex.gain = 0.5;
+  p.mechanisms.stretch_reflex.threshold_per_s = 0.1;
+  p.mechanisms.stretch_reflex.muscles = {"FCR", "FCU"};
+  const int fcr = 3;
+  ASSERT_EQ(p.muscles[fcr].name, "FCR");
+  const auto& cr = p.muscles[fcr].path.crossings.at(0);
+  ASSERT_EQ(cr.joint, kWristFlexion);
+  ASSERT_EQ(cr.arm.model, tendons::MomentArmParams::Model::kConstant);
+  const double d = cr.arm.d_m, l_opt = p.muscles[fcr].hill.optimal_fibre_length_m;
+  const double omega = p.muscles[fcr].activation_omega_rad_s;
+  const StretchReflexParams& reflex = p.mechanisms.stretch_reflex;
+  auto f = [&](double t, const std::array<double, 3>& s) {
+    const double qd = 30 * kDeg * 2.0 * M_PI * std::cos(2.0 * M_PI * t);
+    return StretchReflexDerivative(reflex, omega, StretchReflexDrive(reflex, -d * qd / l_opt), s);
+  };
+  TrialRequest request = Request(2.0, {}, {});
+  request.integrator.tolerance = 1e-8;
+  const auto truth = RunTrial(UpperLimbModel(p), request).truth;
+  std::array<double, 3> x{0.0, 0.0, 0.0};
+  const double h = 1e-4;
+  int active = 0;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    const double t_end = truth.time[i];
+    for (double t = i == 0 ? 0.0 : truth.time[i - 1]; t < t_end - 0.5 * h; t += h) {
+      const auto k1 = f(t, x);
+      std::array<double, 3> y;
+      for (int k = 0; k < 3; ++k) y[k] = x[k] + 0.5 * h * k1[k];
+      const auto k2 = f(t + 0.5 * h, y);
+      for (int k = 0; k < 3; ++k) y[k] = x[k] + 0.5 * h * k2[k];
+      const auto k3 = f(t + 0.5 * h, y);
+      for (int k = 0; k < 3; ++k) y[k] = x[k] + h * k3[k];
+      const auto k4 = f(t + h, y);
+      for (int k = 0; k < 3; ++k) x[k] += h / 6.0 * (k1[k] + 2 * k2[k] + 2 * k3[k] + k4[k]);
+    }
+    EXPECT_NEAR(truth.Column("a.FCR")[i], x[1], 1e-6) << "t = " << t_end;
+    EXPECT_EQ(truth.Column("a.EDC")[i], 0.0);
+    active += x[1] > 0.01;
+  }
+  EXPECT_GT(active, 100);  // the reflex is on for most of the 2 s
 }
 
 TEST(TrialRunner, StictionHoldsAJointThatCoulombFrictionAloneLetsSlide) {

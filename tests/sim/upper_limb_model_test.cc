@@ -333,8 +333,9 @@ void ExpectFastDerivativesMatchSimbody(const UpperLimbModel& model, double t, bo
 
 TEST(UpperLimbModel, FastDerivativesMatchSimbody) {
   // The default model (ten free coordinates, the support's bands and cuffs), then with fatigue,
-  // potentiation and a tremor (extra z), then the hand rig locked by Simbody's lock and welded
-  // (ModelBuildOptions::weld_locked) with a band on the welded forearm and a cuff on the hand.
+  // potentiation and a tremor (extra z), with a stretch reflex of three muscles (more z), then the
+  // hand rig locked by Simbody's lock and welded (ModelBuildOptions::weld_locked) with a band on
+  // the welded forearm and a cuff on the hand.
   ModelParams p = DefaultModelParams();
   ExpectFastDerivativesMatchSimbody(UpperLimbModel(p), 0.0, false);
   ExpectFastDerivativesMatchSimbody(UpperLimbModel(p), 0.0, true);
@@ -343,6 +344,10 @@ TEST(UpperLimbModel, FastDerivativesMatchSimbody) {
   p.mechanisms.tremor.enabled = true;
   p.mechanisms.tremor.amplitude_nm = 0.3;
   ExpectFastDerivativesMatchSimbody(UpperLimbModel(p), 0.37, true);
+  p.mechanisms.stretch_reflex.gain = 0.4;
+  p.mechanisms.stretch_reflex.muscles = {"FCR", "FDS", "BIC"};
+  ExpectFastDerivativesMatchSimbody(UpperLimbModel(p), 0.37, true);
+  ExpectFastDerivativesMatchSimbody(UpperLimbModel(p), 0.37, false);
   LockHandRigAndDipWithABandOnTheForearm(&p);
   p.weight_compensation.push_back({kHand, {0.01, -0.03, 0.0}, 2.0});
   ExpectFastDerivativesMatchSimbody(UpperLimbModel(p), 0.37, true);
