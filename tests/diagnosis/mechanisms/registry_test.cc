@@ -414,6 +414,37 @@ TEST(Mechanisms, ArmSupportLiftsTheForearmByItsStaticTorqueOnTheElbowRig) {
   EXPECT_NEAR((q1 - q0) / (q_small - q0), 4.0, 0.4);
 }
 
+TEST(Mechanisms, ForceVelocityCandidateOnlySlowsTheForearmMuscles) {
+  // docs/diagnosis.md "Why force–velocity is slower only": v_max × s with s ∈ [0.05, 1], "off" at
+  // its upper end, a one-sided score test; s scales every wrist extensor's and flexor's v_max.
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  for (const auto& c : CandidateLibrary(rig, HandContext())) {
+    if (c.id != "force_length_velocity") continue;
+    ASSERT_EQ(c.params.size(), 1u);
+    EXPECT_EQ(c.params[0].start, 1.0);
+    EXPECT_EQ(c.params[0].upper, 1.0);
+    ASSERT_EQ(c.one_sided.size(), 1u);
+    EXPECT_TRUE(c.one_sided[0]);
+    ASSERT_EQ(c.probes.size(), 1u);
+    EXPECT_LT(c.probes[0](0), 1.0);  // the probe is slower
+    Eigen::VectorXd x(1);
+    x << 0.5;
+    const sim::ModelParams m = ApplyModelParameters(rig, c.params, x);
+    std::vector<int> forearm = WristGroup(rig, true);
+    const std::vector<int> flex = WristGroup(rig, false);
+    forearm.insert(forearm.end(), flex.begin(), flex.end());
+    for (std::size_t j = 0; j < rig.muscles.size(); ++j) {
+      const bool scaled =
+          std::find(forearm.begin(), forearm.end(), static_cast<int>(j)) != forearm.end();
+      EXPECT_DOUBLE_EQ(m.muscles[j].hill.max_contraction_velocity,
+                       (scaled ? 0.5 : 1.0) * rig.muscles[j].hill.max_contraction_velocity)
+          << rig.muscles[j].name;
+    }
+    return;
+  }
+  FAIL() << "no force_length_velocity candidate";
+}
+
 TEST(Mechanisms, PotentiationCollapsesIntoAConstantGainAtItsShortestRiseTime) {
   // dp/dt = a (1 − p) / T_rise − p / T_decay (sim/mechanisms.h). A stimulation pattern of the
   // suite's kind (a = 0.5 for 2 s, rest 2 s, 60 s): at the library's collapse value of the rise
