@@ -25,8 +25,8 @@
 //                a first-order loop lag τ_d (ẋ = (d − x)/τ_d; the short-latency stretch reflex of
 //                the forearm flexors, ≈ 30–50 ms: Matthews 1991, Trends Neurosci 14:87), then
 //                through the muscle's own eq. (6) activation (Ω_i): a reflex activation r added to
-//                the stimulated one (eq. 6 is linear, so the two superpose; a + r is clipped to
-//                [0, 1] in the force). It acts at every joint the muscle crosses, unlike the
+//                the stimulated one (eq. 6 is linear, so the two superpose; a + r, clipped to
+//                [0, 1], is what the force, fatigue and potentiation see). It acts at every joint the muscle crosses, unlike the
 //                joint-level spasticity above.
 //  stiction      Stribeck friction: τ = −(F_c + (F_s − F_c) e^{−(q̇/v_s)²}) tanh(q̇/v_c)
 //                ([Spagnol 2013] static friction of the exoskeleton)

@@ -341,7 +341,7 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
         zdot[2 * j] = d.a;
         zdot[2 * j + 1] = d.a_dot;
       }
-      const double a = std::clamp(z[2 * j], 0.0, 1.0);
+      const double a = std::clamp(Activation(z, j), 0.0, 1.0);
       if (fitness_offset_ >= 0) {
         const int k = fitness_offset_ + j;
         zdot[k] = FitnessDerivative(params_->mechanisms.fatigue, a, z[k]);
@@ -368,10 +368,12 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
     }
   }
 
-  /// Muscle j's activation a (eq. 6) plus its reflex activation r when it has the stretch reflex.
+  /// Muscle j's activation a (eq. 6); with the stretch reflex a + r clipped to [0, 1], so that
+  /// the reported activation is the one the force, fatigue and potentiation see.
   double Activation(const double* z, int j) const {
     const int slot = reflex_slot_[j];
-    return slot < 0 ? z[2 * j] : z[2 * j] + z[reflex_offset_ + 3 * slot + 1];
+    if (slot < 0) return z[2 * j];
+    return std::clamp(z[2 * j] + z[reflex_offset_ + 3 * slot + 1], 0.0, 1.0);
   }
 
   void calcForce(const State& s, SimTK::Vector_<SimTK::SpatialVec>& /*body_forces*/,
