@@ -26,8 +26,8 @@
 //                the forearm flexors, ≈ 30–50 ms: Matthews 1991, Trends Neurosci 14:87), then
 //                through the muscle's own eq. (6) activation (Ω_i): a reflex activation r added to
 //                the stimulated one (eq. 6 is linear, so the two superpose; a + r, clipped to
-//                [0, 1], is what the force, fatigue and potentiation see). It acts at every joint the muscle crosses, unlike the
-//                joint-level spasticity above.
+//                [0, 1], is what the force, fatigue and potentiation see). It acts at every
+//                joint the muscle crosses, unlike the joint-level spasticity above.
 //  stiction      Stribeck friction: τ = −(F_c + (F_s − F_c) e^{−(q̇/v_s)²}) tanh(q̇/v_c)
 //                ([Spagnol 2013] static friction of the exoskeleton)
 //  sensor drift, dropouts, outliers: see sensors.h / SensorArtefacts.
