@@ -5,6 +5,8 @@
 #include <array>
 #include <cmath>
 
+#include "tests/testing/rk4.h"
+
 namespace fesim::sim {
 namespace {
 
@@ -52,21 +54,13 @@ TEST(Mechanisms, StretchReflexActivationStepHasUnitGainAndTheCascadesMeanDelay) 
   const double omega = 7.0, drive = 0.3, h = 1e-4;
   std::array<double, 3> x{0.0, 0.0, 0.0};
   double deficit = 0.0;
-  auto f = [&](const std::array<double, 3>& s) {
+  auto f = [&](double, const std::array<double, 3>& s) {
     return StretchReflexDerivative(p, omega, drive, s);
   };
-  for (int i = 0; i < 100000; ++i) {  // 10 s, classical RK4
-    const auto k1 = f(x);
-    std::array<double, 3> y;
-    for (int k = 0; k < 3; ++k) y[k] = x[k] + 0.5 * h * k1[k];
-    const auto k2 = f(y);
-    for (int k = 0; k < 3; ++k) y[k] = x[k] + 0.5 * h * k2[k];
-    const auto k3 = f(y);
-    for (int k = 0; k < 3; ++k) y[k] = x[k] + h * k3[k];
-    const auto k4 = f(y);
+  for (int i = 0; i < 100000; ++i) {  // 10 s
     const double before = x[1];
-    for (int k = 0; k < 3; ++k) x[k] += h / 6.0 * (k1[k] + 2 * k2[k] + 2 * k3[k] + k4[k]);
-    deficit += h * (drive - 0.5 * (before + x[1]));
+    x = test_util::Rk4Step(f, i * h, x, h);
+    deficit += h * (drive - 0.5 * (before + x[1]));  // trapezoid
   }
   EXPECT_NEAR(x[0], drive, 1e-9);
   EXPECT_NEAR(x[1], drive, 1e-9);

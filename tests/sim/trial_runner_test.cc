@@ -9,6 +9,7 @@
 
 #include "sim/default_model.h"
 #include "sim/mechanisms.h"
+#include "tests/testing/rk4.h"
 
 namespace fesim::sim {
 namespace {
@@ -205,15 +206,7 @@ TEST(TrialRunner, StretchReflexActivatesAStretchedFlexorThroughItsLoopLagAndActi
   for (std::size_t i = 0; i < truth.size(); ++i) {
     const double t_end = truth.time[i];
     for (double t = i == 0 ? 0.0 : truth.time[i - 1]; t < t_end - 0.5 * h; t += h) {
-      const auto k1 = f(t, x);
-      std::array<double, 3> y;
-      for (int k = 0; k < 3; ++k) y[k] = x[k] + 0.5 * h * k1[k];
-      const auto k2 = f(t + 0.5 * h, y);
-      for (int k = 0; k < 3; ++k) y[k] = x[k] + 0.5 * h * k2[k];
-      const auto k3 = f(t + 0.5 * h, y);
-      for (int k = 0; k < 3; ++k) y[k] = x[k] + h * k3[k];
-      const auto k4 = f(t + h, y);
-      for (int k = 0; k < 3; ++k) x[k] += h / 6.0 * (k1[k] + 2 * k2[k] + 2 * k3[k] + k4[k]);
+      x = test_util::Rk4Step(f, t, x, h);
     }
     EXPECT_NEAR(truth.Column("a.FCR")[i], x[1], 1e-6) << "t = " << t_end;
     EXPECT_EQ(truth.Column("a.EDC")[i], 0.0);
