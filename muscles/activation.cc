@@ -24,4 +24,9 @@ ActivationState ActivationFreeResponse(double omega_rad_s, double w, const Activ
   return {w + (e0 + c * t_s) * decay, (initial.a_dot - om * c * t_s) * decay};
 }
 
+double IntervalOmega(double omega_rad_s, double deactivation_ratio, double w,
+                     const ActivationState& start) {
+  return Deactivating(w, start) ? omega_rad_s * deactivation_ratio : omega_rad_s;
+}
+
 }  // namespace fesim::muscles

@@ -31,4 +31,17 @@ ActivationState ActivationStepResponse(double omega_rad_s, double w, double t_s)
 ActivationState ActivationFreeResponse(double omega_rad_s, double w, const ActivationState& initial,
                                        double t_s);
 
+/// Ω of eq. (6) for one interval of constant recruited input w that starts at the state `start`:
+/// omega_rad_s when w ≥ start.a (recruitment rising or held), omega_rad_s × deactivation_ratio when
+/// w < start.a (falling). Muscles deactivate more slowly than they activate (first-order
+/// activation with τ_deact ≈ 2–4 τ_act: Zajac 1989, Crit Rev Biomed Eng 17(4) 359–411; Thelen 2003,
+/// J Biomech Eng 125(1) 70–77); eq. (6) is symmetric, and a ratio of 1 keeps it so. Ω is constant
+/// within the interval, so ActivationFreeResponse stays its exact solution; (a, ȧ) stay continuous
+/// where Ω switches.
+double IntervalOmega(double omega_rad_s, double deactivation_ratio, double w,
+                     const ActivationState& start);
+
+/// True when IntervalOmega takes the falling Ω: the input w is below the activation at the start.
+inline bool Deactivating(double w, const ActivationState& start) { return w < start.a; }
+
 }  // namespace fesim::muscles

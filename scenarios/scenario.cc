@@ -108,13 +108,14 @@ void LoadMuscles(const Node& n, sim::ModelParams* m) {
     if (j < 0) n.FailKey(name, "unknown muscle (allowed: " + MuscleList(*m) + ")");
     const Node c = n.Child(name);
     c.Keys({"max_isometric_force_n", "optimal_fibre_length_m", "tendon_slack_length_m",
-            "pennation_deg", "omega_rad_s", "alpha", "beta_per_us", "gamma"});
+            "pennation_deg", "omega_rad_s", "deactivation_ratio", "alpha", "beta_per_us", "gamma"});
     auto& mu = m->muscles[j];
     c.Number("max_isometric_force_n", 0.1, 1e4, &mu.hill.max_isometric_force_n);
     c.Number("optimal_fibre_length_m", 0.005, 0.5, &mu.hill.optimal_fibre_length_m);
     c.Number("tendon_slack_length_m", 0.0, 0.6, &mu.hill.tendon_slack_length_m);
     c.Number("pennation_deg", 0, 60, &mu.hill.pennation_at_optimal_rad, kDeg);
     c.Number("omega_rad_s", 0.1, 100, &mu.activation_omega_rad_s);
+    c.Number("deactivation_ratio", 0.05, 20, &mu.deactivation_ratio);
     c.Number("alpha", 1e-3, 1, &mu.recruitment.alpha);
     c.Number("beta_per_us", 1e-4, 1, &mu.recruitment.beta_per_us);
     c.Number("gamma", 1e-3, 1e6, &mu.recruitment.gamma);

@@ -102,7 +102,10 @@ struct CvodesContext {
   double tolerance_scale = 1.0;              // √(components with locked ones / without)
   std::vector<int> y_index;                  // Y index of each CVODES component
   int activation_index = 0;                  // Y index of muscle 0's a
-  std::vector<double> omega;                 // Ω_j, rad/s
+  std::vector<double> omega;                 // Ω_j of the current interval, rad/s (IntervalOmega)
+  std::vector<double> omega_rising;          // Ω_j, rad/s (MuscleParams::activation_omega_rad_s)
+  std::vector<double> deactivation_ratio;    // MuscleParams::deactivation_ratio
+  std::vector<char> falling;                 // muscle j deactivating in the current interval
   std::vector<double> w;                     // recruited fraction in the current interval
   std::vector<muscles::ActivationState> a0;  // activation state at the interval start
   double t0 = 0.0;                           // interval start, s
@@ -139,7 +142,12 @@ struct CvodesContext {
       const std::size_t with_locked = all.size() + 2 * static_cast<std::size_t>(m->NumWelded());
       tolerance_scale = std::sqrt(static_cast<double>(with_locked) / y_index.size());
     }
-    for (const auto& mu : m->params().muscles) omega.push_back(mu.activation_omega_rad_s);
+    for (const auto& mu : m->params().muscles) {
+      omega_rising.push_back(mu.activation_omega_rad_s);
+      deactivation_ratio.push_back(mu.deactivation_ratio);
+    }
+    omega = omega_rising;
+    falling.assign(omega.size(), 0);
   }
   /// Records the activation state and input at the start of an interval.
   void BeginInterval(double t) {
@@ -153,6 +161,8 @@ struct CvodesContext {
     for (std::size_t j = 0; j < omega.size(); ++j) {
       a0[j] = {Y[activation_index + 2 * static_cast<int>(j)],
                Y[activation_index + 2 * static_cast<int>(j) + 1]};
+      falling[j] = muscles::Deactivating(w[j], a0[j]);
+      omega[j] = muscles::IntervalOmega(omega_rising[j], deactivation_ratio[j], w[j], a0[j]);
     }
   }
 };
@@ -280,7 +290,8 @@ struct SensitivityData {
     bool moves_torques;         // TorqueParametersMayDiffer from the model: τ is re-evaluated
     bool moves_tremor;          // TremorParametersDiffer from the model: the tremor torque too
     std::vector<double> omega;  // Ω_j of params, rad/s
-    bool moves_omega;           // some Ω_j differs from the model's
+    std::vector<double> deactivation_ratio;  // of params' muscles
+    bool moves_omega;  // some Ω_j or deactivation ratio differs from the model's
     // The model of *params and a state of it, when params moves a segment's inertia
     // (BodyInertiaDiffers): its whole right-hand side is differenced at the same (t, y).
     std::shared_ptr<const UpperLimbModel> body;
@@ -381,8 +392,11 @@ bool TremorParametersDiffer(const TremorParams& a, const TremorParams& b) {
 muscles::ActivationState DirectOmegaSensitivity(const CvodesContext& c,
                                                 const SensitivityData::Parameter& pk, std::size_t j,
                                                 double dt) {
-  if (!pk.moves_omega || pk.omega[j] == c.omega[j]) return {};
-  const auto moved = muscles::ActivationFreeResponse(pk.omega[j], c.w[j], c.a0[j], dt);
+  if (!pk.moves_omega) return {};
+  // The interval's branch of IntervalOmega is the model's (a discrete choice, not differentiated).
+  const double omega = c.falling[j] ? pk.omega[j] * pk.deactivation_ratio[j] : pk.omega[j];
+  if (omega == c.omega[j]) return {};
+  const auto moved = muscles::ActivationFreeResponse(omega, c.w[j], c.a0[j], dt);
   const auto base = muscles::ActivationFreeResponse(c.omega[j], c.w[j], c.a0[j], dt);
   return {(moved.a - base.a) / pk.step, (moved.a_dot - base.a_dot) / pk.step};
 }
@@ -1073,6 +1087,7 @@ IntegrationStats IntegrateTrialSensitivities(
         TorqueParametersMayDiffer(pp.params, base),
         TremorParametersDiffer(pp.params.mechanisms.tremor, base.mechanisms.tremor),
         {},
+        {},
         false,
         nullptr,
         nullptr};
@@ -1080,8 +1095,10 @@ IntegrationStats IntegrateTrialSensitivities(
       const auto& m = pp.params.muscles[j];
       q.paths.push_back(m.path);
       q.omega.push_back(m.activation_omega_rad_s);
-      q.moves_omega =
-          q.moves_omega || m.activation_omega_rad_s != base.muscles[j].activation_omega_rad_s;
+      q.deactivation_ratio.push_back(m.deactivation_ratio);
+      q.moves_omega = q.moves_omega ||
+                      m.activation_omega_rad_s != base.muscles[j].activation_omega_rad_s ||
+                      m.deactivation_ratio != base.muscles[j].deactivation_ratio;
     }
     if (BodyInertiaDiffers(pp.params, base)) {
       q.body = std::make_shared<const UpperLimbModel>(pp.params, model.build_options());

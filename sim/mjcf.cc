@@ -345,8 +345,8 @@ ActivationTrack::ActivationTrack(const ModelParams& params, const StimulationSch
                                 " stimulation times but " + std::to_string(schedule.values.size()) +
                                 " rows");
   }
-  for (const auto& m : params.muscles) omega_.push_back(m.activation_omega_rad_s);
   Segment rest;
+  for (const auto& m : params.muscles) rest.omega.push_back(m.activation_omega_rad_s);
   rest.w.assign(nm, 0.0);
   rest.a0.assign(nm, 0.0);
   rest.a_dot0.assign(nm, 0.0);
@@ -364,10 +364,13 @@ ActivationTrack::ActivationTrack(const ModelParams& params, const StimulationSch
     next.t0_s = t;
     next.w = RecruitedFractions(params, array, schedule.values[k]);
     for (std::size_t j = 0; j < nm; ++j) {
-      const auto s = muscles::ActivationFreeResponse(omega_[j], prev.w[j],
+      const auto s = muscles::ActivationFreeResponse(prev.omega[j], prev.w[j],
                                                      {prev.a0[j], prev.a_dot0[j]}, t - prev.t0_s);
       next.a0.push_back(s.a);
       next.a_dot0.push_back(s.a_dot);
+      next.omega.push_back(muscles::IntervalOmega(params.muscles[j].activation_omega_rad_s,
+                                                  params.muscles[j].deactivation_ratio, next.w[j],
+                                                  s));
     }
     if (t == prev.t0_s) segments_.pop_back();  // a change at t = 0 replaces the rest segment
     segments_.push_back(std::move(next));
@@ -380,13 +383,13 @@ void ActivationTrack::At(double t_s, double* a) const {
                              [](double t, const Segment& s) { return t < s.t0_s; });
   const Segment& s = it == segments_.begin() ? segments_.front() : *(it - 1);
   const double dt = std::max(0.0, t_s - s.t0_s);
-  for (std::size_t j = 0; j < omega_.size(); ++j) {
-    a[j] = muscles::ActivationFreeResponse(omega_[j], s.w[j], {s.a0[j], s.a_dot0[j]}, dt).a;
+  for (std::size_t j = 0; j < s.w.size(); ++j) {
+    a[j] = muscles::ActivationFreeResponse(s.omega[j], s.w[j], {s.a0[j], s.a_dot0[j]}, dt).a;
   }
 }
 
 std::vector<double> ActivationTrack::At(double t_s) const {
-  std::vector<double> a(omega_.size());
+  std::vector<double> a(segments_.front().w.size());
   At(t_s, a.data());
   return a;
 }

@@ -103,7 +103,8 @@ std::vector<double> MjcfTendonCoefficients(const ModelParams& params);
 /// fesim's muscle activations a(t) (dimensionless) under a piecewise-constant stimulation, from
 /// rest (a = ȧ = 0) at t = 0: w = H_IRC(A u) per interval (eq. 1, 3; RecruitedFractions of
 /// upper_limb_model.h) and the exact solution of eq. (6) between the schedule's times
-/// (muscles::ActivationFreeResponse) — the values fesim's integrator gives the activation states.
+/// (muscles::ActivationFreeResponse, at each interval's muscles::IntervalOmega) — the values
+/// fesim's integrator gives the activation states.
 /// No electromechanical delay: RunTrial shifts the schedule's times by it, so would the caller.
 class ActivationTrack {
  public:
@@ -113,15 +114,15 @@ class ActivationTrack {
   /// a(t) of every muscle into a[0 … n_muscles − 1], t ≥ 0 in s.
   void At(double t_s, double* a) const;
   std::vector<double> At(double t_s) const;
-  int num_muscles() const { return static_cast<int>(omega_.size()); }
+  int num_muscles() const { return static_cast<int>(segments_.front().w.size()); }
 
  private:
   struct Segment {
     double t0_s = 0.0;
     std::vector<double> w;           // recruited fraction per muscle over [t0, next t0)
     std::vector<double> a0, a_dot0;  // activation and its rate at t0
+    std::vector<double> omega;       // Ω_j over the interval, rad/s (muscles::IntervalOmega)
   };
-  std::vector<double> omega_;  // Ω_j, rad/s
   std::vector<Segment> segments_;
 };
 

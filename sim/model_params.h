@@ -108,7 +108,9 @@ struct MuscleParams {
   muscles::HillParams hill;
   muscles::RecruitmentParams recruitment;
   double activation_omega_rad_s = 6.0;  ///< Ω_i of eq. (6), rad/s, > 0.
-  tendons::MusclePath path;             ///< crossings and l_MT at the reference posture.
+  /// Ω of eq. (6) on falling recruitment over Ω_i (muscles::IntervalOmega), > 0; 1: symmetric.
+  double deactivation_ratio = 1.0;
+  tendons::MusclePath path;  ///< crossings and l_MT at the reference posture.
 };
 
 /// One stimulation channel: either a set of pads of the electrode array (weights from the

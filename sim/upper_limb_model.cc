@@ -295,6 +295,10 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
         new SimTK::Value<Vector>(Vector(static_cast<int>(params_->channels.size()), 0.0)));
     closed_form_index_ =
         forces_.allocateDiscreteVariable(s, SimTK::Stage::Dynamics, new SimTK::Value<bool>(false));
+    Vector omega(nm);
+    for (int j = 0; j < nm; ++j) omega[j] = params_->muscles[j].activation_omega_rad_s;
+    omega_index_ = forces_.allocateDiscreteVariable(s, SimTK::Stage::Dynamics,
+                                                    new SimTK::Value<Vector>(omega));
   }
 
   /// w = H_IRC(A u) of muscle j for stimulation u (µs).
@@ -332,12 +336,11 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
     if (reflex_offset_ >= 0) ReflexZDot(z, velocity_m_s, zdot);
     const bool closed_form = ClosedFormActivations(s);
     const Vector* u = closed_form ? nullptr : &Stimulation(s);
+    const Vector* omega = closed_form ? nullptr : &IntervalOmega(s);
     for (int j = 0; j < nm; ++j) {
       if (!closed_form) {
-        const auto& m = params_->muscles[j];
         const double w = Recruited(*u, j);
-        const auto d =
-            muscles::ActivationDerivative(m.activation_omega_rad_s, w, {z[2 * j], z[2 * j + 1]});
+        const auto d = muscles::ActivationDerivative((*omega)[j], w, {z[2 * j], z[2 * j + 1]});
         zdot[2 * j] = d.a;
         zdot[2 * j + 1] = d.a_dot;
       }
@@ -464,6 +467,30 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   Vector& UpdStimulation(State& s) const {
     return SimTK::Value<Vector>::updDowncast(forces_.updDiscreteVariable(s, stim_index_));
   }
+  /// Ω of eq. (6) of each muscle in the current stimulation interval (muscles::IntervalOmega),
+  /// rad/s: set with the stimulation from the activations at that moment.
+  const Vector& IntervalOmega(const State& s) const {
+    return SimTK::Value<Vector>::downcast(forces_.getDiscreteVariable(s, omega_index_));
+  }
+  /// Sets IntervalOmega from the state's activations and the recruitment of its stimulation;
+  /// written only when some Ω changes (a write invalidates Stage::Dynamics).
+  void UpdateIntervalOmega(State& s) const {
+    const int nm = static_cast<int>(params_->muscles.size());
+    const Vector& u = Stimulation(s);
+    const Vector& z = forces_.getZ(s);
+    const Vector& now = IntervalOmega(s);
+    Vector omega(nm);
+    bool changed = false;
+    for (int j = 0; j < nm; ++j) {
+      const auto& m = params_->muscles[j];
+      const muscles::ActivationState a{z[z_start_ + 2 * j], z[z_start_ + 2 * j + 1]};
+      omega[j] = muscles::IntervalOmega(m.activation_omega_rad_s, m.deactivation_ratio,
+                                        Recruited(u, j), a);
+      changed |= omega[j] != now[j];
+    }
+    if (!changed) return;
+    SimTK::Value<Vector>::updDowncast(forces_.updDiscreteVariable(s, omega_index_)) = omega;
+  }
   bool ClosedFormActivations(const State& s) const {
     return SimTK::Value<bool>::downcast(forces_.getDiscreteVariable(s, closed_form_index_));
   }
@@ -489,6 +516,7 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   int num_reflex_ = 0;                    // muscles with the stretch reflex
   mutable SimTK::DiscreteVariableIndex stim_index_;
   mutable SimTK::DiscreteVariableIndex closed_form_index_;  // bool: activations in closed form
+  mutable SimTK::DiscreteVariableIndex omega_index_;        // Vector: IntervalOmega
 };
 
 std::vector<double> RecruitedFractions(const ModelParams& params, const muscles::ArrayMatrix& array,
@@ -775,6 +803,7 @@ void UpperLimbModel::SetStimulation(State& state, const std::vector<double>& u_u
   }
   Vector& u = muscle_force_->UpdStimulation(state);
   for (int k = 0; k < num_channels(); ++k) u[k] = std::clamp(u_us[k], 0.0, kMaxPulseWidthUs);
+  muscle_force_->UpdateIntervalOmega(state);
 }
 
 std::vector<double> UpperLimbModel::GetStimulation(const State& state) const {

@@ -69,5 +69,20 @@ TEST(Activation, CriticallyDampedNoOvershootUnitGain) {
   EXPECT_NEAR(ActivationStepResponse(omega, w, 20.0).a, w, 1e-12);
 }
 
+TEST(Activation, IntervalOmegaSlowsOnlyFallingRecruitment) {
+  const double omega = 6.0, ratio = 0.4;
+  const ActivationState at{0.5, 0.2};
+  EXPECT_EQ(IntervalOmega(omega, ratio, 0.7, at), omega);          // rising
+  EXPECT_EQ(IntervalOmega(omega, ratio, 0.5, at), omega);          // held
+  EXPECT_EQ(IntervalOmega(omega, ratio, 0.1, at), omega * ratio);  // falling
+  EXPECT_EQ(IntervalOmega(omega, 1.0, 0.1, at), omega);            // symmetric
+  // Released from a steady activation, a(t) = a₀ (1 + rΩt) e^{−rΩt}: the time to half is
+  // 1.678/(rΩ), 1/r times the symmetric one.
+  const ActivationState steady{0.8, 0.0};
+  const double w_omega = IntervalOmega(omega, ratio, 0.0, steady);
+  const double t_half = 1.6783469900166605 / (ratio * omega);
+  EXPECT_NEAR(ActivationFreeResponse(w_omega, 0.0, steady, t_half).a, 0.4, 1e-12);
+}
+
 }  // namespace
 }  // namespace fesim::muscles

@@ -50,7 +50,7 @@ coordinates:
   elbow_flexion: {mode: locked, initial_deg: 90, stiffness_nm_per_rad: 3}
   wrist_flexion: {mode: prescribed, prescription: {offset_deg: 10, amplitude_deg: 20, frequency_hz: 1}}
 muscles:
-  BIC: {max_isometric_force_n: 500, omega_rad_s: 7}
+  BIC: {max_isometric_force_n: 500, omega_rad_s: 7, deactivation_ratio: 0.4}
 electrodes:
   channels: [{name: bic, muscles: {BIC: 1.0}}, {name: arr, pads: [0, 23]}]
 support:
@@ -74,6 +74,7 @@ integrator: {method: simbody-rkm, tolerance: 1e-7}
   EXPECT_EQ(wrist.mode, sim::CoordinateMode::kPrescribed);
   EXPECT_NEAR(wrist.prescription.amplitude_rad, 20 * kDeg, 1e-12);
   EXPECT_EQ(s.model.muscles[8].hill.max_isometric_force_n, 500.0);
+  EXPECT_EQ(s.model.muscles[8].deactivation_ratio, 0.4);
   ASSERT_EQ(s.model.channels.size(), 2u);
   EXPECT_EQ(s.model.channels[1].pads, (std::vector<int>{0, 23}));
   EXPECT_EQ(s.model.bands.size(), 1u);

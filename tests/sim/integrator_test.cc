@@ -142,6 +142,45 @@ TEST(Integrator, LockedActivationFollowsAnalyticStepResponse) {
                  });
 }
 
+TEST(Integrator, LockedActivationFallsAtItsDeactivationRatioInBothIntegrators) {
+  // Biceps stimulated from 0.3 s and released at 1.0 s with Ω on falling recruitment × 0.4
+  // (muscles::IntervalOmega): from 1.0 s a(t) is eq. (6)'s free response at 0.4 Ω from the step
+  // response's state at 1.0 s — in CVODES' closed form and in Simbody's RKM, which integrates ż.
+  ModelParams p = DefaultModelParams();
+  for (auto& c : p.coordinates) c.mode = CoordinateMode::kLocked;
+  constexpr double kRatio = 0.4;
+  for (auto& m : p.muscles) m.deactivation_ratio = kRatio;
+  const UpperLimbModel model(p);
+  StimulationSchedule stim;
+  stim.times = {0.3, 1.0};
+  stim.values = {{0, 0, 200, 0, 0, 0}, {0, 0, 0, 0, 0, 0}};
+  const int bic = 8;
+  ASSERT_EQ(p.muscles[bic].name, "BIC");
+  const double omega = p.muscles[bic].activation_omega_rad_s;
+  const double w = muscles::Recruitment(p.muscles[bic].recruitment, 200.0);
+  const auto expected = [&](double t) {
+    if (t <= 1.0) return muscles::ActivationStepResponse(omega, w, t - 0.3).a;
+    const auto at_release = muscles::ActivationStepResponse(omega, w, 0.7);
+    return muscles::ActivationFreeResponse(kRatio * omega, 0.0, at_release, t - 1.0).a;
+  };
+  for (const auto method :
+       {IntegratorParams::Method::kCvodes, IntegratorParams::Method::kSimbodyRkMerson}) {
+    SimTK::State s = model.MakeInitialState();
+    double falling_gap = 0.0;  // largest a(t) above the symmetric free response
+    IntegrateTrial(model, {method, 1e-10}, stim, Times(2.5, 0.1), &s, [&](const SimTK::State& st) {
+      const double t = st.getTime();
+      const double a = model.ComputeMuscles(st).activation[bic];
+      EXPECT_NEAR(a, expected(t), kActivationTol) << "t = " << t;
+      if (t > 1.0) {
+        const auto at_release = muscles::ActivationStepResponse(omega, w, 0.7);
+        falling_gap = std::max(
+            falling_gap, a - muscles::ActivationFreeResponse(omega, 0.0, at_release, t - 1.0).a);
+      }
+    });
+    EXPECT_GT(falling_gap, 0.1 * w);  // the slower decay is visible
+  }
+}
+
 TEST(Integrator, LockedCoordinatesLeftOutOfCvodesStillAgreeWithSimbody) {
   // Hand rig: shoulder, elbow and pro/supination locked. CVODES advances only the free q, u (its
   // tolerance scaled to keep the same error norm); Simbody's RKM integrates the whole state. The
@@ -255,8 +294,9 @@ TEST(Integrator, ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) 
   // every kind the sensitivity right-hand side re-evaluates: passive stiffness (direct torque),
   // recruitment β and γ and the array's current spread (through w and the closed-form activation
   // sensitivities across breakpoints), a wrist moment arm (path, direct torque), F_max (Hill),
-  // an activation rate Ω (eq. 6's free response), a wrist tremor's amplitude, frequency and
-  // phase (TremorTorque, a function of t) and the hand's mass (a second Simbody system).
+  // an activation rate Ω and its deactivation ratio (eq. 6's free response), a wrist tremor's
+  // amplitude, frequency and phase (TremorTorque, a function of t) and the hand's mass (a second
+  // Simbody system).
   ModelParams base = DefaultModelParams();
   base.mechanisms.tremor.enabled = true;
   base.mechanisms.tremor.coordinate = kWristFlexion;
@@ -266,6 +306,9 @@ TEST(Integrator, ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) 
   for (int c : {kShoulderElvPlane, kShoulderElevation, kShoulderRotation, kElbowFlexion, kProSup}) {
     base.coordinates[c].mode = CoordinateMode::kLocked;
   }
+  // Muscles deactivate at 0.6 Ω (muscles::IntervalOmega): channel 1 falls at 1.2 s, channel 2
+  // at 2.0 s.
+  for (auto& m : base.muscles) m.deactivation_ratio = 0.6;
   const int ecrl = MuscleNamed(base, "ECRL"), fcr = MuscleNamed(base, "FCR");
   const auto wrist_arm = [](ModelParams& m, int j) -> double& {
     for (auto& cr : m.muscles[j].path.crossings) {
@@ -288,6 +331,7 @@ TEST(Integrator, ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) 
        [&](ModelParams& m) -> double& { return m.muscles[fcr].hill.max_isometric_force_n; }},
       {"omega.ECRL",
        [&](ModelParams& m) -> double& { return m.muscles[ecrl].activation_omega_rad_s; }},
+      {"deact.ECRL", [&](ModelParams& m) -> double& { return m.muscles[ecrl].deactivation_ratio; }},
       {"tremor.A", [](ModelParams& m) -> double& { return m.mechanisms.tremor.amplitude_nm; }},
       {"tremor.f", [](ModelParams& m) -> double& { return m.mechanisms.tremor.frequency_hz; }},
       {"tremor.phase", [](ModelParams& m) -> double& { return m.mechanisms.tremor.phase_rad; }},

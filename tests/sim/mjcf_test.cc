@@ -166,7 +166,10 @@ TEST(Mjcf, RejectsWhatItCannotExpressNamingIt) {
 }
 
 TEST(Mjcf, ActivationTrackEqualsFesimsActivationsThroughATrial) {
-  const ModelParams p = DefaultModelParams();
+  // Deactivation at half Ω (muscles::IntervalOmega): the track picks each interval's Ω as the
+  // integrator does.
+  ModelParams p = DefaultModelParams();
+  for (auto& m : p.muscles) m.deactivation_ratio = 0.5;
   const UpperLimbModel model(p);
   TrialRequest r;
   r.duration_s = 5.0;
