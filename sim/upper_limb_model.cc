@@ -258,7 +258,10 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
         slots_(std::move(slots)),
         params_(std::move(params)),
         array_(std::move(array)) {
-    for (const auto& m : params_->muscles) paths_.push_back(m.path);
+    for (const auto& m : params_->muscles) {
+      paths_.push_back(m.path);
+      asymmetric_ |= m.deactivation_ratio != 1.0;
+    }
     reflex_slot_.assign(params_->muscles.size(), -1);
     const StretchReflexParams& reflex = params_->mechanisms.stretch_reflex;
     if (!reflex.enabled()) return;
@@ -473,8 +476,10 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
     return SimTK::Value<Vector>::downcast(forces_.getDiscreteVariable(s, omega_index_));
   }
   /// Sets IntervalOmega from the state's activations and the recruitment of its stimulation;
-  /// written only when some Ω changes (a write invalidates Stage::Dynamics).
+  /// written only when some Ω changes (a write invalidates Stage::Dynamics). Nothing to do when
+  /// every ratio is 1: IntervalOmega keeps the Ω_i it was allocated with.
   void UpdateIntervalOmega(State& s) const {
+    if (!asymmetric_) return;
     const int nm = static_cast<int>(params_->muscles.size());
     const Vector& u = Stimulation(s);
     const Vector& z = forces_.getZ(s);
@@ -514,6 +519,7 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   mutable int reflex_offset_ = -1;        // from z_start_, −1 when the stretch reflex is off
   std::vector<int> reflex_slot_;          // [muscle] its reflex block (0, 1, …) or −1
   int num_reflex_ = 0;                    // muscles with the stretch reflex
+  bool asymmetric_ = false;               // some muscle's deactivation_ratio ≠ 1
   mutable SimTK::DiscreteVariableIndex stim_index_;
   mutable SimTK::DiscreteVariableIndex closed_form_index_;  // bool: activations in closed form
   mutable SimTK::DiscreteVariableIndex omega_index_;        // Vector: IntervalOmega
