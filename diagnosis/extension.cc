@@ -272,6 +272,29 @@ void AddHeldoutDrift(const DataView& held, std::vector<Trial>* predictions) {
   }
 }
 
+/// The residual a candidate's output terms are to explain, per training trial and output: the
+/// residual r1 of its fit with its own output terms (ModelParameter::kOutputDrift, value · t at
+/// `params`' values from x(offset)) added back — what the person fitted beside the candidate
+/// leaves for it. The control's residual would show the candidate's signature after the control's
+/// person absorbed part of it: a calibration that reaches a sensor's drift through stimulation-
+/// locked parameters leaves steps at the stimulation changes (Signature shape in
+/// docs/diagnosis.md).
+std::vector<ResidualSeries> OwnShareResidual(const DataView& train, const Eigen::VectorXd& r1,
+                                             const std::vector<ModelParameter>& params,
+                                             const Eigen::VectorXd& x, Eigen::Index offset) {
+  std::vector<ResidualSeries> out = UnstackResiduals(train, r1);
+  for (std::size_t k = 0; k < params.size(); ++k) {
+    const ModelParameter& p = params[k];
+    if (p.target != ModelParameter::Target::kOutputDrift) continue;
+    const double rate = x(offset + static_cast<Eigen::Index>(k));
+    for (ResidualSeries& s : out) {
+      if (s.output != p.column || !AppliesToTrial(p, s.trial)) continue;
+      for (std::size_t i = 0; i < s.r.size(); ++i) s.r[i] += rate * s.time_s[i];
+    }
+  }
+  return out;
+}
+
 std::string PointKey(const std::vector<int>& cands, const Eigen::VectorXd& x) {
   std::string key;
   for (int c : cands) key += std::to_string(c) + ";";
@@ -308,8 +331,9 @@ Judgement Extender::Judge(const Fitted& f, const Fitted& ref, int c, Eigen::Inde
       j.own_z_p_adj = std::min(1.0, ctx_.settings.max_screened * NormalSurvival(j.own_z));
     }
   }
-  if (mechanism.shape_contradiction && r0.size() > 0) {
-    j.shape = mechanism.shape_contradiction(UnstackResiduals(ctx_.data.train, r0));
+  if (mechanism.shape_contradiction && r1.size() > 0) {
+    j.shape = mechanism.shape_contradiction(
+        OwnShareResidual(ctx_.data.train, r1, lib_[c].params, f.stage.fit.x, offset));
   }
   const double alpha = ctx_.settings.alpha;
   j.passes = j.collapsed.empty() && j.at_bound.empty() && j.person_at_bound.empty() &&

@@ -248,61 +248,131 @@ double StructuredVarianceFraction(const std::vector<double>& r) {
   return std::clamp(1.0 - (d2 / pairs) / (2.0 * var), 0.0, 1.0);
 }
 
-TrendShape TrendOrStep(const std::vector<double>& time_s, const std::vector<double>& r,
-                       double min_fraction) {
+namespace {
+
+/// One series of TrendOrStep: its finite samples in centred, scaled time x and the sums of the
+/// trend's normal equations; suffix sums over the samples from k on (H = 1) give every step's.
+struct StepSeries {
+  std::vector<double> t, y;
+  std::vector<double> h_x, h_y;  ///< Σ_{i ≥ k} x_i, y_i (size n + 1).
+  double n = 0, sx = 0, sxx = 0, sy = 0, sxy = 0, syy = 0, ssr_trend = 0;
+  long margin = 0;
+};
+
+StepSeries PrepareStepSeries(const std::vector<double>& time_s, const std::vector<double>& r,
+                             double min_fraction) {
+  if (time_s.size() != r.size()) throw std::invalid_argument("TrendOrStep: sizes differ");
+  StepSeries s;
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    if (Finite(r[i]) && Finite(time_s[i])) {
+      s.t.push_back(time_s[i]);
+      s.y.push_back(r[i]);
+    }
+  }
+  const auto n = static_cast<long>(s.t.size());
+  s.n = static_cast<double>(n);
+  s.margin = std::max(2L, static_cast<long>(std::ceil(min_fraction * s.n)));
+  if (n < 2 * s.margin + 2) return s;
+  // Centred and scaled time for the normal equations.
+  double mean_t = 0.0;
+  for (double v : s.t) mean_t += v;
+  mean_t /= s.n;
+  const double span = std::max(s.t.back() - s.t.front(), 1e-12);
+  s.h_x.assign(n + 1, 0.0);
+  s.h_y.assign(n + 1, 0.0);
+  for (long i = n - 1; i >= 0; --i) {
+    const double x = (s.t[i] - mean_t) / span;
+    s.sx += x, s.sxx += x * x, s.sy += s.y[i], s.sxy += x * s.y[i], s.syy += s.y[i] * s.y[i];
+    s.h_x[i] = s.h_x[i + 1] + x;
+    s.h_y[i] = s.h_y[i + 1] + s.y[i];
+  }
+  const double cxy = s.sxy - s.sx * s.sy / s.n;
+  s.ssr_trend = s.syy - s.sy * s.sy / s.n - cxy * cxy / std::max(s.sxx - s.sx * s.sx / s.n, 1e-300);
+  return s;
+}
+
+bool Usable(const StepSeries& s) { return !s.h_x.empty(); }
+
+/// Σr² of the step (two means) and of trend + step ([1, x, H] least squares) with H = 1 from
+/// sample k on, and the step's d in the latter.
+struct StepFit {
+  double ssr_step, ssr_full, d;
+};
+StepFit FitStepAt(const StepSeries& s, long k) {
+  const auto n = static_cast<long>(s.t.size());
+  const double h1 = static_cast<double>(n - k), hx = s.h_x[k], hy = s.h_y[k];
+  const double n0 = s.n - h1, s0 = s.sy - hy;
+  StepFit f;
+  f.ssr_step = s.syy - s0 * s0 / n0 - hy * hy / h1;
+  Eigen::Matrix3d a;
+  a << s.n, s.sx, h1, s.sx, s.sxx, hx, h1, hx, h1;
+  const Eigen::Vector3d b(s.sy, s.sxy, hy);
+  const Eigen::Vector3d beta = a.ldlt().solve(b);
+  f.ssr_full = s.syy - beta.dot(b);
+  f.d = beta(2);
+  return f;
+}
+
+}  // namespace
+
+TrendShape TrendOrStep(const std::vector<std::vector<double>>& time_s,
+                       const std::vector<std::vector<double>>& r, double min_fraction) {
   if (time_s.size() != r.size()) throw std::invalid_argument("TrendOrStep: sizes differ");
   if (!(min_fraction > 0.0 && min_fraction < 0.5))
     throw std::invalid_argument("TrendOrStep: min_fraction must be in (0, 0.5)");
-  std::vector<double> t, y;
-  for (std::size_t i = 0; i < r.size(); ++i) {
-    if (Finite(r[i]) && Finite(time_s[i])) {
-      t.push_back(time_s[i]);
-      y.push_back(r[i]);
-    }
+  std::vector<StepSeries> series;
+  std::vector<int> index;  // of each usable series in the arguments
+  for (std::size_t j = 0; j < r.size(); ++j) {
+    StepSeries s = PrepareStepSeries(time_s[j], r[j], min_fraction);
+    if (!Usable(s)) continue;
+    series.push_back(std::move(s));
+    index.push_back(static_cast<int>(j));
   }
   TrendShape shape;
-  const auto n = static_cast<long>(t.size());
-  const long margin = std::max(2L, static_cast<long>(std::ceil(min_fraction * n)));
-  if (n < 2 * margin + 2) return shape;
-  // Centred and scaled time for the normal equations; sums over all samples and, running from
-  // the end, over the samples at or after the step (H = 1).
-  double mean_t = 0.0;
-  for (double v : t) mean_t += v;
-  mean_t /= n;
-  const double span = std::max(t.back() - t.front(), 1e-12);
-  double st = 0, stt = 0, sy = 0, sty = 0, syy = 0;
-  for (long i = 0; i < n; ++i) {
-    const double x = (t[i] - mean_t) / span;
-    st += x, stt += x * x, sy += y[i], sty += x * y[i], syy += y[i] * y[i];
-  }
-  const double ssr_trend =
-      syy - sy * sy / n -
-      (sty - st * sy / n) * (sty - st * sy / n) / std::max(stt - st * st / n, 1e-300);
+  if (series.empty()) return shape;
+  double ssr_trend = 0.0;
+  for (const StepSeries& s : series) ssr_trend += s.ssr_trend;
   double best_step = INFINITY, best_full = INFINITY;
-  double h1 = 0, ht = 0, hy = 0;  // Σ over the H = 1 samples of 1, x, y.
-  for (long k = n - 1; k >= margin; --k) {
-    const double x = (t[k] - mean_t) / span;
-    h1 += 1.0, ht += x, hy += y[k];
-    if (n - k < margin) continue;
-    // Step: two means.
-    const double n0 = n - h1, s0 = sy - hy;
-    best_step = std::min(best_step, syy - s0 * s0 / n0 - hy * hy / h1);
-    // Trend + step: normal equations of [1, x, H].
-    Eigen::Matrix3d a;
-    a << n, st, h1, st, stt, ht, h1, ht, h1;
-    const Eigen::Vector3d b(sy, sty, hy);
-    const Eigen::Vector3d beta = a.ldlt().solve(b);
-    const double ssr = syy - beta.dot(b);
-    if (ssr < best_full) {
-      best_full = ssr;
-      shape.step_time_s = 0.5 * (t[k - 1] + t[k]);
-      shape.step_rad = beta(2);
+  const std::vector<double>& grid = series.front().t;
+  std::vector<StepFit> fits(series.size());
+  for (std::size_t g = 1; g < grid.size(); ++g) {
+    const double tau = 0.5 * (grid[g - 1] + grid[g]);
+    double step = 0.0, full = 0.0;
+    bool inside = true;
+    for (std::size_t j = 0; j < series.size() && inside; ++j) {
+      const StepSeries& s = series[j];
+      const auto k = static_cast<long>(std::lower_bound(s.t.begin(), s.t.end(), tau) - s.t.begin());
+      const auto n = static_cast<long>(s.t.size());
+      inside = k >= s.margin && n - k >= s.margin;
+      if (!inside) break;
+      fits[j] = FitStepAt(s, k);
+      step += fits[j].ssr_step;
+      full += fits[j].ssr_full;
+    }
+    if (!inside) continue;
+    best_step = std::min(best_step, step);
+    if (full < best_full) {
+      best_full = full;
+      shape.step_time_s = tau;
+      std::size_t largest = 0;
+      for (std::size_t j = 1; j < fits.size(); ++j) {
+        if (std::abs(fits[j].d) > std::abs(fits[largest].d)) largest = j;
+      }
+      shape.step_rad = fits[largest].d;
+      shape.step_series = index[largest];
     }
   }
+  if (!std::isfinite(best_full)) return shape;
   best_full = std::max(0.0, best_full);
   shape.trend_beyond_step = std::max(0.0, best_step - best_full);
   shape.step_beyond_trend = std::max(0.0, ssr_trend - best_full);
   return shape;
+}
+
+TrendShape TrendOrStep(const std::vector<double>& time_s, const std::vector<double>& r,
+                       double min_fraction) {
+  return TrendOrStep(std::vector<std::vector<double>>{time_s}, std::vector<std::vector<double>>{r},
+                     min_fraction);
 }
 
 std::vector<double> CumulativeStimulation(const std::vector<double>& time_s,

@@ -86,11 +86,20 @@ double StructuredVarianceFraction(const std::vector<double>& r);
 struct TrendShape {
   double trend_beyond_step = 0.0, step_beyond_trend = 0.0;  ///< rad².
   double step_time_s = NAN;  ///< τ of the best trend+step fit, s (NaN: too few samples).
-  double step_rad = 0.0;     ///< its d, rad.
+  double step_rad = 0.0;     ///< its d, rad (of series `step_series`).
+  int step_series = 0;       ///< the series of largest |d| (the overload of several series).
 };
 /// Sizes of time_s and r must match (std::invalid_argument); min_fraction in (0, 0.5).
 TrendShape TrendOrStep(const std::vector<double>& time_s, const std::vector<double>& r,
                        double min_fraction = 0.1);
+/// The same for several series of one recording (its outputs) with one step time τ for all — a
+/// slipping glove or marker moves every reading at once, while a model's misfit steps each output
+/// where its own dynamics go wrong — and a trend and step height of their own: the Σr² figures
+/// are sums over the series, τ searched over the first series' samples with at least
+/// `min_fraction` of every series' samples on either side (series with too few samples are left
+/// out); step_rad is the d of the series whose |d| is largest. Sizes must match pairwise.
+TrendShape TrendOrStep(const std::vector<std::vector<double>>& time_s,
+                       const std::vector<std::vector<double>>& r, double min_fraction = 0.1);
 
 /// Cumulative stimulation C(t_i) = Σ_k ∫₀^{t_i} u_k dt (trapezoid), µs·s, for input columns u_k
 /// sampled at `time_s`.

@@ -131,8 +131,10 @@ struct Mechanism {
   /// output it acts on (or the largest).
   std::function<std::string(const OutputSignature& s)> evidence;
   /// The shape its signature must have in the residual it is to explain (per training trial and
-  /// output, of the model the candidate extends), checked before a fitted candidate passes: the
-  /// reason that residual contradicts it, or "" (sensor_drift: a trend, not a step). Null: none.
+  /// output: the residual of the candidate's fit with its own output terms, kOutputDrift, added
+  /// back), checked before a fitted candidate passes: the reason that residual contradicts it, or
+  /// "" (sensor_drift: a trend, not a step). Null: none. Only output-level terms are added back,
+  /// so a mechanism acting through the dynamics would need its ablated fit's simulation.
   std::function<std::string(const std::vector<ResidualSeries>& residual)> shape_contradiction;
   /// Its extension is a smooth function of its joint's angle — a passive torque or a moment arm —
   /// which the person's parameters of that joint (ModelParameter::joint: passive k, k₃, rest

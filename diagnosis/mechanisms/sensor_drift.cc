@@ -7,6 +7,7 @@
 // channel, the same in every trial.
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "diagnosis/mechanisms/library.h"
 #include "diagnosis/signatures.h"
@@ -16,14 +17,16 @@ namespace {
 
 constexpr double kProbeRateRadS = 1e-3;
 /// A drift is contradicted when a step adds this many times more to a trend than a trend adds to
-/// a step, summed over the training trials and outputs (signatures.h TrendOrStep: a pure trend
-/// gives ≈ 0, a pure step ≈ ∞; tests/diagnosis/mechanisms/registry_test.cc) ...
+/// a step, summed over the training recordings (signatures.h TrendOrStep, one step time for all
+/// outputs of a recording: a slipping glove moves every reading at once; a pure trend gives ≈ 0,
+/// a pure step ≈ ∞; tests/diagnosis/mechanisms/registry_test.cc) ...
 constexpr double kStepOverTrend = 2.0;
 /// ... and the largest step stands out of what model misfit shapes like a step: it adds at least
-/// N·(2σ)²/16 to the trend (σ² = var(Δr)/2 the residual's white variance, N its samples) — what
-/// a step of 2σ at mid-recording adds (a line explains 3/4 of its variance N/4·h²). A reduced
-/// model's misfit on fesim's own grid trials, drift planted, steps by 1.3σ at a stimulation
-/// change (0.12 of N·σ²; reduced_model_test); a foreign glove slip (1018) by 5σ (1.7 of N·σ²).
+/// N·(2σ)²/16 to the trend (σ² = var(Δr)/2 the residual's white variance, N its samples, both
+/// averaged over the recording's outputs) — what a step of 2σ in one reading at mid-recording
+/// adds (a line explains 3/4 of its variance N/4·h²). A reduced model's misfit on fesim's own
+/// grid trials, drift planted, steps by 1.3σ at a stimulation change (0.12 of N·σ²;
+/// reduced_model_test); a foreign glove slip (1018) by 5σ (1.7 of N·σ²).
 constexpr double kMinStepHeightInNoise = 2.0;
 
 /// A step is searched where at least this share of the recording lies on either side: a model's
@@ -50,16 +53,26 @@ double WhiteVariance(const std::vector<double>& r) {
 std::string StepNotTrend(const std::vector<ResidualSeries>& residual) {
   double trend = 0.0, step = 0.0, largest = 0.0, largest_in_noise = 0.0;  // N·σ² units
   std::string where;
-  for (const ResidualSeries& s : residual) {
-    const TrendShape shape = TrendOrStep(s.time_s, s.r, kStepMargin);
+  std::map<int, std::vector<const ResidualSeries*>> recordings;
+  for (const ResidualSeries& s : residual) recordings[s.trial].push_back(&s);
+  for (const auto& [trial, outputs] : recordings) {
+    std::vector<std::vector<double>> t, r;
+    double white = 0.0;
+    for (const ResidualSeries* s : outputs) {
+      t.push_back(s->time_s);
+      r.push_back(s->r);
+      white += WhiteVariance(s->r) * static_cast<double>(s->r.size());
+    }
+    white /= static_cast<double>(outputs.size());
+    const TrendShape shape = TrendOrStep(t, r, kStepMargin);
     trend += shape.trend_beyond_step;
     step += shape.step_beyond_trend;
     if (shape.step_beyond_trend > largest) {
       largest = shape.step_beyond_trend;
-      const double white = WhiteVariance(s.r) * static_cast<double>(s.r.size());
       largest_in_noise = white > 0.0 ? largest / white : INFINITY;
-      where = s.output + Fmt(" steps by %.3f rad at %.1f s", shape.step_rad, shape.step_time_s) +
-              (residual.back().trial > 0 ? Fmt(" of trial %.0f", s.trial + 1.0) : "");
+      where = outputs[shape.step_series]->output +
+              Fmt(" steps by %.3f rad at %.1f s", shape.step_rad, shape.step_time_s) +
+              (recordings.size() > 1 || trial > 0 ? Fmt(" of trial %.0f", trial + 1.0) : "");
     }
   }
   if (!(step > kStepOverTrend * trend) ||
