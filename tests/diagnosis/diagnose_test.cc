@@ -48,6 +48,15 @@ foreign::Dataset Foreign(std::uint64_t seed, const std::string& effect = "", dou
   return foreign::MakeDataset(spec);
 }
 
+/// Foreign suite data set `seed` (bench/diagnosis_suite.cc): three 60 s trials (steps, grid,
+/// steps), `effect` raised to the noise RMS.
+foreign::Dataset SuiteDataset(std::uint64_t seed, const std::string& effect) {
+  foreign::DatasetSpec spec;
+  spec.person_seed = spec.seed = seed;
+  spec.effects = {{effect, 1.0}};
+  return foreign::MakeDataset(spec);
+}
+
 /// An in-family data set: a wide person, two 40 s step trials, `mechanism` at `floor` × noise.
 PlantedDataset Family(std::uint64_t seed, const std::string& mechanism = "", double floor = 0.5) {
   PlantedSpec spec;
@@ -127,10 +136,7 @@ TEST(DiagnoseForeign, AWristTremorIsNamedAtTheWristWhereAFingerJointScoresHigher
   // 607). Each significant joint is fitted and the wrist's fit has the lower training Σr²
   // (14.4 against 16.2 at the MCP): the tremor is named at the wrist (Mechanism::joint_by_fit,
   // extension.h Screening).
-  foreign::DatasetSpec spec;
-  spec.person_seed = spec.seed = 1004;
-  spec.effects = {{"tremor", 1.0}};
-  const foreign::Dataset data = foreign::MakeDataset(spec);
+  const foreign::Dataset data = SuiteDataset(1004, "tremor");
   const Diagnosis d = Diagnose(HandRig().model, data.trials, {}, TwoThreads());
   const auto at = [&](const std::string& label) {
     const auto it = std::find_if(d.candidates.begin(), d.candidates.end(),
@@ -160,10 +166,7 @@ TEST(DiagnoseForeign, ACalibrationThatStallsFromNominalIsRetriedFromTheCorners) 
   // linear model predicting 10⁻⁶ of the cost): the calibrated model misses the black box, and the
   // retry from the corner starts reaches 16.5, a held-out NRMSE below the black box's; the wander
   // is not credited to a candidate (docs/diagnosis.md, The person, step 3; Known limits).
-  foreign::DatasetSpec spec;
-  spec.person_seed = spec.seed = 1017;
-  spec.effects = {{"wander", 1.0}};
-  const foreign::Dataset data = foreign::MakeDataset(spec);
+  const foreign::Dataset data = SuiteDataset(1017, "wander");
   const Diagnosis d = Diagnose(HandRig().model, data.trials, {}, TwoThreads());
   EXPECT_TRUE(d.cause == "none" || d.cause == "unexplained" || d.confidence < 0.5) << Explain(d);
   const bool retried = std::any_of(d.notes.begin(), d.notes.end(), [](const std::string& n) {
@@ -180,11 +183,7 @@ TEST(DiagnoseForeign, APersonFoundByACandidateFitBecomesTheControlAndTheTestsRun
   // than the person a candidate's fit (which frees the person) reaches; that person, refitted
   // alone with the candidate switched off, becomes the control, the candidates are judged against
   // it, and the note says so (extension.h, Control).
-  foreign::DatasetSpec spec;
-  spec.person_seed = spec.seed = 1006;
-  spec.floor = 1.0;
-  spec.effects = {{"moment_arm_posture", 1.0}};
-  const foreign::Dataset data = foreign::MakeDataset(spec);
+  const foreign::Dataset data = SuiteDataset(1006, "moment_arm_posture");
   DiagnoseSettings settings;
   settings.person.iterations = 2;
   const Diagnosis d = Diagnose(HandRig().model, data.trials, settings, TwoThreads());
@@ -209,10 +208,7 @@ TEST(DiagnoseForeign, ACrosstalkThePersonAbsorbsIsProfiledWhereTheModelIsWorseTh
   // output is worse than the black box (DiagnoseSettings::profile_gate), crosstalk is fitted
   // from its profile and named; with the profile only beyond the verdict's gate it was `none`
   // (extension.h, profile starts).
-  foreign::DatasetSpec spec;
-  spec.person_seed = spec.seed = 10010;
-  spec.effects = {{"crosstalk", 1.0}};
-  const foreign::Dataset data = foreign::MakeDataset(spec);
+  const foreign::Dataset data = SuiteDataset(10010, "crosstalk");
   const Diagnosis d = Diagnose(HandRig().model, data.trials, {}, TwoThreads());
   for (std::size_t o = 0; o < d.baseline_heldout_nrmse_per_output.size(); ++o) {  // the premise
     const double box = d.reference.heldout_nrmse_per_output[o];
@@ -231,15 +227,14 @@ TEST(DiagnoseForeign, ADriftIsJudgedOnItsOwnShareWithOneStepTimePerRecording) {
   // gaining 22 % on the held-out trial, was held as a structure outside the library
   // (`unexplained`). Judged on the residual its own fit leaves for it, with one step time for all
   // outputs of a recording, it is a trend (docs/diagnosis.md, Signature shape).
-  foreign::DatasetSpec spec;
-  spec.person_seed = spec.seed = 10024;
-  spec.effects = {{"sensor_drift", 1.0}};
-  const foreign::Dataset data = foreign::MakeDataset(spec);
+  const foreign::Dataset data = SuiteDataset(10024, "sensor_drift");
   const Diagnosis d = Diagnose(HandRig().model, data.trials, {}, TwoThreads());
   EXPECT_EQ(d.cause, "sensor_drift") << Explain(d);
   EXPECT_GE(d.confidence, 0.5) << Explain(d);
   for (const auto& c : d.candidates) {
-    if (c.label == "sensor_drift") EXPECT_TRUE(c.shape.empty()) << c.shape;
+    if (c.label == "sensor_drift") {
+      EXPECT_TRUE(c.shape.empty()) << c.shape;
+    }
   }
 }
 
@@ -250,10 +245,7 @@ TEST(DiagnoseForeign, ACandidateIsCreditedOnlyWithItsOwnPartOfTheGain) {
   // the gain came from the person's refit, and the candidate is neither accepted nor an
   // alternative (docs/diagnosis.md, "Extension and acceptance"). No candidate of a first round is
   // accepted without its own part.
-  foreign::DatasetSpec spec;
-  spec.person_seed = spec.seed = 6017;
-  spec.effects = {{"passive_stiffness_nonlinear", 1.0}};
-  const foreign::Dataset data = foreign::MakeDataset(spec);
+  const foreign::Dataset data = SuiteDataset(6017, "passive_stiffness_nonlinear");
   const DiagnoseSettings settings;
   const Diagnosis d = Diagnose(HandRig().model, data.trials, settings, TwoThreads());
   EXPECT_NE(d.cause, "unequal_muscle_dynamics") << Explain(d);
