@@ -56,6 +56,10 @@ def test_rates_count_a_shared_data_set_once(tmp_path):
     assert "| pair | 0/2 (0 %) | 0/2 | 1/2 |" in text
     assert "missed: 5 crosstalk" in text
     assert "NRMSE 1.50–2.00" in text and "within 1.5 × on 1/2" in text
+    assert "| mechanism | effect/noise < 2 | effect/noise 2–4 | effect/noise ≥ 4 |" in text
+    assert "| fatigue | — | 1/1 | — |" in text  # seed 1 counted once, from a.md
+    assert "| stiction | 0/1 | — | — |" in text
+    assert "| all | 0/2 | 1/1 | — |" in text
     assert "| [a.md](a.md) | `suite --per 1` | 6 | 6 |" in text
     assert "| [b.md](b.md) | `suite --per 2` | 3 | 2 |" in text
 
