@@ -14,7 +14,7 @@
 //                   [--mechanisms a,b,…] [--floor R] [--seed S] [--only SEED,…] [--threads N]
 //                   [--rhs simbody|chain] [--out FILE.md] [--json FILE.json] [--verbose 0|1|2]
 //                   [--reuse OLD.json [--rerun SEED,…]] [--data DIR] [--diagnose 0|1]
-//                   [--twin 0|1]
+//                   [--twin 0|1] [--protocols steps,grid,...] [--heldout N]
 //
 // --data: each data set's trials are also written as DIR/<seed>/trial<k>.csv (the last the
 // held-out one), so that `fesim diagnose DIR/<seed>/trial1.csv,… --scenario <rig>` diagnoses the
@@ -35,6 +35,14 @@
 // difference of the two calibrated models' held-out predictions, both over the noise σ. An effect
 // the calibration reproduces leaves ≈ 0 for any mechanism to explain; --json holds the twin's
 // whole diagnosis. Not with --reuse (the twin needs the planted run's predictions).
+//
+// --protocols (foreign suite): the trials of each data set, in order (steps, grid, multisine;
+// default steps,grid,steps); the last is held out. More trials give the calibration and the
+// candidate fits more training data on the same person (docs/diagnosis.md, Known limits "More
+// training data per person").
+//
+// --heldout N: the last N trials of each data set are held out (DiagnoseSettings::heldout_trials;
+// 1 ≤ N < the number of trials).
 //
 // --rhs: the fits' right-hand side (diagnosis::FitOptions::simbody_right_hand_side; chain, the
 // articulated-body one and the default, or simbody), to see which verdicts turn on round-off.
@@ -93,12 +101,14 @@ struct Options {
   std::set<std::uint64_t> only;
   std::vector<std::string> mechanisms;
   std::string out, json;
-  bool simbody_rhs = false;       // --rhs
-  std::string reuse;              // --reuse
-  std::set<std::uint64_t> rerun;  // --rerun
-  std::string data;               // --data
-  bool diagnose = true;           // --diagnose
-  bool twin = false;              // --twin
+  bool simbody_rhs = false;                                         // --rhs
+  std::string reuse;                                                // --reuse
+  std::set<std::uint64_t> rerun;                                    // --rerun
+  std::string data;                                                 // --data
+  bool diagnose = true;                                             // --diagnose
+  bool twin = false;                                                // --twin
+  std::vector<std::string> protocols = {"steps", "grid", "steps"};  // --protocols (foreign)
+  int heldout = 1;                                                  // --heldout
 };
 
 /// The clean twin of a planted data set (--twin) and what the calibration left of the effect.
@@ -252,9 +262,10 @@ void WriteTrials(const std::string& dir, const Case& c) {
 }
 
 /// A foreign data set of `seed` with `planted` at the floor (none: the clean person).
-fesim::foreign::Dataset ForeignData(std::uint64_t seed, const std::vector<std::string>& planted,
-                                    double floor) {
+fesim::foreign::Dataset ForeignData(const Options& o, std::uint64_t seed,
+                                    const std::vector<std::string>& planted, double floor) {
   fesim::foreign::DatasetSpec spec;
+  spec.protocols = o.protocols;
   spec.person_seed = seed;
   spec.seed = seed;
   spec.floor = floor;
@@ -264,7 +275,7 @@ fesim::foreign::Dataset ForeignData(std::uint64_t seed, const std::vector<std::s
 
 void MakeData(const Options& o, double floor, Case* c) {
   if (o.suite == "foreign") {
-    const fesim::foreign::Dataset d = ForeignData(c->seed, c->planted, floor);
+    const fesim::foreign::Dataset d = ForeignData(o, c->seed, c->planted, floor);
     c->trials = d.trials;
     c->truth = d.truth;
     c->noise_rad = d.noise_rms_rad;
@@ -309,6 +320,7 @@ dg::Diagnosis DiagnoseTrials(const Options& o, const Case& c,
   const fesim::Scenario rig = fesim::LoadScenario(SourcePath(c.rig));
   dg::DiagnoseSettings settings;
   settings.fit.simbody_right_hand_side = o.simbody_rhs;
+  settings.heldout_trials = o.heldout;
   dg::DiagnoseExecution exec;
   exec.threads = o.threads;
   const auto tc = std::chrono::steady_clock::now();
@@ -364,7 +376,7 @@ void HeldoutEffect(const Case& c, const std::vector<fesim::Trial>& twin_trials,
 
 /// --twin: diagnoses the case's clean twin and measures what the calibration left of the effect.
 void DiagnoseTwin(const Options& o, Case* c) {
-  const fesim::foreign::Dataset d = ForeignData(c->seed, {}, 0.0);
+  const fesim::foreign::Dataset d = ForeignData(o, c->seed, {}, 0.0);
   c->twin.result = DiagnoseTrials(o, *c, d.trials, &c->twin.wall_s);
   c->twin.run = true;
   HeldoutEffect(*c, d.trials, d.truth, &c->twin);
@@ -591,13 +603,14 @@ std::string ConfusionTable(const std::vector<Case>& cases) {
 }
 
 int Usage(const char* why) {
-  std::fprintf(stderr,
-               "diagnosis_suite: %s\nusage: diagnosis_suite --suite foreign|family [--per N] "
-               "[--clean N] [--outside N] [--pairs N] [--mechanisms a,b,...] [--floor R] "
-               "[--seed S] [--only SEED,...] [--threads N] [--rhs simbody|chain] [--out FILE.md] "
-               "[--json FILE.json] [--verbose 0|1|2] [--reuse OLD.json [--rerun SEED,...]] "
-               "[--data DIR] [--diagnose 0|1] [--twin 0|1]\n",
-               why);
+  std::fprintf(
+      stderr,
+      "diagnosis_suite: %s\nusage: diagnosis_suite --suite foreign|family [--per N] "
+      "[--clean N] [--outside N] [--pairs N] [--mechanisms a,b,...] [--floor R] "
+      "[--seed S] [--only SEED,...] [--threads N] [--rhs simbody|chain] [--out FILE.md] "
+      "[--json FILE.json] [--verbose 0|1|2] [--reuse OLD.json [--rerun SEED,...]] "
+      "[--data DIR] [--diagnose 0|1] [--twin 0|1] [--protocols steps,grid,...] [--heldout N]\n",
+      why);
   return 2;
 }
 
@@ -630,6 +643,10 @@ int main(int argc, char** argv) {
       o.seed = std::strtoull(v.c_str(), nullptr, 10);
     else if (k == "--mechanisms")
       o.mechanisms = Split(v);
+    else if (k == "--protocols")
+      o.protocols = Split(v);
+    else if (k == "--heldout")
+      o.heldout = std::atoi(v.c_str());
     else if (k == "--rhs" && (v == "simbody" || v == "chain"))
       o.simbody_rhs = v == "simbody";
     else if (k == "--rhs")
@@ -666,6 +683,18 @@ int main(int argc, char** argv) {
   }
   const double floor = std::isfinite(o.floor) ? o.floor : (o.suite == "foreign" ? 1.0 : 0.5);
   if (!o.rerun.empty() && o.reuse.empty()) return Usage("--rerun needs --reuse");
+  for (const std::string& p : o.protocols) {
+    if (p != "steps" && p != "grid" && p != "multisine") {
+      return Usage(("--protocols " + p + ": allowed steps, grid, multisine").c_str());
+    }
+  }
+  if (o.heldout < 1 ||
+      (o.suite == "foreign" && o.heldout >= static_cast<int>(o.protocols.size()))) {
+    return Usage("--heldout must be >= 1 and below the number of --protocols");
+  }
+  if (o.protocols.size() < 2 || (o.suite != "foreign" && o.protocols != Options().protocols)) {
+    return Usage("--protocols needs --suite foreign and at least two trials (the last held out)");
+  }
   if (!o.diagnose && o.data.empty()) return Usage("--diagnose 0 needs --data DIR");
   if (o.twin && (o.suite != "foreign" || !o.reuse.empty() || !o.diagnose)) {
     return Usage("--twin 1 needs --suite foreign, --diagnose 1 and no --reuse");

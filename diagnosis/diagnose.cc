@@ -33,6 +33,7 @@ void CheckSettings(const DiagnoseSettings& s, const DiagnoseExecution& e) {
   if (s.person.iterations < 1 || s.screen_iterations < 1 || s.refit_iterations < 1) {
     fail("iteration counts must be >= 1");
   }
+  if (s.heldout_trials < 1) fail("heldout_trials must be >= 1");
   if (e.threads < 1) throw std::invalid_argument("DiagnoseExecution: threads must be >= 1");
 }
 
@@ -155,6 +156,8 @@ std::string DiagnoseSettings::KeyText() const {
   // The articulated-body right-hand side and the LM stop rules enter as markers, so that caches
   // written before these choices existed (Simbody's right-hand side, the plain stop) keep their
   // keys.
+  // More than one held-out trial enters as a marker, so that caches of one keep their keys.
+  if (heldout_trials != 1) s += "heldout" + std::to_string(heldout_trials) + ",";
   return s + (fit.sensitivities ? "sens," : "fd,") + (fit.simbody_right_hand_side ? "" : "chain,") +
          (person.converged_stop ? "converged," : "") + (fit.hold_active_bounds ? "held," : "") +
          (fit.stop_needs_predicted_decrease ? "minpack," : "") + model;
@@ -167,7 +170,8 @@ Diagnosis Diagnose(const sim::ModelParams& rig, const std::vector<Trial>& measur
   Diagnosis d;
   d.model = settings.model;
   // split
-  const MeasuredData data = PrepareMeasured(rig, measured, settings.holdout_fraction);
+  const MeasuredData data =
+      PrepareMeasured(rig, measured, settings.holdout_fraction, settings.heldout_trials);
   d.split = data.split;
   d.notes = data.notes;
   d.heldout = data.heldout;

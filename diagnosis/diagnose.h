@@ -38,10 +38,12 @@ namespace fesim::diagnosis {
 /// What the diagnosis computes: every field changes results and enters the resume cache's key.
 struct DiagnoseSettings {
   double holdout_fraction = 0.3;  ///< one trial: held-out tail share, (0, 0.8].
-  int max_fitted = 3;             ///< candidates fitted per batch (and on top), ≥ 1.
-  int max_screened = 6;           ///< first round: candidates fitted at most, ≥ 1.
-  int max_accepted = 2;           ///< mechanisms accepted at most, ≥ 1.
-  double alpha = 0.01;            ///< family-wise false-alarm level over the candidates.
+  /// Several trials: how many of the last are held out whole, ≥ 1 and < the number of trials.
+  int heldout_trials = 1;
+  int max_fitted = 3;    ///< candidates fitted per batch (and on top), ≥ 1.
+  int max_screened = 6;  ///< first round: candidates fitted at most, ≥ 1.
+  int max_accepted = 2;  ///< mechanisms accepted at most, ≥ 1.
+  double alpha = 0.01;   ///< family-wise false-alarm level over the candidates.
   /// Smallest own part of a held-out NRMSE gain accepted (Judgement::own_gain), smallest gain of
   /// a structure outside the library, and of a cause named beside an about-equal alternative
   /// (verdict.h), dimensionless.

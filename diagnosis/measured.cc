@@ -138,7 +138,7 @@ Trial ResampleToUniform(const Trial& trial, const std::string& label) {
 }
 
 MeasuredData PrepareMeasured(const sim::ModelParams& rig, const std::vector<Trial>& measured,
-                             double holdout_fraction) {
+                             double holdout_fraction, int heldout_trials) {
   if (measured.empty()) throw std::runtime_error("diagnose: no measured trials");
   MeasuredData d;
   std::vector<Trial> trials;
@@ -160,7 +160,7 @@ MeasuredData PrepareMeasured(const sim::ModelParams& rig, const std::vector<Tria
     }
   }
   Validate(rig, trials, &d.outputs, &d.channels);
-  SplitTrials(trials, d.outputs, holdout_fraction, &d.train, &d.heldout, &d.split);
+  SplitTrials(trials, d.outputs, holdout_fraction, &d.train, &d.heldout, &d.split, heldout_trials);
   for (DataView* view : {&d.train, &d.heldout}) {
     view->initial_q.clear();
     for (const auto& tr : view->trials) view->initial_q.push_back(InitialPosture(tr, d.outputs));
@@ -189,7 +189,8 @@ std::vector<double> InitialPosture(const Trial& trial, const std::vector<std::st
 }
 
 void SplitTrials(const std::vector<Trial>& measured, const std::vector<std::string>& outputs,
-                 double holdout_fraction, DataView* train, DataView* heldout, std::string* how) {
+                 double holdout_fraction, DataView* train, DataView* heldout, std::string* how,
+                 int heldout_trials) {
   if (!(holdout_fraction > 0.0 && holdout_fraction <= 0.8)) {
     throw std::invalid_argument("holdout_fraction must be in (0, 0.8]");
   }
@@ -199,14 +200,23 @@ void SplitTrials(const std::vector<Trial>& measured, const std::vector<std::stri
   train->use.clear();
   heldout->use.clear();
   if (measured.size() >= 2) {
-    for (std::size_t t = 0; t + 1 < measured.size(); ++t) {
-      train->trials.push_back(measured[t]);
-      train->use.emplace_back(measured[t].size(), 1);
+    const auto n = static_cast<int>(measured.size());
+    if (heldout_trials < 1 || heldout_trials >= n) {
+      throw std::invalid_argument("heldout_trials " + std::to_string(heldout_trials) +
+                                  " must be in [1, " + std::to_string(n - 1) + "] for " +
+                                  std::to_string(n) + " trials");
     }
-    heldout->trials.push_back(measured.back());
-    heldout->use.emplace_back(measured.back().size(), 1);
-    *how = "trials 0-" + std::to_string(measured.size() - 2) + " train, trial " +
-           std::to_string(measured.size() - 1) + " (the last) held out whole";
+    const auto n_train = static_cast<std::size_t>(n - heldout_trials);
+    for (std::size_t t = 0; t < measured.size(); ++t) {
+      DataView* view = t < n_train ? train : heldout;
+      view->trials.push_back(measured[t]);
+      view->use.emplace_back(measured[t].size(), 1);
+    }
+    *how = "trials 0-" + std::to_string(n_train - 1) + " train, " +
+           (heldout_trials == 1
+                ? "trial " + std::to_string(n - 1) + " (the last) held out whole"
+                : "trials " + std::to_string(n_train) + "-" + std::to_string(n - 1) +
+                      " (the last " + std::to_string(heldout_trials) + ") held out whole");
     return;
   }
   const Trial& tr = measured[0];

@@ -56,11 +56,13 @@ Trial ResampleToUniform(const Trial& trial, const std::string& label);
 /// that differ across trials, no stimulated channel. Trials whose sampling is not uniform are
 /// resampled (ResampleToUniform; said in `notes`).
 MeasuredData PrepareMeasured(const sim::ModelParams& rig, const std::vector<Trial>& measured,
-                             double holdout_fraction);
+                             double holdout_fraction, int heldout_trials = 1);
 
-/// The split of step 1 (exposed for tests): several trials — the last is held out whole; one
+/// The split of step 1 (exposed for tests): several trials — the last `heldout_trials` are held
+/// out whole (std::invalid_argument unless 1 ≤ heldout_trials < the number of trials); one
 /// trial — the first (1 − holdout_fraction) of its time trains, the rest is held out.
 void SplitTrials(const std::vector<Trial>& measured, const std::vector<std::string>& outputs,
-                 double holdout_fraction, DataView* train, DataView* heldout, std::string* how);
+                 double holdout_fraction, DataView* train, DataView* heldout, std::string* how,
+                 int heldout_trials = 1);
 
 }  // namespace fesim::diagnosis

@@ -331,6 +331,12 @@ TEST(Diagnose, RejectsAnOutputThatIsNotFreeAndSplitsOneTrialInTime) {
   SplitTrials({t, t, t}, {"q.elbow_flexion"}, 0.3, &train, &held, &how);
   EXPECT_EQ(train.trials.size(), 2u);
   EXPECT_EQ(held.trials.size(), 1u);
+  SplitTrials({t, t, t, t}, {"q.elbow_flexion"}, 0.3, &train, &held, &how, 2);
+  EXPECT_EQ(train.trials.size(), 2u);
+  EXPECT_EQ(held.trials.size(), 2u);
+  EXPECT_EQ(how, "trials 0-1 train, trials 2-3 (the last 2) held out whole");
+  EXPECT_THROW(SplitTrials({t, t}, {"q.elbow_flexion"}, 0.3, &train, &held, &how, 2),
+               std::invalid_argument);
   DiagnoseSettings bad;
   bad.max_fitted = 0;
   EXPECT_THROW(Diagnose(HandRig().model, {t}, bad), std::invalid_argument);
