@@ -37,9 +37,9 @@
 // whole diagnosis. Not with --reuse (the twin needs the planted run's predictions).
 //
 // --protocols (foreign suite): the trials of each data set, in order (steps, grid, multisine;
-// default steps,grid,steps); the last is held out. More trials give the calibration and the
-// candidate fits more training data on the same person (docs/diagnosis.md, Known limits "More
-// training data per person").
+// default steps,grid,steps), the last --heldout of them held out; the first trials are the same
+// whatever follows them. Measures what more trials per person give (docs/diagnosis.md, Known
+// limits "Six trials per person instead of three").
 //
 // --heldout N: the last N trials of each data set are held out (DiagnoseSettings::heldout_trials;
 // 1 ≤ N < the number of trials).
