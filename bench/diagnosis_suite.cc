@@ -41,8 +41,8 @@
 // whatever follows them. Measures what more trials per person give (docs/diagnosis.md, Known
 // limits "Six trials per person instead of three").
 //
-// --heldout N: the last N trials of each data set are held out (DiagnoseSettings::heldout_trials;
-// 1 ≤ N < the number of trials).
+// --heldout N (foreign suite, not with --twin): the last N trials of each data set are held out
+// (DiagnoseSettings::heldout_trials; 1 ≤ N < the number of trials).
 //
 // --rhs: the fits' right-hand side (diagnosis::FitOptions::simbody_right_hand_side; chain, the
 // articulated-body one and the default, or simbody), to see which verdicts turn on round-off.
@@ -688,9 +688,11 @@ int main(int argc, char** argv) {
       return Usage(("--protocols " + p + ": allowed steps, grid, multisine").c_str());
     }
   }
-  if (o.heldout < 1 ||
-      (o.suite == "foreign" && o.heldout >= static_cast<int>(o.protocols.size()))) {
-    return Usage("--heldout must be >= 1 and below the number of --protocols");
+  if (o.heldout < 1 || (o.heldout > 1 && (o.suite != "foreign" || o.twin)) ||
+      o.heldout >= static_cast<int>(o.protocols.size())) {
+    return Usage(
+        "--heldout must be >= 1 and below the number of --protocols; above 1 only with --suite "
+        "foreign and without --twin (the twin measures the last trial alone)");
   }
   if (o.protocols.size() < 2 || (o.suite != "foreign" && o.protocols != Options().protocols)) {
     return Usage("--protocols needs --suite foreign and at least two trials (the last held out)");

@@ -153,10 +153,9 @@ std::string DiagnoseSettings::KeyText() const {
                       refit_iterations, fit.max_iterations}) {
     s += std::to_string(v) + ",";
   }
-  // The articulated-body right-hand side and the LM stop rules enter as markers, so that caches
-  // written before these choices existed (Simbody's right-hand side, the plain stop) keep their
-  // keys.
-  // More than one held-out trial enters as a marker, so that caches of one keep their keys.
+  // More than one held-out trial, the articulated-body right-hand side and the LM stop rules
+  // enter as markers, so that caches written before these choices existed (one held-out trial,
+  // Simbody's right-hand side, the plain stop) keep their keys.
   if (heldout_trials != 1) s += "heldout" + std::to_string(heldout_trials) + ",";
   return s + (fit.sensitivities ? "sens," : "fd,") + (fit.simbody_right_hand_side ? "" : "chain,") +
          (person.converged_stop ? "converged," : "") + (fit.hold_active_bounds ? "held," : "") +
