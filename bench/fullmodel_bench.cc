@@ -218,7 +218,7 @@ std::vector<std::vector<double>> Sensitivities(const SensitivityProblem& p, doub
   std::vector<std::vector<double>> out;
   const auto s = sim::IntegrateTrialSensitivities(
       limb, {sim::IntegratorParams::Method::kCvodes, tolerance}, p.schedule, p.times, p.perturbed,
-      &st, [&](const SimTK::State&, const std::vector<double>& dq) { out.push_back(dq); }, every);
+      &st, [&](double, const double*, const std::vector<double>& dq) { out.push_back(dq); }, every);
   if (stats) *stats = s;
   return out;
 }

@@ -288,6 +288,7 @@ struct SensitivityData {
     std::vector<tendons::MusclePath> paths;  // params->muscles[j].path
     double step;                             // θ_k change, its unit
     bool moves_torques;         // TorqueParametersMayDiffer from the model: τ is re-evaluated
+    bool moves_muscles;         // MuscleParametersMayDiffer (else only the passive part moves)
     bool moves_tremor;          // TremorParametersDiffer from the model: the tremor torque too
     std::vector<double> omega;  // Ω_j of params, rad/s
     std::vector<double> deactivation_ratio;  // of params' muscles
@@ -321,12 +322,13 @@ struct SensitivityData {
   // formation (nf × n, column-major): the slowly varying rigid-body part.
   std::vector<double> jac_rest;
   std::vector<double> f1, y1;  // scratch
+  bool any_body = false;       // some parameter has a `body` (BodyRhsDifference)
 };
 
-/// False only when `a` and `b` give the same MuscleAndPassiveTorques for every state: equal Hill
-/// parameters and paths of every muscle and equal passive parameters of every coordinate
-/// (compared bytewise, so −0 vs 0 counts as a difference: conservative).
-bool TorqueParametersMayDiffer(const ModelParams& a, const ModelParams& b) {
+/// False only when `a` and `b` give the same muscle torques R f of MuscleAndPassiveTorques for
+/// every state: equal Hill parameters and paths of every muscle (compared bytewise, so −0 vs 0
+/// counts as a difference: conservative).
+bool MuscleParametersMayDiffer(const ModelParams& a, const ModelParams& b) {
   static_assert(std::is_trivially_copyable_v<muscles::HillParams> &&
                     sizeof(muscles::HillParams) % sizeof(double) == 0,
                 "HillParams: doubles only (compared bytewise)");
@@ -354,6 +356,13 @@ bool TorqueParametersMayDiffer(const ModelParams& a, const ModelParams& b) {
       }
     }
   }
+  return false;
+}
+
+/// False only when `a` and `b` give the same MuscleAndPassiveTorques for every state: the muscles
+/// (MuscleParametersMayDiffer) and the passive parameters of every coordinate equal (bytewise).
+bool TorqueParametersMayDiffer(const ModelParams& a, const ModelParams& b) {
+  if (MuscleParametersMayDiffer(a, b)) return true;
   for (int c = 0; c < kNumCoordinates; ++c) {
     // NOLINTNEXTLINE(bugprone-suspicious-memory-comparison): bytewise on purpose, as above.
     if (std::memcmp(&a.coordinates[c].passive, &b.coordinates[c].passive,
@@ -457,15 +466,18 @@ void FormMassInverse(SensitivityData* d, const SimTK::State& s) {
   }
 }
 
-/// The torques of the model with θ_k moved (pk) at (t, q, q̇, a), where they may differ from the
-/// model's τ0: MuscleAndPassiveTorques re-evaluated when pk moves them, plus the change of the
-/// tremor torque (a known function of t, TremorTorque) when pk moves the tremor.
+/// The torques of the model with θ_k moved (pk) at (t, q, q̇, a) = `point`, where they may differ
+/// from the model's: MuscleAndPassiveTorques re-evaluated when pk moves them (only the passive
+/// part when pk leaves the muscles as they are), plus the change of the tremor torque (a known
+/// function of t, TremorTorque) when pk moves the tremor.
 std::vector<double> PerturbedTorques(const SensitivityData::Parameter& pk, const ModelParams& base,
                                      double t, const std::vector<double>& q,
                                      const std::vector<double>& qd, const std::vector<double>& a,
-                                     const std::vector<double>& tau0) {
-  std::vector<double> tau =
-      pk.moves_torques ? MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a) : tau0;
+                                     const TorquePoint& point) {
+  std::vector<double> tau = !pk.moves_torques ? point.torques()
+                            : !pk.moves_muscles
+                                ? point.WithPassiveOf(*pk.params)
+                                : MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a);
   if (pk.moves_tremor) {
     const TremorParams& tk = pk.params->mechanisms.tremor;
     const TremorParams& tb = base.mechanisms.tremor;
@@ -540,21 +552,31 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
     d->jac_age = -1;  // ∂f/∂y partly overwritten: form it again at the next point
     return 1;
   }
+  // q, q̇ and the activations at (t, y). With the articulated-body right-hand side they are read
+  // from the variables LoadVariables gathers — the values LoadState would write, bit for bit — and
+  // the state is loaded (positions realised) only where M_ff is formed; Simbody's right-hand side,
+  // and a parameter that differences a second system at the state (BodyRhsDifference), need the
+  // state loaded at every point.
+  const bool load_state = !c->fast || refresh || d->any_body;
   try {
-    // Positions realised only where M_ff is formed (with ∂f/∂y); q, q̇, a need Stage::Time.
-    LoadState(c, t, y, refresh ? SimTK::Stage::Position : SimTK::Stage::Time);
+    if (load_state) {
+      LoadState(c, t, y, refresh ? SimTK::Stage::Position : SimTK::Stage::Time);
+    } else {
+      LoadVariables(c, t, y);
+    }
   } catch (const std::exception&) {
     d->jac_age = -1;  // M_ff not formed
     return 1;
   }
   const SimTK::State& s = *c->state;
-  std::vector<double> q = c->model->GetQs(s);
-  std::vector<double> qd = c->model->GetUs(s);
+  const double* Y = load_state ? s.getY().getContiguousScalarData() : c->y_all.data();
+  std::vector<double> q = c->model->GetQs(s, Y);
+  std::vector<double> qd = c->model->GetUs(s, Y);
   std::vector<double> a(nm);
-  const SimTK::Vector& Y = s.getY();
   for (std::size_t j = 0; j < nm; ++j) a[j] = Y[c->activation_index + 2 * static_cast<int>(j)];
   const ModelParams& base = c->model->params();
-  const std::vector<double> tau0 = MuscleAndPassiveTorques(base, d->paths, q, qd, a);
+  const TorquePoint point(base, d->paths, q, qd, a);
+  const std::vector<double>& tau0 = point.torques();
   const std::vector<double> dtau_da = TorquePerActivation(base, d->paths, q, qd, a);
   if (refresh) FormMassInverse(d, s);
   const std::vector<double>& minv = d->mass_inv;
@@ -592,13 +614,9 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
     }
     std::fill(udot.begin(), udot.end(), 0.0);
     if (coord >= 0) {
-      double& x = is_q ? q[coord] : qd[coord];
-      const double x0 = x;
+      const double x0 = is_q ? q[coord] : qd[coord];
       const double h = 1e-7 * std::max(std::abs(y[i]), 1.0);
-      x = x0 + h;
-      const std::vector<double> tau_i = MuscleAndPassiveTorques(base, d->paths, q, qd, a);
-      x = x0;
-      solve_difference(tau_i, h);
+      solve_difference(point.WithCoordinate(coord, !is_q, x0 + h), h);
     }
     for (int f = 0; f < nf; ++f) {
       const std::size_t at = static_cast<std::size_t>(i) * nf + f;
@@ -634,7 +652,7 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
     if (pk.body) {  // the whole right-hand side differenced: torques and tremor included
       if (BodyRhsDifference(*d, pk, t, ydot, &udot) != 0) return 1;
     } else if (pk.moves_torques || pk.moves_tremor) {
-      solve_difference(PerturbedTorques(pk, base, t, q, qd, a, tau0), pk.step);
+      solve_difference(PerturbedTorques(pk, base, t, q, qd, a, point), pk.step);
     }
     // ∂a_j/∂θ_k at t (zero for muscles θ_k does not reach).
     for (std::size_t j = 0; j < nm; ++j) {
@@ -1085,6 +1103,7 @@ IntegrationStats IntegrateTrialSensitivities(
         {},
         pp.step,
         TorqueParametersMayDiffer(pp.params, base),
+        MuscleParametersMayDiffer(pp.params, base),
         TremorParametersDiffer(pp.params.mechanisms.tremor, base.mechanisms.tremor),
         {},
         {},
@@ -1103,6 +1122,7 @@ IntegrationStats IntegrateTrialSensitivities(
     if (BodyInertiaDiffers(pp.params, base)) {
       q.body = std::make_shared<const UpperLimbModel>(pp.params, model.build_options());
       q.body_state = std::make_shared<SimTK::State>(q.body->MakeInitialState());
+      d.any_body = true;
       if (q.body_state->getNY() != state->getNY()) {
         throw std::invalid_argument("sensitivities: perturbed model has another state layout");
       }
@@ -1132,10 +1152,13 @@ IntegrationStats IntegrateTrialSensitivities(
   const int np = static_cast<int>(parameters.size());
   if (np > 0) cv.EnableSensitivities(scales);
   std::vector<double> dq(static_cast<std::size_t>(kNumCoordinates) * np, 0.0);
+  // As RunCvodes with observe_variables: a report leaves the solution in CVODES' y (the state is
+  // loaded only at breakpoints, where the new interval starts from it, and at the end).
+  const bool in_y = !ctx.prescribe;
   Drive(
       model, schedule, report_times, state,
       [&](double t, double stop) {
-        cv.AdvanceTo(t, stop);
+        cv.AdvanceTo(t, stop, !in_y);
         for (int k = 0; k < np; ++k) {
           const double* sk = cv.Sensitivity(k);
           for (int c = 0; c < kNumCoordinates; ++c) {
@@ -1147,14 +1170,20 @@ IntegrationStats IntegrateTrialSensitivities(
         }
       },
       [&](double t) {
+        cv.SyncState();  // the breakpoint's activations start the new interval (BeginInterval)
         state->setTime(t);
         cv.Start(t);
       },
       [&] {
-        model.system().realize(*state, SimTK::Stage::Time);
-        observer(*state, dq);
+        if (cv.state_current()) {
+          observer(state->getTime(), state->getY().getContiguousScalarData(), dq);
+        } else {
+          LoadVariables(&ctx, cv.solution_time(), cv.Solution());
+          observer(cv.solution_time(), ctx.y_all.data(), dq);
+        }
       },
-      [&] { return state->getTime(); }, &stats);
+      [&] { return cv.state_current() ? state->getTime() : cv.solution_time(); }, &stats);
+  cv.SyncState();  // the state ends at the last solution
   cv.AddStats(&stats);
   stats.rhs_evaluations = ctx.rhs;
   return stats;

@@ -90,11 +90,12 @@ struct ParameterPerturbation {
   double scale = 1.0;  ///< typical |θ_k|, > 0; CVODES scales the sensitivity tolerances by it.
 };
 
-/// Called at each report time with the state (realised to Stage::Time) and the sensitivities
-/// dq[c · P + k] = ∂q_c/∂θ_k (rad per unit of θ_k) of every coordinate c (0 for locked and
-/// prescribed ones).
+/// Called at each report time with its time t (s), the whole Y as a VariablesObserver gets it
+/// (UpperLimbModel::GetQs(layout, y) reads it; the activations in closed form at t) and the
+/// sensitivities dq[c · P + k] = ∂q_c/∂θ_k (rad per unit of θ_k) of every coordinate c (0 for
+/// locked and prescribed ones).
 using SensitivityObserver =
-    std::function<void(const SimTK::State&, const std::vector<double>& dq_dtheta)>;
+    std::function<void(double t, const double* y, const std::vector<double>& dq_dtheta)>;
 
 /// IntegrateTrial (CVODES methods only) with forward sensitivities of the state to P parameters
 /// (`parameters`), integrated alongside it: ṡ_k = (∂f/∂y) s_k + ∂f/∂θ_k, s_k(0) = 0 (the initial

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <vector>
 
 namespace fesim::sim {
 namespace {
@@ -98,6 +99,109 @@ sunrealtype WrmsNorm(N_Vector x, N_Vector w) {
   return mean <= 0.0 ? 0.0 : std::sqrt(mean);
 }
 
+// The fused and vector-array operations, each the arithmetic of the generic fallback in
+// sundials_nvector.c that CVODES runs when a serial vector leaves them unset (the default of
+// N_VNew_Serial): N_VLinearCombination is N_VScale(c₀, X₀, z) followed by N_VLinearSum(cᵢ, Xᵢ, 1,
+// z, z) for i ≥ 1, i.e. per element z = ((c₀x₀ + c₁x₁) + c₂x₂) + …; the array forms apply the
+// single-vector operation to each member. With c = ±1 these products are exact, so the special
+// cases of LinearSum and Scale (x + y, y − x, −x) give the same bits as the products written out.
+// One loop over the elements instead of one call through the operation table per vector.
+
+/// z = Σ cᵢ Xᵢ in the fallback's order (X₀ may alias z; Xᵢ for i ≥ 1 may too, element-wise the
+/// same).
+void CombineInto(int nvec, const sunrealtype* c, N_Vector* X, double* zd, sunindextype n) {
+  const double* x0 = NV_DATA_S(X[0]);
+  for (sunindextype j = 0; j < n; ++j) zd[j] = c[0] * x0[j];
+  for (int i = 1; i < nvec; ++i) {
+    const double* xi = NV_DATA_S(X[i]);
+    const double ci = c[i];
+    for (sunindextype j = 0; j < n; ++j) zd[j] += ci * xi[j];
+  }
+}
+
+int LinearCombination(int nvec, sunrealtype* c, N_Vector* X, N_Vector z) {
+  if (nvec < 1) return -1;
+  CombineInto(nvec, c, X, NV_DATA_S(z), NV_LENGTH_S(z));
+  return 0;
+}
+
+/// Z[i] = a[i] x + Y[i] (the fallback: N_VLinearSum(a[i], x, 1, Y[i], Z[i])).
+int ScaleAddMulti(int nvec, sunrealtype* a, N_Vector x, N_Vector* Y, N_Vector* Z) {
+  if (nvec < 1) return -1;
+  const sunindextype n = NV_LENGTH_S(x);
+  const double* xd = NV_DATA_S(x);
+  for (int i = 0; i < nvec; ++i) {
+    const double* yd = NV_DATA_S(Y[i]);
+    double* zd = NV_DATA_S(Z[i]);
+    const double ai = a[i];
+    for (sunindextype j = 0; j < n; ++j) zd[j] = (ai * xd[j]) + yd[j];
+  }
+  return 0;
+}
+
+int LinearSumVectorArray(int nvec, sunrealtype a, N_Vector* X, sunrealtype b, N_Vector* Y,
+                         N_Vector* Z) {
+  if (nvec < 1) return -1;
+  for (int i = 0; i < nvec; ++i) LinearSum(a, X[i], b, Y[i], Z[i]);
+  return 0;
+}
+
+int ScaleVectorArray(int nvec, sunrealtype* c, N_Vector* X, N_Vector* Z) {
+  if (nvec < 1) return -1;
+  for (int i = 0; i < nvec; ++i) Scale(c[i], X[i], Z[i]);
+  return 0;
+}
+
+int ConstVectorArray(int nvec, sunrealtype c, N_Vector* Z) {
+  if (nvec < 1) return -1;
+  for (int i = 0; i < nvec; ++i) {
+    double* zd = NV_DATA_S(Z[i]);
+    for (sunindextype j = 0; j < NV_LENGTH_S(Z[i]); ++j) zd[j] = c;
+  }
+  return 0;
+}
+
+int WrmsNormVectorArray(int nvec, N_Vector* X, N_Vector* W, sunrealtype* norms) {
+  if (nvec < 1) return -1;
+  for (int i = 0; i < nvec; ++i) norms[i] = WrmsNorm(X[i], W[i]);
+  return 0;
+}
+
+/// Z[k][i] = a[k] X[i] + Y[k][i] (the fallback: N_VScaleAddMulti of each X[i]).
+int ScaleAddMultiVectorArray(int nvec, int nsum, sunrealtype* a, N_Vector* X, N_Vector** Y,
+                             N_Vector** Z) {
+  if (nvec < 1 || nsum < 1) return -1;
+  for (int i = 0; i < nvec; ++i) {
+    const sunindextype n = NV_LENGTH_S(X[i]);
+    const double* xd = NV_DATA_S(X[i]);
+    for (int k = 0; k < nsum; ++k) {
+      const double* yd = NV_DATA_S(Y[k][i]);
+      double* zd = NV_DATA_S(Z[k][i]);
+      const double ak = a[k];
+      for (sunindextype j = 0; j < n; ++j) zd[j] = (ak * xd[j]) + yd[j];
+    }
+  }
+  return 0;
+}
+
+/// Z[i] = Σₖ c[k] X[k][i] (the fallback: N_VLinearCombination of each member).
+int LinearCombinationVectorArray(int nvec, int nsum, sunrealtype* c, N_Vector** X, N_Vector* Z) {
+  if (nvec < 1 || nsum < 1) return -1;
+  constexpr int kStack = 16;
+  N_Vector stack[kStack];
+  std::vector<N_Vector> heap;
+  N_Vector* column = stack;
+  if (nsum > kStack) {
+    heap.resize(static_cast<std::size_t>(nsum));
+    column = heap.data();
+  }
+  for (int i = 0; i < nvec; ++i) {
+    for (int k = 0; k < nsum; ++k) column[k] = X[k][i];
+    CombineInto(nsum, c, column, NV_DATA_S(Z[i]), NV_LENGTH_S(Z[i]));
+  }
+  return 0;
+}
+
 }  // namespace
 
 void UseCompiledSerialOps(N_Vector v) {
@@ -108,6 +212,14 @@ void UseCompiledSerialOps(N_Vector v) {
   v->ops->nvscale = Scale;
   v->ops->nvwrmsnorm = WrmsNorm;
   v->ops->nvwsqrsumlocal = WSqrSumLocal;
+  v->ops->nvlinearcombination = LinearCombination;
+  v->ops->nvscaleaddmulti = ScaleAddMulti;
+  v->ops->nvlinearsumvectorarray = LinearSumVectorArray;
+  v->ops->nvscalevectorarray = ScaleVectorArray;
+  v->ops->nvconstvectorarray = ConstVectorArray;
+  v->ops->nvwrmsnormvectorarray = WrmsNormVectorArray;
+  v->ops->nvscaleaddmultivectorarray = ScaleAddMultiVectorArray;
+  v->ops->nvlinearcombinationvectorarray = LinearCombinationVectorArray;
 }
 
 }  // namespace fesim::sim

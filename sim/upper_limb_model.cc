@@ -557,6 +557,68 @@ std::vector<double> MuscleAndPassiveTorques(const ModelParams& params,
   return tau;
 }
 
+TorquePoint::TorquePoint(const ModelParams& params, const std::vector<tendons::MusclePath>& paths,
+                         const std::vector<double>& q, const std::vector<double>& qd,
+                         const std::vector<double>& a)
+    : params_(params), paths_(paths), q_(q), qd_(qd), a_(a) {
+  // MuscleAndPassiveTorques' steps, through the arm-based overloads (the same bits).
+  tendons::CrossingMomentArms(paths, q, &arms_);
+  const std::size_t nm = params.muscles.size();
+  first_.resize(nm);
+  lengths_.resize(nm);
+  forces_.resize(nm);
+  std::size_t k = 0;
+  for (std::size_t j = 0; j < nm; ++j) {
+    first_[j] = k;
+    k += paths[j].crossings.size();
+    lengths_[j] = tendons::MusculotendonLength(paths[j], q);
+    forces_[j] = MuscleTendonForceAt(
+                     params.muscles[j], lengths_[j],
+                     tendons::MusculotendonVelocity(paths[j], &arms_[first_[j]], qd), a[j], 1.0)
+                     .force_n;
+  }
+  tendons::JointTorques(paths, arms_, forces_, kNumCoordinates, &muscle_tau_);
+  tau_ = WithPassiveOf(params);
+}
+
+std::vector<double> TorquePoint::WithPassiveOf(const ModelParams& other) const {
+  std::vector<double> tau = muscle_tau_;
+  for (int i = 0; i < kNumCoordinates; ++i) {
+    tau[i] += PassiveJointTorque(other.coordinates[i].passive, q_[i], qd_[i]);
+  }
+  return tau;
+}
+
+std::vector<double> TorquePoint::WithCoordinate(int coordinate, bool speed, double value) const {
+  std::vector<double> q = q_, qd = qd_;
+  (speed ? qd : q)[coordinate] = value;
+  std::vector<double> arms = arms_, forces = forces_;
+  for (std::size_t j = 0; j < paths_.size(); ++j) {
+    const auto& crossings = paths_[j].crossings;
+    bool crosses = false;
+    for (std::size_t i = 0; i < crossings.size(); ++i) {
+      if (crossings[i].joint != coordinate) continue;
+      crosses = true;
+      if (!speed) {
+        const auto& c = crossings[i];
+        arms[first_[j] + i] = tendons::MomentArm(c.arm, q[c.joint] - c.q_ref_rad);
+      }
+    }
+    if (!crosses) continue;
+    const double length = speed ? lengths_[j] : tendons::MusculotendonLength(paths_[j], q);
+    forces[j] = MuscleTendonForceAt(params_.muscles[j], length,
+                                    tendons::MusculotendonVelocity(paths_[j], &arms[first_[j]], qd),
+                                    a_[j], 1.0)
+                    .force_n;
+  }
+  std::vector<double> tau;
+  tendons::JointTorques(paths_, arms, forces, kNumCoordinates, &tau);
+  for (int i = 0; i < kNumCoordinates; ++i) {
+    tau[i] += PassiveJointTorque(params_.coordinates[i].passive, q[i], qd[i]);
+  }
+  return tau;
+}
+
 std::vector<double> TorquePerActivation(const ModelParams& params,
                                         const std::vector<tendons::MusclePath>& paths,
                                         const std::vector<double>& q, const std::vector<double>& qd,

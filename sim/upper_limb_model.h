@@ -65,6 +65,41 @@ std::vector<double> TorquePerActivation(const ModelParams& params,
                                         const std::vector<double>& q, const std::vector<double>& qd,
                                         const std::vector<double>& a);
 
+/// MuscleAndPassiveTorques at one (q, q̇, a) with its parts kept, for difference quotients that
+/// move one coordinate's q or q̇, or only passive joint parameters (the forward sensitivities'
+/// ∂τ/∂y and ∂τ/∂θ, sim/integrator.cc): each such evaluation recomputes only what the change
+/// reaches and gives MuscleAndPassiveTorques' values bit for bit
+/// (UpperLimbModel.TorquePointGivesMuscleAndPassiveTorquesBits).
+class TorquePoint {
+ public:
+  /// `params`, `paths`, `q`, `qd` and `a` as for MuscleAndPassiveTorques; all are referenced, not
+  /// copied, and must outlive the point.
+  TorquePoint(const ModelParams& params, const std::vector<tendons::MusclePath>& paths,
+              const std::vector<double>& q, const std::vector<double>& qd,
+              const std::vector<double>& a);
+  /// MuscleAndPassiveTorques(params, paths, q, qd, a).
+  const std::vector<double>& torques() const { return tau_; }
+  /// The same with q[coordinate] (speed: qd[coordinate]) set to `value`: the muscles that cross
+  /// the coordinate are evaluated again, the others' forces (same lengths and velocities) kept.
+  std::vector<double> WithCoordinate(int coordinate, bool speed, double value) const;
+  /// MuscleAndPassiveTorques(other, paths, q, qd, a) for `other` with the same muscles as
+  /// `params` (only passive joint parameters may differ): the muscles' torques kept.
+  std::vector<double> WithPassiveOf(const ModelParams& other) const;
+
+ private:
+  const ModelParams& params_;
+  const std::vector<tendons::MusclePath>& paths_;
+  const std::vector<double>& q_;
+  const std::vector<double>& qd_;
+  const std::vector<double>& a_;
+  std::vector<double> arms_;        // CrossingMomentArms(paths, q)
+  std::vector<std::size_t> first_;  // index in arms_ of each path's first crossing
+  std::vector<double> lengths_;     // l_MT of each muscle, m
+  std::vector<double> forces_;      // tendon force of each muscle, N
+  std::vector<double> muscle_tau_;  // R f, N·m
+  std::vector<double> tau_;         // R f + passive
+};
+
 struct CoordinateSlots;  // where each coordinate's q and u sit in the state (upper_limb_model.cc)
 
 /// Scratch of UpperLimbModel::CalcYDot, one per thread; reused between calls, so that a

@@ -348,7 +348,7 @@ std::vector<std::vector<double>> PlanSensitivities(
   std::vector<std::vector<double>> out;
   out.reserve(plan.times.size());
   sim::IntegrateTrialSensitivities(limb, integrator, delayed, plan.times, perturbed, &state,
-                                   [&](const SimTK::State&, const std::vector<double>& dq) {
+                                   [&](double, const double*, const std::vector<double>& dq) {
                                      std::vector<double> row(plan.coords.size() * p);
                                      for (std::size_t j = 0; j < plan.coords.size(); ++j) {
                                        std::copy_n(dq.begin() + plan.coords[j] * p, p,
@@ -685,9 +685,10 @@ SimulationSensitivities SimulateLikeSensitivities(
   out.dq_dtheta.assign(nq, Eigen::MatrixXd(plan.times.size(), p));
   Eigen::Index row = 0;
   sim::IntegrateTrialSensitivities(limb, integrator, delayed, plan.times, perturbed, &state,
-                                   [&](const SimTK::State& s, const std::vector<double>& dq) {
+                                   [&](double, const double* y, const std::vector<double>& dq) {
+                                     const std::vector<double> qs = limb.GetQs(state, y);
                                      for (std::size_t j = 0; j < nq; ++j) {
-                                       q[j].push_back(limb.GetQ(s, plan.coords[j]));
+                                       q[j].push_back(qs[plan.coords[j]]);
                                        for (std::size_t k = 0; k < p; ++k) {
                                          out.dq_dtheta[j](row, static_cast<Eigen::Index>(k)) =
                                              dq[plan.coords[j] * p + k];

@@ -260,8 +260,8 @@ TEST(Integrator, WeldedLockedCoordinatesIntegrateTheSameTrajectoryAndSensitiviti
     SimTK::State s = model.MakeInitialState();
     stats[w] = IntegrateTrialSensitivities(
         model, integrator, stim, times, {k_wrist, mass_hand}, &s,
-        [&](const SimTK::State& x, const std::vector<double>& dq) {
-          q[w].push_back(model.GetQs(x));
+        [&](double, const double* y, const std::vector<double>& dq) {
+          q[w].push_back(model.GetQs(s, y));
           sens[w].push_back(dq);
         },
         1);  // ∂f/∂y at every step: no reuse error that
@@ -360,11 +360,11 @@ TEST(Integrator, ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) 
   SimTK::State s = model.MakeInitialState();
   const IntegrationStats stats = IntegrateTrialSensitivities(
       model, integrator, stim, times, perturbed, &s,
-      [&](const SimTK::State&, const std::vector<double>& dq) { sens.push_back(dq); }, 1);
+      [&](double, const double*, const std::vector<double>& dq) { sens.push_back(dq); }, 1);
   SimTK::State s4 = model.MakeInitialState();
   const IntegrationStats stats4 = IntegrateTrialSensitivities(
       model, integrator, stim, times, perturbed, &s4,
-      [&](const SimTK::State&, const std::vector<double>& dq) { sens4.push_back(dq); });
+      [&](double, const double*, const std::vector<double>& dq) { sens4.push_back(dq); });
   ASSERT_EQ(sens.size(), times.size());
   ASSERT_EQ(sens4.size(), times.size());
   const auto simulate = [&](const ModelParams& m) {
@@ -419,14 +419,15 @@ TEST(Integrator, SensitivitiesRejectStatesTheyCannotDifferentiate) {
   const UpperLimbModel model(p);
   SimTK::State s = model.MakeInitialState();
   StimulationSchedule stim;
-  EXPECT_THROW(IntegrateTrialSensitivities(model, {}, stim, {0.0, 0.1}, {}, &s,
-                                           [](const SimTK::State&, const std::vector<double>&) {}),
-               std::invalid_argument);
+  EXPECT_THROW(
+      IntegrateTrialSensitivities(model, {}, stim, {0.0, 0.1}, {}, &s,
+                                  [](double, const double*, const std::vector<double>&) {}),
+      std::invalid_argument);
   const UpperLimbModel plain(DefaultModelParams());
   SimTK::State s2 = plain.MakeInitialState();
   EXPECT_THROW(IntegrateTrialSensitivities(
                    plain, {IntegratorParams::Method::kSimbodyRkMerson, 1e-6}, stim, {0.0, 0.1}, {},
-                   &s2, [](const SimTK::State&, const std::vector<double>&) {}),
+                   &s2, [](double, const double*, const std::vector<double>&) {}),
                std::invalid_argument);
 }
 

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <nvector/nvector_serial.h>
 
+#include <algorithm>
 #include <cstring>
 #include <vector>
 
@@ -66,6 +67,105 @@ TEST(SerialVector, SameBitsAsSundials) {
   N_VConst(0.0, ours[0]);
   EXPECT_EQ(N_VWrmsNorm(ours[0], ours[1]), 0.0);
   for (int k = 0; k < 3; ++k) {
+    N_VDestroy(ours[k]);
+    N_VDestroy(theirs[k]);
+  }
+  SUNContext_Free(&ctx);
+}
+
+TEST(SerialVector, FusedAndArrayOperationsGiveTheFallbacksBits) {
+  // The fused and vector-array operations against SUNDIALS' generic fallbacks (what CVODES runs on
+  // a serial vector whose table leaves them unset: loops of N_VScale and N_VLinearSum), bit for
+  // bit: coefficients ±1, 0 and others, the result aliasing the first vector or not.
+  SUNContext ctx = nullptr;
+  ASSERT_EQ(SUNContext_Create(nullptr, &ctx), 0);
+  constexpr int kVectors = 5;
+  const sunindextype n = 11;
+  std::vector<N_Vector> ours, theirs;
+  for (int k = 0; k < 2 * kVectors; ++k) {
+    ours.push_back(N_VNew_Serial(n, ctx));
+    theirs.push_back(N_VNew_Serial(n, ctx));
+    UseCompiledSerialOps(ours.back());
+  }
+  ASSERT_EQ(theirs[0]->ops->nvlinearcombination, nullptr);  // the fallback is what CVODES ran
+  ASSERT_NE(ours[0]->ops->nvlinearcombination, nullptr);
+  const auto reset = [&] {
+    for (int k = 0; k < 2 * kVectors; ++k) {
+      Fill(ours[k], 0.29 * k);
+      Fill(theirs[k], 0.29 * k);
+    }
+  };
+  const auto same = [&](int from, int count) {
+    for (int k = from; k < from + count; ++k) {
+      if (!SameBits(ours[k], theirs[k])) return false;
+    }
+    return true;
+  };
+  std::vector<double> c = {1.0, -0.3, -1.0, 0.7, 0.0};
+  for (double c0 : {1.0, -1.0, 0.45}) {
+    c[0] = c0;
+    for (int nvec : {1, 2, 3, kVectors}) {
+      for (bool alias : {false, true}) {  // z = X[0] or a vector outside X
+        reset();
+        N_Vector* xo = ours.data();
+        N_Vector* xt = theirs.data();
+        N_Vector zo = alias ? ours[0] : ours[kVectors];
+        N_Vector zt = alias ? theirs[0] : theirs[kVectors];
+        ASSERT_EQ(N_VLinearCombination(nvec, c.data(), xo, zo), 0);
+        ASSERT_EQ(N_VLinearCombination(nvec, c.data(), xt, zt), 0);
+        EXPECT_TRUE(same(0, 2 * kVectors)) << "c0 " << c0 << " nvec " << nvec << " " << alias;
+      }
+      reset();  // Z[i] = c[i] x + Y[i], in place (Z = Y) and not
+      N_VScaleAddMulti(nvec, c.data(), ours[0], ours.data() + 1, ours.data() + 1);
+      N_VScaleAddMulti(nvec, c.data(), theirs[0], theirs.data() + 1, theirs.data() + 1);
+      EXPECT_TRUE(same(0, 2 * kVectors)) << "ScaleAddMulti in place, nvec " << nvec;
+      reset();
+      N_VScaleAddMulti(nvec, c.data(), ours[0], ours.data(), ours.data() + kVectors);
+      N_VScaleAddMulti(nvec, c.data(), theirs[0], theirs.data(), theirs.data() + kVectors);
+      EXPECT_TRUE(same(0, 2 * kVectors)) << "ScaleAddMulti, nvec " << nvec;
+      reset();
+      N_VLinearSumVectorArray(nvec, c0, ours.data(), -0.3, ours.data() + kVectors, ours.data());
+      N_VLinearSumVectorArray(nvec, c0, theirs.data(), -0.3, theirs.data() + kVectors,
+                              theirs.data());
+      EXPECT_TRUE(same(0, 2 * kVectors)) << "LinearSumVectorArray, nvec " << nvec;
+      reset();
+      N_VScaleVectorArray(nvec, c.data(), ours.data(), ours.data() + kVectors);
+      N_VScaleVectorArray(nvec, c.data(), theirs.data(), theirs.data() + kVectors);
+      EXPECT_TRUE(same(0, 2 * kVectors)) << "ScaleVectorArray, nvec " << nvec;
+      reset();
+      N_VConstVectorArray(nvec, c0, ours.data());
+      N_VConstVectorArray(nvec, c0, theirs.data());
+      EXPECT_TRUE(same(0, 2 * kVectors)) << "ConstVectorArray, nvec " << nvec;
+      reset();
+      std::vector<double> norm_o(nvec), norm_t(nvec);
+      N_VWrmsNormVectorArray(nvec, ours.data(), ours.data() + kVectors, norm_o.data());
+      N_VWrmsNormVectorArray(nvec, theirs.data(), theirs.data() + kVectors, norm_t.data());
+      EXPECT_EQ(std::memcmp(norm_o.data(), norm_t.data(), nvec * sizeof(double)), 0);
+      // Two sums of arrays of two vectors: X[k] = {v[2k], v[2k+1]}, Y, Z likewise.
+      for (bool in_place : {false, true}) {
+        reset();
+        N_Vector* yo[2] = {ours.data() + 4, ours.data() + 6};
+        N_Vector* yt[2] = {theirs.data() + 4, theirs.data() + 6};
+        N_Vector* zo[2] = {ours.data() + 6, ours.data() + 8};
+        N_Vector* zt[2] = {theirs.data() + 6, theirs.data() + 8};
+        N_VScaleAddMultiVectorArray(2, 2, c.data(), ours.data(), yo, in_place ? yo : zo);
+        N_VScaleAddMultiVectorArray(2, 2, c.data(), theirs.data(), yt, in_place ? yt : zt);
+        EXPECT_TRUE(same(0, 2 * kVectors)) << "ScaleAddMultiVectorArray " << in_place;
+      }
+      const int nsum = std::min(nvec, 4);
+      for (bool alias : {false, true}) {
+        reset();
+        N_Vector* xo[4] = {ours.data(), ours.data() + 2, ours.data() + 4, ours.data() + 6};
+        N_Vector* xt[4] = {theirs.data(), theirs.data() + 2, theirs.data() + 4, theirs.data() + 6};
+        N_Vector* zo = alias ? ours.data() : ours.data() + 8;
+        N_Vector* zt = alias ? theirs.data() : theirs.data() + 8;
+        N_VLinearCombinationVectorArray(2, nsum, c.data(), xo, zo);
+        N_VLinearCombinationVectorArray(2, nsum, c.data(), xt, zt);
+        EXPECT_TRUE(same(0, 2 * kVectors)) << "LinearCombinationVectorArray " << nsum << alias;
+      }
+    }
+  }
+  for (int k = 0; k < 2 * kVectors; ++k) {
     N_VDestroy(ours[k]);
     N_VDestroy(theirs[k]);
   }

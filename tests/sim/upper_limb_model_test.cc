@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 
 #include "sim/chain_dynamics.h"
 #include "sim/default_model.h"
@@ -416,6 +417,44 @@ TEST(UpperLimbModel, RightHandSideAtTheSamePositionsReusesThemBitwise) {
   const std::vector<double> light = fresh(model, other_q);
   for (int k = s.getNQ(); k < s.getNQ() + s.getNU(); ++k) differs = differs || ydot[k] != light[k];
   EXPECT_TRUE(differs) << "the heavier hand changes the accelerations";
+}
+
+TEST(UpperLimbModel, TorquePointGivesMuscleAndPassiveTorquesBits) {
+  // Every coordinate's q and q̇ moved in turn, and a person with other passive joints: the kept
+  // parts give MuscleAndPassiveTorques' values bit for bit, and the moves change the torques.
+  const ModelParams p = DefaultModelParams();
+  std::vector<tendons::MusclePath> paths;
+  for (const auto& m : p.muscles) paths.push_back(m.path);
+  std::vector<double> q(kNumCoordinates), qd(kNumCoordinates), a(p.muscles.size());
+  for (int c = 0; c < kNumCoordinates; ++c) {
+    q[c] = p.coordinates[c].initial_rad + 0.2 * std::sin(1.3 * c + 0.4);
+    qd[c] = 0.7 * std::cos(0.9 * c);
+  }
+  for (std::size_t j = 0; j < a.size(); ++j) a[j] = 0.1 + 0.05 * static_cast<double>(j);
+  const TorquePoint point(p, paths, q, qd, a);
+  const auto same = [](const std::vector<double>& x, const std::vector<double>& y) {
+    return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0;
+  };
+  EXPECT_TRUE(same(point.torques(), MuscleAndPassiveTorques(p, paths, q, qd, a)));
+  for (int c = 0; c < kNumCoordinates; ++c) {
+    for (bool speed : {false, true}) {
+      std::vector<double> q1 = q, qd1 = qd;
+      const double value = (speed ? qd : q)[c] + 1e-3;
+      (speed ? qd1 : q1)[c] = value;
+      const std::vector<double> moved = point.WithCoordinate(c, speed, value);
+      EXPECT_TRUE(same(moved, MuscleAndPassiveTorques(p, paths, q1, qd1, a)))
+          << "coordinate " << c << (speed ? " speed" : " angle");
+      EXPECT_FALSE(same(moved, point.torques())) << "coordinate " << c;
+    }
+  }
+  ModelParams stiffer = p;
+  for (auto& coordinate : stiffer.coordinates) {
+    coordinate.passive.stiffness_nm_per_rad *= 1.7;
+    coordinate.passive.damping_nms_per_rad += 0.01;
+  }
+  const std::vector<double> passive = point.WithPassiveOf(stiffer);
+  EXPECT_TRUE(same(passive, MuscleAndPassiveTorques(stiffer, paths, q, qd, a)));
+  EXPECT_FALSE(same(passive, point.torques()));
 }
 
 TEST(UpperLimbModel, StimulationIsClippedToPulseWidthLimits) {
