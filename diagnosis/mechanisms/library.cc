@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "sim/upper_limb_model.h"
+
 namespace fesim::diagnosis {
 
 ModelParameter Param(const std::string& name, const std::string& unit, double start, double lower,
@@ -78,6 +80,20 @@ std::vector<double> RestPosture(const sim::ModelParams& m) {
 
 double JointTorqueScale(const sim::ModelParams& rig, int coordinate) {
   return std::max(rig.coordinates[coordinate].passive.stiffness_nm_per_rad, 0.05);
+}
+
+double PeriodicTorqueScale(const sim::ModelParams& rig, int coordinate, double f_hz) {
+  const sim::UpperLimbModel model(rig);
+  SimTK::State state = model.MakeInitialState();
+  const int u = model.UIndex(coordinate);
+  if (u < 0) throw std::invalid_argument("PeriodicTorqueScale: coordinate without a mobility");
+  SimTK::Matrix mass;
+  model.matter().calcM(state, mass);
+  constexpr double kTwoPi = 6.283185307179586;
+  const double omega = kTwoPi * f_hz;
+  const auto& passive = rig.coordinates[coordinate].passive;
+  return JointTorqueScale(rig, coordinate) + mass(u, u) * omega * omega +
+         passive.damping_nms_per_rad * omega;
 }
 
 double ForearmWeightN(const sim::ModelParams& rig) {

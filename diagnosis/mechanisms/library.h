@@ -48,6 +48,13 @@ std::vector<double> RestPosture(const sim::ModelParams& m);
 /// Nominal torque scale of a joint, T_j = max(k_j, 0.05) · 1 rad, N·m.
 double JointTorqueScale(const sim::ModelParams& rig, int coordinate);
 
+/// Torque scale of a joint for a periodic torque at f_hz (a tremor): the magnitudes of the nominal
+/// joint's stiffness, inertia and damping terms at ω = 2π f, (k + I ω² + b ω) · 1 rad, N·m —
+/// at least |k − I ω² + i b ω|, the torque that moves the joint by 1 rad at f (I: the mass
+/// matrix's diagonal entry of the coordinate at the rig's initial posture, everything distal to
+/// the joint moving with it). Above a few hertz the inertia dominates (wrist, 6 Hz: I ω² ≈ 5 k).
+double PeriodicTorqueScale(const sim::ModelParams& rig, int coordinate, double f_hz);
+
 /// Weight of the forearm segment m_forearm · |g|, N (the arm_support force scale).
 double ForearmWeightN(const sim::ModelParams& rig);
 

@@ -13,8 +13,13 @@ constexpr double kHalfPi = 1.5707963267948966;
 Candidate TremorAt(const sim::ModelParams& rig, int j, double f0) {
   Candidate c;
   c.joint = sim::CoordinateNames()[j];
+  // The amplitude's plausible range ends at the torque that moves the joint by about 1 rad at
+  // the tremor's frequency (PeriodicTorqueScale: inertia, stiffness and damping), not at the
+  // static stiffness alone, which a strong tremor's fit reaches (docs/diagnosis.md, Candidates);
+  // the probes and the fit's scale stay on the static torque scale tj.
   const double tj = JointTorqueScale(rig, j);
-  c.params.push_back(Sensed(Param("tremor.amplitude_nm", "N*m", 0.0, 0.0, tj, 0.05 * tj,
+  const double upper = PeriodicTorqueScale(rig, j, f0);
+  c.params.push_back(Sensed(Param("tremor.amplitude_nm", "N*m", 0.0, 0.0, upper, 0.05 * tj,
                                   [j](double v, sim::ModelParams* p) {
                                     p->mechanisms.tremor.enabled = v > 0.0;
                                     p->mechanisms.tremor.coordinate = j;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <random>
 #include <set>
+#include <string>
 #include <utility>
 
 #include "diagnosis/mechanisms/library.h"
@@ -11,8 +12,10 @@
 #include "identification/fullmodel/full_model_fit.h"
 #include "scenarios/scenario.h"
 #include "sim/default_model.h"
+#include "sim/integrator.h"
 #include "sim/mechanisms.h"
 #include "sim/passive_joint.h"
+#include "sim/upper_limb_model.h"
 
 namespace fesim::diagnosis {
 namespace {
@@ -136,6 +139,44 @@ TEST(Mechanisms, StictionExcessIsAddedToTheCoulombLevelAndJointTorquesScaleWithS
   }
   EXPECT_DOUBLE_EQ(JointTorqueScale(rig, sim::kWristFlexion),
                    rig.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad);
+}
+
+TEST(Mechanisms, ATremorAtItsAmplitudeBoundMovesTheJointByARadianOrMore) {
+  // The tremor candidate's amplitude range ends at PeriodicTorqueScale: on the nominal hand rig a
+  // 6 Hz torque of that amplitude moves its joint by 1–2 rad (no tremor does), where the static
+  // torque scale k · 1 rad (the range's end before) moves the wrist by about half a radian:
+  // at 6 Hz the hand's inertia, not the stiffness, sets the torque a tremor needs.
+  const sim::ModelParams rig = identification::fullmodel::DefaultHandRig();
+  const double f = 6.0;
+  for (int j : {sim::kWristFlexion, sim::kMcpFlexion, sim::kPipFlexion}) {
+    const auto amplitude = [&](double torque_nm) {  // half the peak-to-peak angle after 2 s, rad
+      sim::ModelParams m = rig;
+      m.mechanisms.tremor.enabled = true;
+      m.mechanisms.tremor.coordinate = j;
+      m.mechanisms.tremor.amplitude_nm = torque_nm;
+      m.mechanisms.tremor.frequency_hz = f;
+      const sim::UpperLimbModel model(m);
+      SimTK::State s = model.MakeInitialState();
+      std::vector<double> times;
+      for (int i = 0; i <= 3000; ++i) times.push_back(i * 1e-3);
+      double lo = 1e9, hi = -1e9;
+      sim::IntegrateTrial(model, {sim::IntegratorParams::Method::kCvodes, 1e-8}, {}, times, &s,
+                          [&](const SimTK::State& x) {
+                            if (x.getTime() < 2.0) return;
+                            lo = std::min(lo, model.GetQ(x, j));
+                            hi = std::max(hi, model.GetQ(x, j));
+                          });
+      return 0.5 * (hi - lo);
+    };
+    const double bound = PeriodicTorqueScale(rig, j, f);
+    const double at_bound = amplitude(bound);
+    const double at_static = amplitude(JointTorqueScale(rig, j));
+    const std::string name = sim::CoordinateNames()[j];
+    EXPECT_GE(at_bound, 1.0) << name;
+    EXPECT_LE(at_bound, 2.0) << name;
+    EXPECT_LT(at_static, 0.8) << name;
+    EXPECT_DOUBLE_EQ(PeriodicTorqueScale(rig, j, 0.0), JointTorqueScale(rig, j)) << name;
+  }
 }
 
 TEST(Mechanisms, PassiveAsymmetryControlStiffensOneSideOfRestByTheCalibratedStiffness) {
