@@ -136,10 +136,13 @@ struct Case {
   std::string protocol;       // family suite: steps / grid
   double effect_ratio = 0.0;  // effect RMS / noise RMS
   std::vector<fesim::Trial> trials;
-  std::vector<fesim::Trial> truth;             // foreign suite: noiseless reads
-  double noise_rad = NAN;                      // foreign suite: noise σ, rad
-  std::string rig;                             // scenario file of the rig
-  std::vector<dg::NamedValue> planted_values;  // family suite
+  std::vector<fesim::Trial> truth;  // foreign suite: noiseless reads
+  double noise_rad = NAN;           // foreign suite: noise σ, rad
+  std::string rig;                  // scenario file of the rig
+  /// What was planted: the family suite's mechanism parameters; the foreign suite's effect
+  /// scales s as raised to the floor (`<id>.scale`; foreign/effects.cc gives each effect's
+  /// parameters per unit of s).
+  std::vector<dg::NamedValue> planted_values;
   std::string planted_joint;  // single: the joint a joint-local effect acts at, else empty
   dg::Diagnosis result;
   double wall_s = 0.0;
@@ -280,6 +283,8 @@ void MakeData(const Options& o, double floor, Case* c) {
     c->truth = d.truth;
     c->noise_rad = d.noise_rms_rad;
     c->effect_ratio = d.effect_rms_rad / d.noise_rms_rad;
+    c->planted_values.clear();
+    for (const auto& e : d.effects) c->planted_values.push_back({e.id + ".scale", "1", e.scale});
     c->rig = "scenarios/hand_rig.yaml";
     if (c->kind == "single") {
       const int j = fesim::foreign::MakeEffect({c->planted[0], 1.0}, {})->JointIndex();
@@ -432,6 +437,13 @@ fesim::Json CaseJson(const Case& c) {
   for (const auto& p : c.planted) planted.Push(p);
   j.Set("planted", planted).Set("protocol", c.protocol).Set("effect_ratio", c.effect_ratio);
   if (!c.planted_joint.empty()) j.Set("planted_joint", c.planted_joint);
+  fesim::Json values = fesim::Json::Array();
+  for (const auto& v : c.planted_values) {
+    fesim::Json e = fesim::Json::Object();
+    e.Set("name", v.name).Set("unit", v.unit).Set("value", v.value);
+    values.Push(e);
+  }
+  j.Set("planted_values", values);
   j.Set("right", Right(c)).Set("wall_s", c.wall_s);
   j.Set("diagnosis", c.reused.IsNull() ? dg::DiagnosisJson(c.result) : c.reused);
   if (c.twin.run) {
@@ -530,6 +542,13 @@ std::size_t ReuseEarlierRun(const Options& o, std::vector<Case>* cases) {
     c.wall_s = NumberOr(j.Find("wall_s"), NAN);
     const fesim::Json* joint = j.Find("planted_joint");
     if (joint != nullptr) c.planted_joint = joint->AsString();
+    const fesim::Json* values = j.Find("planted_values");  // absent in older outputs
+    c.planted_values.clear();
+    for (const fesim::Json& v : values != nullptr ? values->Items() : std::vector<fesim::Json>{}) {
+      c.planted_values.push_back({Need(v, "name", o.reuse).AsString(),
+                                  Need(v, "unit", o.reuse).AsString(),
+                                  Need(v, "value", o.reuse).AsNumber()});
+    }
     ++n;
   }
   return n;
@@ -774,8 +793,12 @@ int main(int argc, char** argv) {
       }
     }
     if (!o.diagnose) {
-      std::fprintf(stderr, "%llu: %s/%llu (%s)\n", static_cast<unsigned long long>(c.seed),
-                   o.data.c_str(), static_cast<unsigned long long>(c.seed), c.rig.c_str());
+      std::string planted;
+      for (const auto& v : c.planted_values) planted += " " + v.name + "=" + F("%.4g", v.value);
+      std::fprintf(stderr, "%llu: %s/%llu (%s) effect/noise %.2f%s\n",
+                   static_cast<unsigned long long>(c.seed), o.data.c_str(),
+                   static_cast<unsigned long long>(c.seed), c.rig.c_str(), c.effect_ratio,
+                   planted.c_str());
       continue;
     }
     c.result = DiagnoseTrials(o, c, c.trials, &c.wall_s);
