@@ -234,6 +234,11 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
       if (claim.rfind(prefix, 0) != 0) continue;
       known = true;
       ++matched;
+      // A finding on measured wall times holds or not with the machine's load (the full-model
+      // step is ≈ 100 × the Hammerstein one on the quick study): only its cause when it fails is
+      // checked (above).
+      const Json* measured = f.Find("measured_time");
+      if (measured != nullptr && measured->AsBool()) continue;
       EXPECT_EQ(f.Find("holds")->AsBool(), holds) << claim << ": " << f.Find("margin")->AsString();
     }
     EXPECT_TRUE(known) << "a finding without an expected outcome: " << claim;
@@ -273,10 +278,10 @@ TEST(BenchmarkCli, QuickStudyEndToEndResumesAndMatchesJson) {
     const Json& folds = *sparse_rms.Items()[k].Find("invdyn-semiparametric");
     EXPECT_EQ(folds.Items().size(), 4u) << sparse_rms.Keys()[k];  // one per left-out trajectory
   }
-  for (const char* png : {"hand_array_error.png", "hand_array_prediction.png", "elbow_best_fit.png",
-                          "shoulder_ekf_parameters.png", "reaching_loocv.png",
-                          "reaching_loocv_sparse.png", "tremor_spectrum.png", "shoulder_fit.png",
-                          "tremor_frequency_response.png"}) {
+  for (const char* png :
+       {"hand_array_error.png", "hand_array_prediction.png", "elbow_best_fit.png",
+        "shoulder_ekf_parameters.png", "reaching_loocv.png", "reaching_loocv_sparse.png",
+        "tremor_spectrum.png", "shoulder_fit.png", "tremor_frequency_response.png"}) {
     EXPECT_TRUE(fs::exists(dir + "/plots/" + png)) << png;
     EXPECT_NE(report.find(std::string("plots/") + png), std::string::npos) << png;
   }
