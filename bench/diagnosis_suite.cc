@@ -544,10 +544,12 @@ std::size_t ReuseEarlierRun(const Options& o, std::vector<Case>* cases) {
     if (joint != nullptr) c.planted_joint = joint->AsString();
     const fesim::Json* values = j.Find("planted_values");  // absent in older outputs
     c.planted_values.clear();
-    for (const fesim::Json& v : values != nullptr ? values->Items() : std::vector<fesim::Json>{}) {
-      c.planted_values.push_back({Need(v, "name", o.reuse).AsString(),
-                                  Need(v, "unit", o.reuse).AsString(),
-                                  Need(v, "value", o.reuse).AsNumber()});
+    if (values != nullptr) {
+      for (const fesim::Json& v : values->Items()) {
+        c.planted_values.push_back({Need(v, "name", o.reuse).AsString(),
+                                    Need(v, "unit", o.reuse).AsString(),
+                                    Need(v, "value", o.reuse).AsNumber()});
+      }
     }
     ++n;
   }
