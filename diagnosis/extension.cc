@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <mutex>
+#include <numeric>
 #include <set>
 
 #include "base/parallel.h"
@@ -141,17 +142,8 @@ class Extender {
                ? current_.stage.train_residual.squaredNorm()
                : base_.stage.train_residual.squaredNorm();
   }
-  /// The person parameters fitted together with `cands` (indices into person_): all of them
-  /// when the extended model has forward sensitivities; else (fatigue, potentiation: states the
-  /// sensitivity integration lacks) the kRelevantPerson whose calibration Jacobian columns point
-  /// most along the candidates' probe directions.
-  std::vector<int> FreePerson(const std::vector<int>& cands);
-  /// Whether the extended model by `cands` lacks forward sensitivities (FreePerson then needs
-  /// the candidates' directions).
-  bool LacksSensitivities(const std::vector<int>& cands) const;
-  /// The probe directions of candidate c at the calibration (probed when not known; the
-  /// first screen's are handed in, EnsureDirections probes the missing ones in one batch).
-  const Eigen::MatrixXd& DirectionOf(int c);
+  /// Probes the directions (at the calibration) of those of `cands` not known yet, in one batch;
+  /// the first screen's are handed in.
   void EnsureDirections(const std::vector<int>& cands);
   Eigen::VectorXd LowestProfileStart(int c);
   /// The extended model's prediction of the held-out trials; a candidate's free phase
@@ -232,8 +224,6 @@ class Extender {
   std::mutex directions_mutex_;
 };
 
-/// Person parameters fitted with an extension whose model has no forward sensitivities.
-constexpr int kRelevantPerson = 6;
 /// Halvings of an extension's start towards its "off" values at most (FitStageOf).
 constexpr int kStartHalvings = 3;
 constexpr double kPi = 3.14159265358979323846;
@@ -356,49 +346,6 @@ void Extender::EnsureDirections(const std::vector<int>& cands) {
   }
 }
 
-const Eigen::MatrixXd& Extender::DirectionOf(int c) {
-  EnsureDirections({c});
-  const std::lock_guard<std::mutex> lock(directions_mutex_);
-  return directions_.at(c);
-}
-
-bool Extender::LacksSensitivities(const std::vector<int>& cands) const {
-  // Fatigue, potentiation and the stretch reflex add states the sensitivity integration lacks.
-  Eigen::VectorXd x = cal_.fit.x;
-  std::vector<ModelParameter> params = person_;
-  for (int c : cands) {
-    params.insert(params.end(), lib_[c].params.begin(), lib_[c].params.end());
-    x = Concat(x, lib_[c].probes.empty() ? Starts(lib_[c].params) : lib_[c].probes[0]);
-  }
-  const sim::ModelParams m = ApplyModelParameters(ctx_.rig, params, x);
-  return sim::HasMechanismStates(m.mechanisms);
-}
-
-std::vector<int> Extender::FreePerson(const std::vector<int>& cands) {
-  std::vector<int> all(static_cast<std::size_t>(ns_));
-  for (int k = 0; k < ns_; ++k) all[k] = k;
-  if (!LacksSensitivities(cands)) return all;
-  // Overlap of each person column with the candidates' directions (cosine, largest over them).
-  std::vector<std::pair<double, int>> overlap;
-  for (int k = 0; k < ns_; ++k) {
-    const Eigen::VectorXd jk = cal_.jacobian.col(k);
-    double best = 0.0;
-    for (int c : cands) {
-      const Eigen::MatrixXd& d = DirectionOf(c);
-      for (Eigen::Index p = 0; p < d.cols(); ++p) {
-        const double norm = jk.norm() * d.col(p).norm();
-        if (norm > 0.0) best = std::max(best, std::abs(jk.dot(d.col(p))) / norm);
-      }
-    }
-    overlap.emplace_back(best, k);
-  }
-  std::sort(overlap.rbegin(), overlap.rend());
-  std::vector<int> out;
-  for (int k = 0; k < std::min(kRelevantPerson, ns_); ++k) out.push_back(overlap[k].second);
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
 FitStart Extender::KnownEnd(const std::string& point_key, const std::vector<int>& free_order) {
   const std::lock_guard<std::mutex> lock(ends_mutex_);
   const auto it = ends_.find(point_key);
@@ -420,9 +367,9 @@ FitStart Extender::KnownEnd(const std::string& point_key, const std::vector<int>
 FitStage Extender::FitStageOf(const std::vector<int>& cands, const Eigen::VectorXd& x0,
                               int iterations, double fd_step, bool from_test_step) {
   const std::vector<ModelParameter> params = ParamsOf(cands);
-  // The free person parameters follow from the candidates (FreePerson), so the key need not name
-  // them; they are chosen inside, where the candidates' directions may have to be probed.
-  std::vector<std::string> key = {"extension"};
+  // Every person parameter is fitted with the candidates, which the key states ("person=all")
+  // for caches whose fits freed fewer.
+  std::vector<std::string> key = {"extension", "person=all"};
   for (int c : cands) key.push_back(std::to_string(c) + ":" + lib_[c].label);
   key.push_back(VectorKey("x0", x0));
   key.push_back("iterations=" + std::to_string(iterations));
@@ -434,24 +381,13 @@ FitStage Extender::FitStageOf(const std::vector<int>& cands, const Eigen::Vector
     key.push_back("fd_step=" + ExactNumberText(fd_step));
   }
   return ctx_.cache.Get<FitStage>(key, [&] {
-    const std::vector<int> free_person = FreePerson(cands);
-    // Held person parameters first (FitParameters holds a leading block), then the free ones and
-    // the mechanisms' in their order (person setters touch disjoint fields; mechanisms after).
-    std::vector<int> order;
-    for (int k = 0; k < ns_; ++k) {
-      if (!std::binary_search(free_person.begin(), free_person.end(), k)) order.push_back(k);
-    }
-    const int held = static_cast<int>(order.size());
-    for (int k : free_person) order.push_back(k);
-    for (int k = ns_; k < static_cast<int>(params.size()); ++k) order.push_back(k);
-    std::vector<ModelParameter> ordered;
-    Eigen::VectorXd x0_ordered(x0.size());  // may be backtracked below
-    for (std::size_t i = 0; i < order.size(); ++i) {
-      ordered.push_back(params[order[i]]);
-      x0_ordered(static_cast<Eigen::Index>(i)) = x0(order[i]);
-    }
-    const std::vector<int> free_order(order.begin() + held, order.end());
-    FitStart start = KnownEnd(PointKey(cands, x0), free_order);
+    // All person parameters are fitted with the candidates' — on forward sensitivities where the
+    // extended model has them, on differences where it has states they lack (fatigue,
+    // potentiation; docs/diagnosis.md, Extension and acceptance).
+    std::vector<int> columns(params.size());
+    std::iota(columns.begin(), columns.end(), 0);
+    Eigen::VectorXd x_start = x0;  // may be backtracked below
+    FitStart start = KnownEnd(PointKey(cands, x0), columns);
     if (fd_step > 0.0) start.jacobian.resize(0, 0);  // a known Jacobian is at the default step
     int sims = 0;
     if (start.residual.size() == 0 && from_test_step) {
@@ -460,14 +396,14 @@ FitStage Extender::FitStageOf(const std::vector<int>& cands, const Eigen::Vector
       // force_length_velocity ended 33 % worse on held-out data). Halve the mechanism's step
       // from its "off" values while the start costs more than the model it extends.
       const double reference = ReferenceCost(cands);
-      Eigen::VectorXd off = x0_ordered;
+      Eigen::VectorXd off = x_start;
       const auto n_mech = static_cast<Eigen::Index>(lib_[cands.back()].params.size());
-      const Eigen::Index first_mech = x0_ordered.size() - n_mech;
-      for (Eigen::Index k = 0; k < n_mech; ++k) off(first_mech + k) = ordered[first_mech + k].start;
+      const Eigen::Index first_mech = x_start.size() - n_mech;
+      for (Eigen::Index k = 0; k < n_mech; ++k) off(first_mech + k) = params[first_mech + k].start;
       for (int halving = 0; halving <= kStartHalvings; ++halving) {
         std::vector<Trial> pred;
         try {
-          pred = Predict(ctx_.rig, ordered, x0_ordered, ctx_.data.train, fo);
+          pred = Predict(ctx_.rig, params, x_start, ctx_.data.train, fo);
         } catch (const std::runtime_error&) {
           pred.clear();
         }
@@ -478,17 +414,12 @@ FitStage Extender::FitStageOf(const std::vector<int>& cands, const Eigen::Vector
           if (start.residual.squaredNorm() <= reference) break;
         }
         if (halving == kStartHalvings) break;
-        x0_ordered.tail(n_mech) = 0.5 * (x0_ordered.tail(n_mech) + off.tail(n_mech));
+        x_start.tail(n_mech) = 0.5 * (x_start.tail(n_mech) + off.tail(n_mech));
         start = FitStart();
       }
     }
-    const FitResult ordered_fit = FitParameters(ctx_.rig, ordered, x0_ordered, ctx_.data.train, fo,
-                                                held, iterations, nullptr, &start);
-    FitResult fit = ordered_fit;
-    for (std::size_t i = 0; i < order.size(); ++i) {
-      fit.x(order[i]) = ordered_fit.x(static_cast<Eigen::Index>(i));
-      fit.ci95(order[i]) = ordered_fit.ci95(static_cast<Eigen::Index>(i));
-    }
+    const FitResult fit = FitParameters(ctx_.rig, params, x_start, ctx_.data.train, fo, 0,
+                                        iterations, nullptr, &start);
     sims += fit.simulations;
     FitStage s;
     s.fit = fit;
@@ -503,10 +434,9 @@ FitStage Extender::FitStageOf(const std::vector<int>& cands, const Eigen::Vector
       EndPoint end;
       end.start.residual = fit.residual;
       end.start.predictions = fit.predictions;
-      if (ordered_fit.jacobian_x.size() == ordered_fit.x.size() &&
-          ordered_fit.jacobian_x == ordered_fit.x) {
-        end.start.jacobian = ordered_fit.jacobian;
-        end.columns = free_order;
+      if (fit.jacobian_x.size() == fit.x.size() && fit.jacobian_x == fit.x) {
+        end.start.jacobian = fit.jacobian;
+        end.columns = columns;
       }
       const std::lock_guard<std::mutex> lock(ends_mutex_);
       ends_[PointKey(cands, fit.x)] = std::move(end);
@@ -860,13 +790,6 @@ std::vector<Fitted> Extender::FitScreened(const std::vector<int>& members,
     r.Set("fit", ToJson(s)).Set("control", control);
     return r.Dump(0);
   };
-  {  // FreePerson's directions, probed here: ProbeDirections maps items itself
-    std::vector<int> need;
-    for (int c : members) {
-      if (LacksSensitivities({c})) need.push_back(c);
-    }
-    EnsureDirections(need);
-  }
   const std::vector<std::string> texts = ctx_.Map(members.size(), item);
   std::vector<Fitted> fits(members.size());
   controls->assign(members.size(), Fitted());
@@ -1078,11 +1001,6 @@ bool Extender::OnTopRound() {
         .Dump(0);
   };
   ctx_.Report(0.85, "fitting " + std::to_string(members.size()) + " extensions on top");
-  for (int c : members) {  // FreePerson's directions, probed outside the items
-    std::vector<int> cands = accepted_;
-    cands.push_back(c);
-    if (LacksSensitivities(cands)) EnsureDirections(cands);
-  }
   const std::vector<std::string> texts = ctx_.Map(members.size(), item);
   std::vector<Fitted> on_top(members.size());
   for (std::size_t k = 0; k < members.size(); ++k) {

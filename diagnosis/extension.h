@@ -27,9 +27,9 @@
 // Screening. The candidates whose robust score test passes (p_adj < alpha), the best-scoring
 // joint per id, up to max_screened, are fitted in batches of max_fitted while none passes: their
 // own parameters from the test's Gauss–Newton step (Candidate::start_from_step), fitted together
-// with the person parameters (screen_iterations LM steps, person priors on) — all of them when
-// the extended model has forward sensitivities, else (fatigue, potentiation) the kRelevantPerson
-// whose Jacobian columns point most along the candidate's probe directions. A mechanism whose
+// with all the person parameters (screen_iterations LM steps, person priors on; their columns by
+// differences where the extended model has states the sensitivity integration lacks: fatigue,
+// potentiation). A mechanism whose
 // joint is chosen by the fit (Mechanism::joint_by_fit: tremor) is fitted at each joint of a
 // significant test, here and on top, and only its fit of lowest training Σr² is judged: the
 // choice uses the training data alone, so the held-out test stays one test per mechanism
