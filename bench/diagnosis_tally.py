@@ -56,7 +56,7 @@ def read_record(path):
         if row["right"] not in ("yes", "**no**"):
             fail(f"{path}: column 'right' is '{row['right']}', expected yes or **no**")
         row["right"] = row["right"] == "yes"
-        row["record"] = os.path.basename(path)
+        row["record"] = path
         rows.append(row)
     if not rows:
         fail(f"{path}: the data-set table is empty")
@@ -169,12 +169,13 @@ def write(out, records, rows):
                   f"{ratios[len(ratios) // 2]:.2f}), within 1.5 × on {within}/{len(ratios)}."]
     lines += ["", "## Records", "", "| record | command | data sets | new here |", "|---|---|---|---|"]
     counted = collections.Counter(r["record"] for r in rows)
-    for path, record_rows in records:
-        name = os.path.basename(path)
-        lines.append(f"| [{name}]({name}) | `{record_rows[0]['command']}` | {len(record_rows)} "
-                     f"| {counted[name]} |")
-    text = "\n".join(lines) + "\n"
     directory = os.path.dirname(os.path.abspath(out))
+    for path, record_rows in records:
+        # The link from OUT.md's folder, so that records in a subfolder resolve.
+        link = os.path.relpath(os.path.abspath(path), directory)
+        lines.append(f"| [{link}]({link}) | `{record_rows[0]['command']}` | {len(record_rows)} "
+                     f"| {counted[path]} |")
+    text = "\n".join(lines) + "\n"
     fd, tmp = tempfile.mkstemp(dir=directory, prefix=".diagnosis_tally.")
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as f:

@@ -64,6 +64,21 @@ def test_rates_count_a_shared_data_set_once(tmp_path):
     assert "| [b.md](b.md) | `suite --per 2` | 3 | 2 |" in text
 
 
+def test_a_record_in_a_subfolder_is_linked_from_the_output_folder_and_read_first(tmp_path):
+    (tmp_path / "rerun").mkdir()
+    new = record(tmp_path / "rerun" / "a.md", "suite --only 1", [
+        row(1, "single", "fatigue", "2.00", "fatigue", "fatigue", "0.90", True)])
+    old = record(tmp_path / "a.md", "suite", [
+        row(1, "single", "fatigue", "2.00", "none", "-", "0.50", False)])
+    out = tmp_path / "all.md"
+    r = run(["--out", str(out), new, old])
+    assert r.returncode == 0, r.stderr
+    text = out.read_text(encoding="utf-8")
+    assert "| fatigue | 1 | 1/1 (100 %) | 1/1 | 0 | fatigue 1 |" in text
+    assert "| [rerun/a.md](rerun/a.md) | `suite --only 1` | 1 | 1 |" in text
+    assert "| [a.md](a.md) | `suite` | 1 | 0 |" in text
+
+
 def test_a_file_that_is_not_a_record_is_a_one_line_error_and_writes_nothing(tmp_path):
     bad = tmp_path / "bad.md"
     bad.write_text("# notes\n", encoding="utf-8")
