@@ -594,13 +594,12 @@ Json Findings(const HandArrayInputs& in, const std::array<HandArrayModel, 2>& mo
   std::string step_margin = "ratio " + Fixed(ratio, 0) + "×";
   if (!(ratio > 100.0)) {
     // Why the gap is smaller than the paper's: how model (12)'s Jacobian is formed, not the model
-    // (docs/performance.md, "Full-model fit local step": forward differences 95 s, sensitivities
-    // 7.5 s per local step on the same fit).
+    // (docs/performance.md, "Full-model fit local step": the forward-difference and sensitivity
+    // paths of the same fit).
     step_margin +=
         "; cause: fesim's full-model fit takes its Jacobians from CVODES forward sensitivities, "
         "one augmented simulation per distinct trial, where a fit by finite differences (as the "
-        "paper's interior-point fit in MATLAB) simulates once per parameter — about 10× the "
-        "time in fesim";
+        "paper's interior-point fit in MATLAB) simulates once per fitted parameter and trial";
   }
   Json g = Finding("Hammerstein local optimisation step orders of magnitude faster (paper: " +
                        std::string(PaperHandStep(0).text) + " s vs " +
