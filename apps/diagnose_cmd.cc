@@ -9,11 +9,11 @@
 #include "apps/cli.h"
 #include "apps/commands.h"
 #include "base/result_cache.h"
+#include "base/source_fingerprint.h"
 #include "base/trial.h"
 #include "diagnosis/diagnose.h"
 #include "diagnosis/reduced_model.h"
 #include "diagnosis/report.h"
-#include "fesim/version.h"
 #include "scenarios/scenario.h"
 
 namespace fesim {
@@ -91,12 +91,10 @@ int RunDiagnose(int argc, char** argv, cluster::Cluster& job) {
   }
   if (trials.empty()) throw std::runtime_error("no measured trial given");
   inputs += "; rig `" + args.Get("scenario") + "`.";
-  // Expensive stages are cached under DIR/cache as they finish: a killed run resumes.
-  // Layout 3: a candidate's probe changed (score-test θ of layout 2 do not fit the library).
-  // Layout 4: the second round's score tests are screened with the baseline's directions, and
-  // arm_support's probe changed (layout-3 entries would resume with what the code no longer does).
-  // Layout 5: the staged diagnosis (person calibration, black-box reference, robust tests).
-  ResultCache cache(out + "/cache", FESIM_VERSION, "diagnose-cache-5");
+  // Expensive stages are cached under DIR/cache as they finish: a killed run resumes. The key
+  // holds the build's identity (base/source_fingerprint.h), so a cache written by other code (a
+  // changed candidate range, probe or prior) is not read back.
+  ResultCache cache(out + "/cache", BuildIdentity(), "diagnose-cache-5");
   diagnosis::DiagnoseSettings settings;
   settings.model = model;
   diagnosis::DiagnoseExecution execution;

@@ -17,6 +17,7 @@
 #include "apps/commands.h"
 #include "base/json.h"
 #include "base/result_cache.h"
+#include "base/source_fingerprint.h"
 #include "base/trial.h"
 #include "fesim/version.h"
 #include "scenarios/scenario.h"
@@ -177,12 +178,12 @@ int RunStudy(const std::string& path, long seed, const cli::Args& args, cluster:
   const auto truth_path = [&](std::size_t i) {
     return out + "/" + st.items[i].file_stem + "_truth.csv";
   };
-  // A finished item has a record in DIR/cache (keyed by version, study text, seed and item) of
-  // the size and hash of each file as written, stored after both files. Rank 0 counts an item
-  // as finished only when every file still matches its record; a damaged file (truncated,
+  // A finished item has a record in DIR/cache (keyed by the build's identity, study text, seed and
+  // item) of the size and hash of each file as written, stored after both files. Rank 0 counts an
+  // item as finished only when every file still matches its record; a damaged file (truncated,
   // edited) is named and its item simulated again. The integration statistics of every item end
   // up in `stats` on rank 0.
-  ResultCache records(out + "/cache", FESIM_VERSION, "study-files-1");
+  ResultCache records(out + "/cache", BuildIdentity(), "study-files-1");
   const auto record_key = [&](std::size_t i) {
     return std::vector<std::string>{"study " + hash, "seed " + seed_text, st.items[i].file_stem};
   };

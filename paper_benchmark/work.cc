@@ -11,7 +11,7 @@
 
 #include "base/parallel.h"
 #include "base/result_cache.h"
-#include "fesim/version.h"
+#include "base/source_fingerprint.h"
 #include "paper_benchmark/sections.h"
 #include "sim/trial_runner.h"
 #include "sim/upper_limb_model.h"
@@ -302,7 +302,7 @@ StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
   // key: a change of the defaults (sim::TaskTolerances) must not reuse trials of the old ones.
   const std::string key = Fnv1a64Hex(
       st.source_text + "\n--\n" + ReadFile(st.scenario_path) + "\n--\n" + std::to_string(seed) +
-      "\n" + FESIM_VERSION + "\nsensor-view-1\ntruth-activations\ndefault-tolerances " +
+      "\n" + BuildIdentity() + "\nsensor-view-1\ntruth-activations\ndefault-tolerances " +
       std::to_string(sim::TaskTolerances::kTrialGeneration) + " " +
       std::to_string(sim::TaskTolerances::kTrialGenerationTremor) + " " +
       std::to_string(sim::TaskTolerances::kTrialGenerationFriction));
@@ -369,7 +369,7 @@ StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
 FitRunner::FitRunner(std::string cache_dir, std::vector<identification::MethodEntry> methods,
                      Timing* timing)
     // The cache layout is part of the key: a build with another layout misses instead of failing.
-    : cache_(std::move(cache_dir), FESIM_VERSION, "fit-cache-2"),
+    : cache_(std::move(cache_dir), BuildIdentity(), "fit-cache-2"),
       methods_(std::move(methods)),
       timing_(timing) {}
 

@@ -140,9 +140,9 @@ struct StudyTrials {
 };
 
 /// Loads the study and simulates every item, or reads it back from `cache_dir` when a previous
-/// run wrote it for the same study text, base scenario text, seed and fesim version. Trials get
-/// metadata `trial_hash` (hash of the content before it was added). Files are written
-/// atomically, so an interrupted run leaves complete trials or none.
+/// run wrote it for the same study text, base scenario text, seed and build (BuildIdentity,
+/// base/source_fingerprint.h). Trials get metadata `trial_hash` (hash of the content before it was
+/// added). Files are written atomically, so an interrupted run leaves complete trials or none.
 /// `timing` (may be null) receives the simulation time under "simulation".
 StudyTrials GenerateStudy(const std::string& study_path, std::uint64_t seed,
                           const std::string& cache_dir, const WorkLoop& loop, Progress* progress,
