@@ -293,6 +293,10 @@ struct SensitivityData {
     std::vector<double> omega;  // Ω_j of params, rad/s
     std::vector<double> deactivation_ratio;  // of params' muscles
     bool moves_omega;  // some Ω_j or deactivation ratio differs from the model's
+    // The fatigue or potentiation rate parameters differ from the model's (their states' ż), or
+    // the potentiation gain g (the active-force gain, ActiveForceGain).
+    bool moves_state_rates;
+    bool moves_gain;
     // The model of *params and a state of it, when params moves a segment's inertia
     // (BodyInertiaDiffers): its whole right-hand side is differenced at the same (t, y).
     std::shared_ptr<const UpperLimbModel> body;
@@ -306,6 +310,11 @@ struct SensitivityData {
   std::vector<int> free_coordinates;       // kFree coordinates, in order
   std::vector<int> free_u_slot;            // [free coordinate] index in the Simbody u vector
   std::vector<int> q_component;            // [coordinate] component of its q, −1 if none
+  // [muscle] component of its fitness φ / potentiation state p (fatigue, potentiation), −1 if
+  // the mechanism is off; their Y indices from UpperLimbModel::FitnessYIndex etc.
+  std::vector<int> fitness_component, potentiation_component;
+  // [component] muscle whose φ or p it is, −1 for the q and u components.
+  std::vector<int> state_muscle;
   // ∂a/∂θ_k, ∂ȧ/∂θ_k of every muscle at the interval start and ∂w/∂θ_k in it: [k][j].
   std::vector<std::vector<muscles::ActivationState>> da0;
   std::vector<std::vector<double>> dw;
@@ -385,6 +394,17 @@ bool BodyInertiaDiffers(const ModelParams& a, const ModelParams& b) {
     }
   }
   return false;
+}
+
+/// True when `a` and `b` give different fatigue or potentiation rates (FitnessDerivative,
+/// PotentiationDerivative) at some activation and state.
+bool StateRatesDiffer(const MechanismParams& a, const MechanismParams& b) {
+  const FatigueParams &fa = a.fatigue, &fb = b.fatigue;
+  const PotentiationParams &pa = a.potentiation, &pb = b.potentiation;
+  return (fa.enabled &&
+          (fa.fatigue_time_s != fb.fatigue_time_s || fa.recovery_time_s != fb.recovery_time_s ||
+           fa.min_fitness != fb.min_fitness)) ||
+         (pa.enabled && (pa.rise_time_s != pb.rise_time_s || pa.decay_time_s != pb.decay_time_s));
 }
 
 bool TremorParametersDiffer(const TremorParams& a, const TremorParams& b) {
@@ -468,16 +488,17 @@ void FormMassInverse(SensitivityData* d, const SimTK::State& s) {
 
 /// The torques of the model with θ_k moved (pk) at (t, q, q̇, a) = `point`, where they may differ
 /// from the model's: MuscleAndPassiveTorques re-evaluated when pk moves them (only the passive
-/// part when pk leaves the muscles as they are), plus the change of the tremor torque (a known
+/// part when pk leaves the muscles and their active-force gains as they are; `gains` are pk's at
+/// the point's fatigue and potentiation states), plus the change of the tremor torque (a known
 /// function of t, TremorTorque) when pk moves the tremor.
 std::vector<double> PerturbedTorques(const SensitivityData::Parameter& pk, const ModelParams& base,
                                      double t, const std::vector<double>& q,
                                      const std::vector<double>& qd, const std::vector<double>& a,
-                                     const TorquePoint& point) {
-  std::vector<double> tau = !pk.moves_torques ? point.torques()
-                            : !pk.moves_muscles
+                                     const std::vector<double>& gains, const TorquePoint& point) {
+  std::vector<double> tau = !pk.moves_torques && !pk.moves_gain ? point.torques()
+                            : !pk.moves_muscles && !pk.moves_gain
                                 ? point.WithPassiveOf(*pk.params)
-                                : MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a);
+                                : MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a, gains);
   if (pk.moves_tremor) {
     const TremorParams& tk = pk.params->mechanisms.tremor;
     const TremorParams& tb = base.mechanisms.tremor;
@@ -520,6 +541,230 @@ int BodyRhsDifference(const SensitivityData& d, const SensitivityData::Parameter
   return 0;
 }
 
+/// udot = M_ff⁻¹ v over the free coordinates (d.mass_inv, formed with ∂f/∂y).
+void MassSolve(const SensitivityData& d, const std::vector<double>& v, std::vector<double>* udot) {
+  const int nf = static_cast<int>(d.free_coordinates.size());
+  for (int r = 0; r < nf; ++r) {
+    double sum = 0.0;
+    for (int k = 0; k < nf; ++k) sum += d.mass_inv[static_cast<std::size_t>(k) * nf + r] * v[k];
+    (*udot)[r] = sum;
+  }
+}
+
+/// udot = M_ff⁻¹ (τ − τ0)_free / h: a difference quotient of the torques through the masses.
+void MassSolveDifference(const SensitivityData& d, const std::vector<double>& tau,
+                         const std::vector<double>& tau0, double h, std::vector<double>* udot) {
+  std::vector<double> v(d.free_coordinates.size());
+  for (std::size_t f = 0; f < v.size(); ++f) {
+    const int cf = d.free_coordinates[f];
+    v[f] = (tau[cf] - tau0[cf]) / h;
+  }
+  MassSolve(d, v, udot);
+}
+
+/// The full forward-difference ∂f/∂y of the right-hand side into d->jac (`ydot` = f(t, y)),
+/// except the fitness and potentiation columns (FormMuscleStateColumns forms them exactly).
+/// Returns 0, or 1 (recoverable) when a right-hand side fails.
+int DifferenceStateJacobian(SensitivityData* d, double t, const double* y, const double* ydot) {
+  const int n = d->n;
+  std::copy(y, y + n, d->y1.begin());
+  for (int i = 0; i < n; ++i) {
+    if (d->state_muscle[i] >= 0) continue;
+    const double h = 1e-7 * std::max(std::abs(y[i]), 1.0);
+    d->y1[i] = y[i] + h;
+    const int flag = EvaluateRhs(d->ctx, t, d->y1.data(), d->f1.data());
+    d->y1[i] = y[i];
+    if (flag != 0) return flag;
+    for (int r = 0; r < n; ++r)
+      d->jac[static_cast<std::size_t>(i) * n + r] = (d->f1[r] - ydot[r]) / h;
+  }
+  return 0;
+}
+
+/// What the muscle and passive torques see at one (t, y): q, q̇, the closed-form activations,
+/// the fatigue and potentiation states (φ 1, p 0 when off), the active-force gains
+/// (UpperLimbModel::ActiveForceGains; empty: 1) and the activation fatigue and potentiation see
+/// (the model's ZDot clamps it to [0, 1]; `a_inside`: their rates move with a there).
+struct TorqueInputs {
+  std::vector<double> q, qd, a, fitness, potentiation, gains, a_seen;
+  std::vector<char> a_inside;
+};
+
+TorqueInputs GatherTorqueInputs(const SensitivityData& d, const SimTK::State& s, const double* Y,
+                                const double* y) {
+  const CvodesContext& c = *d.ctx;
+  const std::size_t nm = c.omega.size();
+  TorqueInputs in;
+  in.q = c.model->GetQs(s, Y);
+  in.qd = c.model->GetUs(s, Y);
+  in.a.resize(nm);
+  in.fitness.assign(nm, 1.0);
+  in.potentiation.assign(nm, 0.0);
+  in.a_seen.resize(nm);
+  in.a_inside.resize(nm);
+  for (std::size_t j = 0; j < nm; ++j) {
+    in.a[j] = Y[c.activation_index + 2 * static_cast<int>(j)];
+    if (d.fitness_component[j] >= 0) in.fitness[j] = y[d.fitness_component[j]];
+    if (d.potentiation_component[j] >= 0) in.potentiation[j] = y[d.potentiation_component[j]];
+    in.a_seen[j] = std::clamp(in.a[j], 0.0, 1.0);
+    in.a_inside[j] = in.a[j] >= 0.0 && in.a[j] <= 1.0;
+  }
+  in.gains = c.model->ActiveForceGains(s, Y);
+  return in;
+}
+
+/// The column of muscle j's fitness or potentiation state (component i), exact at every point:
+/// its torques move the free u rows (M_ff⁻¹ ∂τ/∂g_j ∂g_j/∂y_i, the gain affine in either state),
+/// its own rate its row (∂ż/∂z at the activation of t); nothing else depends on it. `dtau_dg` =
+/// TorquePerActiveGain at the point.
+void FormMuscleStateColumn(SensitivityData* d, int i, const TorqueInputs& in,
+                           const std::vector<double>& dtau_dg) {
+  const MechanismParams& mech = d->ctx->model->params().mechanisms;
+  const std::size_t nm = in.a.size();
+  const std::size_t nf = d->free_coordinates.size();
+  const auto j = static_cast<std::size_t>(d->state_muscle[i]);
+  const bool is_fitness = d->fitness_component[j] == i;
+  const double dgain = is_fitness ? ActiveForceGain(mech, 1.0, in.potentiation[j])
+                                  : ActiveForceGain(mech, in.fitness[j], 1.0) -
+                                        ActiveForceGain(mech, in.fitness[j], 0.0);
+  std::vector<double> v(nf), udot(nf);
+  for (std::size_t f = 0; f < nf; ++f) v[f] = dtau_dg[d->free_coordinates[f] * nm + j] * dgain;
+  MassSolve(*d, v, &udot);
+  double* col = &d->jac[static_cast<std::size_t>(i) * d->n];
+  std::fill(col, col + d->n, 0.0);
+  for (std::size_t f = 0; f < nf; ++f) col[d->u_component[f]] = udot[f];
+  col[i] = is_fitness
+               ? FitnessDerivativePartials(mech.fatigue, in.a_seen[j], in.fitness[j]).state
+               : PotentiationDerivativePartials(mech.potentiation, in.a_seen[j], in.potentiation[j])
+                     .state;
+}
+
+/// M_ff⁻¹ ∂τ/∂y_i of the muscle and passive torques (zero for components that are neither a free
+/// q nor a free u) into the free u rows of ∂f/∂y: added to the rest of the last full formation,
+/// or, at a full formation (`refresh`), subtracted from it to give the new rest. The fitness and
+/// potentiation columns are formed whole (FormMuscleStateColumn).
+void FormMuscleColumns(SensitivityData* d, const double* y, const TorqueInputs& in,
+                       const TorquePoint& point, bool refresh) {
+  const int n = d->n;
+  const int nf = static_cast<int>(d->free_coordinates.size());
+  const ModelParams& base = d->ctx->model->params();
+  const std::vector<double> dtau_dg =
+      in.gains.empty() ? std::vector<double>{}
+                       : TorquePerActiveGain(base, d->paths, in.q, in.qd, in.a, in.gains);
+  std::vector<double> udot(nf);
+  for (int i = 0; i < n; ++i) {
+    if (d->state_muscle[i] >= 0) {
+      FormMuscleStateColumn(d, i, in, dtau_dg);
+      continue;
+    }
+    int coord = -1;
+    bool is_q = false;
+    for (int f = 0; f < nf && coord < 0; ++f) {
+      const int cf = d->free_coordinates[f];
+      if (d->q_component[cf] == i) {
+        coord = cf;
+        is_q = true;
+      } else if (d->u_component[f] == i) {
+        coord = cf;
+      }
+    }
+    std::fill(udot.begin(), udot.end(), 0.0);
+    if (coord >= 0) {
+      const double x0 = is_q ? in.q[coord] : in.qd[coord];
+      const double h = 1e-7 * std::max(std::abs(y[i]), 1.0);
+      MassSolveDifference(*d, point.WithCoordinate(coord, !is_q, x0 + h), point.torques(), h,
+                          &udot);
+    }
+    for (int f = 0; f < nf; ++f) {
+      const std::size_t at = static_cast<std::size_t>(i) * nf + f;
+      double& entry = d->jac[static_cast<std::size_t>(i) * n + d->u_component[f]];
+      if (refresh) {
+        d->jac_rest[at] = entry - udot[f];
+      } else {
+        entry = d->jac_rest[at] + udot[f];
+      }
+    }
+  }
+}
+
+/// ∂f/∂θ at (t, y) into d->dfdp (`ydot` = f(t, y)). The q rows are 0 (q̇ = u); the free u rows are
+/// M_ff⁻¹ ∂τ_f/∂θ, where ∂τ/∂θ_k = ∂τ/∂a · ∂a/∂θ_k (+ the direct change of τ for parameters that
+/// move it or the active-force gains); the fitness and potentiation rows are ∂ż/∂a · ∂a/∂θ_k (+
+/// the direct change of the rate for parameters that move it). Returns 0, or 1 (recoverable)
+/// when a right-hand side fails.
+int FormParameterColumns(SensitivityData* d, double t, const double* ydot, const TorqueInputs& in,
+                         const TorquePoint& point) {
+  const CvodesContext& c = *d->ctx;
+  const ModelParams& base = c.model->params();
+  const MechanismParams& mech = base.mechanisms;
+  const int n = d->n;
+  const int nf = static_cast<int>(d->free_coordinates.size());
+  const std::size_t nm = in.a.size();
+  // M_ff⁻¹ ∂τ_f/∂a_j for every muscle (nf × nm, column-major).
+  const std::vector<double> dtau_da =
+      TorquePerActivation(base, d->paths, in.q, in.qd, in.a, in.gains);
+  std::vector<double> v(nf), udot(nf);
+  std::vector<double> x_da(static_cast<std::size_t>(nf) * nm);
+  for (std::size_t j = 0; j < nm; ++j) {
+    for (int f = 0; f < nf; ++f) v[f] = dtau_da[d->free_coordinates[f] * nm + j];
+    MassSolve(*d, v, &udot);
+    std::copy(udot.begin(), udot.end(), x_da.begin() + static_cast<std::ptrdiff_t>(j * nf));
+  }
+  // a(t) of eq. (6) is linear in the interval's w and initial (a, ȧ): its coefficients per muscle.
+  const double dt = t - d->t0;
+  std::vector<double> c_w(nm), c_a(nm), c_ad(nm);
+  for (std::size_t j = 0; j < nm; ++j) {
+    c_w[j] = muscles::ActivationFreeResponse(c.omega[j], 1.0, {0.0, 0.0}, dt).a;
+    c_a[j] = muscles::ActivationFreeResponse(c.omega[j], 0.0, {1.0, 0.0}, dt).a;
+    c_ad[j] = muscles::ActivationFreeResponse(c.omega[j], 0.0, {0.0, 1.0}, dt).a;
+  }
+  std::fill(d->dfdp.begin(), d->dfdp.end(), 0.0);
+  std::vector<double> gains_k;
+  for (std::size_t k = 0; k < d->p.size(); ++k) {
+    const auto& pk = d->p[k];
+    const MechanismParams& mk = pk.params->mechanisms;
+    double* dfdp_k = &d->dfdp[k * n];
+    std::fill(udot.begin(), udot.end(), 0.0);
+    if (pk.body) {  // the whole right-hand side differenced: torques and tremor included
+      if (BodyRhsDifference(*d, pk, t, ydot, &udot) != 0) return 1;
+    } else if (pk.moves_torques || pk.moves_tremor || pk.moves_gain) {
+      gains_k = in.gains;
+      for (std::size_t j = 0; j < gains_k.size() && pk.moves_gain; ++j) {
+        gains_k[j] = ActiveForceGain(mk, in.fitness[j], in.potentiation[j]);
+      }
+      MassSolveDifference(*d, PerturbedTorques(pk, base, t, in.q, in.qd, in.a, gains_k, point),
+                          point.torques(), pk.step, &udot);
+    }
+    for (std::size_t j = 0; j < nm; ++j) {
+      // ∂a_j/∂θ_k at t (zero for muscles θ_k does not reach).
+      const auto& a0 = d->da0[k][j];
+      const double da = c_w[j] * d->dw[k][j] + c_a[j] * a0.a + c_ad[j] * a0.a_dot +
+                        DirectOmegaSensitivity(c, pk, j, dt).a;
+      for (int f = 0; f < nf && da != 0.0; ++f) udot[f] += x_da[j * nf + f] * da;
+      const double da_seen = in.a_inside[j] ? da : 0.0;
+      const double aj = in.a_seen[j], phi = in.fitness[j], pj = in.potentiation[j];
+      if (const int i = d->fitness_component[j]; i >= 0) {
+        dfdp_k[i] = FitnessDerivativePartials(mech.fatigue, aj, phi).activation * da_seen;
+        if (pk.moves_state_rates) {
+          dfdp_k[i] +=
+              (FitnessDerivative(mk.fatigue, aj, phi) - FitnessDerivative(mech.fatigue, aj, phi)) /
+              pk.step;
+        }
+      }
+      if (const int i = d->potentiation_component[j]; i >= 0) {
+        dfdp_k[i] = PotentiationDerivativePartials(mech.potentiation, aj, pj).activation * da_seen;
+        if (pk.moves_state_rates) {
+          dfdp_k[i] += (PotentiationDerivative(mk.potentiation, aj, pj) -
+                        PotentiationDerivative(mech.potentiation, aj, pj)) /
+                       pk.step;
+        }
+      }
+    }
+    for (int f = 0; f < nf; ++f) dfdp_k[d->u_component[f]] = udot[f];
+  }
+  return 0;
+}
+
 /// ∂f/∂y and ∂f/∂θ at (t, y) into d's cache (see IntegrateTrialSensitivities). Returns 0, or 1
 /// (recoverable) when a right-hand side fails.
 ///
@@ -530,25 +775,10 @@ int BodyRhsDifference(const SensitivityData& d, const SensitivityData::Parameter
 /// right-hand side less the first (one right-hand side per component).
 int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const double* ydot) {
   CvodesContext* c = d->ctx;
-  const int n = d->n;
-  const int np = static_cast<int>(d->p.size());
-  const int nf = static_cast<int>(d->free_coordinates.size());
-  const std::size_t nm = c->omega.size();
-  // ∂f/∂y by forward differences of the full right-hand side.
-  // `ydot` is f(t, y) (CVODES evaluates it before the sensitivity right-hand side).
-  std::copy(y, y + n, d->y1.begin());
-  int flag = 0;
   const bool refresh = d->jac_age >= d->jac_reuse || d->jac_age < 0;
   d->jac_age = refresh ? 1 : d->jac_age + 1;
-  for (int i = 0; i < n && flag == 0 && refresh; ++i) {
-    const double h = 1e-7 * std::max(std::abs(y[i]), 1.0);
-    d->y1[i] = y[i] + h;
-    flag = EvaluateRhs(c, t, d->y1.data(), d->f1.data());
-    d->y1[i] = y[i];
-    for (int r = 0; r < n; ++r)
-      d->jac[static_cast<std::size_t>(i) * n + r] = (d->f1[r] - ydot[r]) / h;
-  }
-  if (flag != 0) {
+  // `ydot` is f(t, y) (CVODES evaluates it before the sensitivity right-hand side).
+  if (refresh && DifferenceStateJacobian(d, t, y, ydot) != 0) {
     d->jac_age = -1;  // ∂f/∂y partly overwritten: form it again at the next point
     return 1;
   }
@@ -570,104 +800,13 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
   }
   const SimTK::State& s = *c->state;
   const double* Y = load_state ? s.getY().getContiguousScalarData() : c->y_all.data();
-  std::vector<double> q = c->model->GetQs(s, Y);
-  std::vector<double> qd = c->model->GetUs(s, Y);
-  std::vector<double> a(nm);
-  for (std::size_t j = 0; j < nm; ++j) a[j] = Y[c->activation_index + 2 * static_cast<int>(j)];
-  const ModelParams& base = c->model->params();
-  const TorquePoint point(base, d->paths, q, qd, a);
-  const std::vector<double>& tau0 = point.torques();
-  const std::vector<double> dtau_da = TorquePerActivation(base, d->paths, q, qd, a);
+  const TorqueInputs in = GatherTorqueInputs(*d, s, Y, y);
+  const TorquePoint point(c->model->params(), d->paths, in.q, in.qd, in.a, in.gains);
   if (refresh) FormMassInverse(d, s);
-  const std::vector<double>& minv = d->mass_inv;
-  std::vector<double> v(nf), udot(nf);
-  // udot = M_ff⁻¹ v.
-  const auto solve = [&] {
-    for (int r = 0; r < nf; ++r) {
-      double sum = 0.0;
-      for (int k = 0; k < nf; ++k) sum += minv[static_cast<std::size_t>(k) * nf + r] * v[k];
-      udot[r] = sum;
-    }
-  };
-  // udot = M_ff⁻¹ (τ − τ0)_free / h: a difference quotient of the torques through the masses.
-  const auto solve_difference = [&](const std::vector<double>& tau, double h) {
-    for (int f = 0; f < nf; ++f) {
-      const int cf = d->free_coordinates[f];
-      v[f] = (tau[cf] - tau0[cf]) / h;
-    }
-    solve();
-  };
-  // M_ff⁻¹ ∂τ/∂y_i of the muscle and passive torques (zero for components that are neither a
-  // free q nor a free u) into the free u rows of ∂f/∂y: added to the rest of the last full
-  // formation, or, at a full formation, subtracted from it to give the new rest.
-  for (int i = 0; i < n; ++i) {
-    int coord = -1;
-    bool is_q = false;
-    for (int f = 0; f < nf && coord < 0; ++f) {
-      const int cf = d->free_coordinates[f];
-      if (d->q_component[cf] == i) {
-        coord = cf;
-        is_q = true;
-      } else if (d->u_component[f] == i) {
-        coord = cf;
-      }
-    }
-    std::fill(udot.begin(), udot.end(), 0.0);
-    if (coord >= 0) {
-      const double x0 = is_q ? q[coord] : qd[coord];
-      const double h = 1e-7 * std::max(std::abs(y[i]), 1.0);
-      solve_difference(point.WithCoordinate(coord, !is_q, x0 + h), h);
-    }
-    for (int f = 0; f < nf; ++f) {
-      const std::size_t at = static_cast<std::size_t>(i) * nf + f;
-      double& entry = d->jac[static_cast<std::size_t>(i) * n + d->u_component[f]];
-      if (refresh) {
-        d->jac_rest[at] = entry - udot[f];
-      } else {
-        entry = d->jac_rest[at] + udot[f];
-      }
-    }
-  }
-  // ∂f/∂θ: the q rows are 0 (q̇ = u); the free u rows are M_ff⁻¹ ∂τ_f/∂θ, where
-  // ∂τ/∂θ_k = ∂τ/∂a · ∂a/∂θ_k (+ the direct change of τ for parameters that move it).
-  // M_ff⁻¹ ∂τ_f/∂a_j for every muscle (nf × nm, column-major).
-  std::vector<double> x_da(static_cast<std::size_t>(nf) * nm);
-  for (std::size_t j = 0; j < nm; ++j) {
-    for (int f = 0; f < nf; ++f) v[f] = dtau_da[d->free_coordinates[f] * nm + j];
-    solve();
-    std::copy(udot.begin(), udot.end(), x_da.begin() + static_cast<std::ptrdiff_t>(j * nf));
-  }
-  // a(t) of eq. (6) is linear in the interval's w and initial (a, ȧ): its coefficients per muscle.
-  const double dt = t - d->t0;
-  std::vector<double> c_w(nm), c_a(nm), c_ad(nm);
-  for (std::size_t j = 0; j < nm; ++j) {
-    c_w[j] = muscles::ActivationFreeResponse(c->omega[j], 1.0, {0.0, 0.0}, dt).a;
-    c_a[j] = muscles::ActivationFreeResponse(c->omega[j], 0.0, {1.0, 0.0}, dt).a;
-    c_ad[j] = muscles::ActivationFreeResponse(c->omega[j], 0.0, {0.0, 1.0}, dt).a;
-  }
-  std::fill(d->dfdp.begin(), d->dfdp.end(), 0.0);
-  for (int k = 0; k < np; ++k) {
-    const auto& pk = d->p[k];
-    std::fill(udot.begin(), udot.end(), 0.0);
-    if (pk.body) {  // the whole right-hand side differenced: torques and tremor included
-      if (BodyRhsDifference(*d, pk, t, ydot, &udot) != 0) return 1;
-    } else if (pk.moves_torques || pk.moves_tremor) {
-      solve_difference(PerturbedTorques(pk, base, t, q, qd, a, point), pk.step);
-    }
-    // ∂a_j/∂θ_k at t (zero for muscles θ_k does not reach).
-    for (std::size_t j = 0; j < nm; ++j) {
-      const auto& a0 = d->da0[k][j];
-      const double da = c_w[j] * d->dw[k][j] + c_a[j] * a0.a + c_ad[j] * a0.a_dot +
-                        DirectOmegaSensitivity(*c, pk, j, dt).a;
-      if (da == 0.0) continue;
-      for (int f = 0; f < nf; ++f) udot[f] += x_da[j * nf + f] * da;
-    }
-    for (int f = 0; f < nf; ++f) {
-      d->dfdp[static_cast<std::size_t>(k) * n + d->u_component[f]] = udot[f];
-    }
-  }
+  FormMuscleColumns(d, y, in, point, refresh);
+  if (FormParameterColumns(d, t, ydot, in, point) != 0) return 1;
   d->t_cache = t;
-  d->y_cache.assign(y, y + n);
+  d->y_cache.assign(y, y + d->n);
   d->cached = true;
   return 0;
 }
@@ -1056,9 +1195,8 @@ IntegrationStats IntegrateTrialSensitivities(
     throw std::invalid_argument("sensitivities need a CVODES integrator method");
   }
   const ModelParams& base = model.params();
-  if (HasMechanismStates(base.mechanisms)) {
-    throw std::invalid_argument(
-        "sensitivities: fatigue, potentiation and stretch-reflex states are not supported");
+  if (base.mechanisms.stretch_reflex.enabled()) {
+    throw std::invalid_argument("sensitivities: stretch-reflex states are not supported");
   }
   CvodesContext ctx(&model, state, HasPrescribed(base), params.simbody_right_hand_side);
   SensitivityData d;
@@ -1073,6 +1211,24 @@ IntegrationStats IntegrateTrialSensitivities(
       if (model.Welded(c)) continue;
       if (yi == model.QIndex(c)) d.q_component[c] = i;
       if (yi == nq + model.UIndex(c)) u_component_of[c] = i;
+    }
+  }
+  // The fatigue and potentiation states are CVODES components (not locked, not activations).
+  const std::size_t n_muscles = base.muscles.size();
+  d.fitness_component.assign(n_muscles, -1);
+  d.potentiation_component.assign(n_muscles, -1);
+  d.state_muscle.assign(d.n, -1);
+  const int fitness_y = model.FitnessYIndex(*state),
+            potentiation_y = model.PotentiationYIndex(*state);
+  for (int i = 0; i < d.n; ++i) {
+    const int yi = ctx.y_index[i];
+    for (std::size_t j = 0; j < n_muscles; ++j) {
+      const int m = static_cast<int>(j);
+      const bool is_fitness = fitness_y >= 0 && yi == fitness_y + m;
+      const bool is_potentiation = potentiation_y >= 0 && yi == potentiation_y + m;
+      if (is_fitness) d.fitness_component[j] = i;
+      if (is_potentiation) d.potentiation_component[j] = i;
+      if (is_fitness || is_potentiation) d.state_muscle[i] = m;
     }
   }
   for (int c = 0; c < kNumCoordinates; ++c) {
@@ -1097,6 +1253,12 @@ IntegrationStats IntegrateTrialSensitivities(
         pp.params.channels.size() != base.channels.size()) {
       throw std::invalid_argument("sensitivities: perturbed model has other muscles or channels");
     }
+    if (HasMechanismStates(pp.params.mechanisms) != HasMechanismStates(base.mechanisms) ||
+        pp.params.mechanisms.fatigue.enabled != base.mechanisms.fatigue.enabled ||
+        pp.params.mechanisms.potentiation.enabled != base.mechanisms.potentiation.enabled) {
+      throw std::invalid_argument(
+          "sensitivities: perturbed model switches fatigue, potentiation or the stretch reflex");
+    }
     SensitivityData::Parameter q{
         &pp.params,
         BuildElectrodeMatrix(pp.params),
@@ -1108,6 +1270,9 @@ IntegrationStats IntegrateTrialSensitivities(
         {},
         {},
         false,
+        StateRatesDiffer(pp.params.mechanisms, base.mechanisms),
+        base.mechanisms.potentiation.enabled &&
+            pp.params.mechanisms.potentiation.gain != base.mechanisms.potentiation.gain,
         nullptr,
         nullptr};
     for (std::size_t j = 0; j < pp.params.muscles.size(); ++j) {

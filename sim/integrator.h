@@ -122,9 +122,15 @@ using SensitivityObserver =
 /// 4th step instead gave 1.4 % / 5.9 %). A perturbed simulation per parameter costs ≈ 2 right-hand
 /// sides per step; this costs ≈ 3 + n_y/state_jacobian_every per step for all P together (CVODES
 /// evaluates f once more per step for the staggered corrector) plus 1 + n_y + (parameters that move
-/// τ) evaluations of the pure torque function. Throws std::invalid_argument when the model
-/// integrates other states (fatigue, potentiation) or the method is Simbody's RKM, and
-/// std::runtime_error like IntegrateTrial on failure.
+/// τ) evaluations of the pure torque function. With fatigue or potentiation (mechanisms.h) their
+/// states φ_j, p_j are CVODES components too; their columns of ∂f/∂y are formed exactly at every
+/// step and not differenced (∂u̇/∂z_j = M_ff⁻¹ ∂τ/∂g_j ∂g_j/∂z_j through the active-force gain
+/// g_j = φ_j (1 + g p_j), ∂ż_j/∂z_j of the bilinear rates), their rows of ∂f/∂θ are
+/// ∂ż_j/∂a_j ∂a_j/∂θ_k plus the direct difference quotient of a θ_k that moves their rate
+/// parameters, and τ carries the gains (Integrator.SensitivitiesWithFatigueAndPotentiationMatch
+/// CentralDifferences). Throws std::invalid_argument when the model has the stretch reflex's
+/// states, a perturbed model switches a mechanism with states on or off, or the method is
+/// Simbody's RKM, and std::runtime_error like IntegrateTrial on failure.
 IntegrationStats IntegrateTrialSensitivities(
     const UpperLimbModel& model, const IntegratorParams& params,
     const StimulationSchedule& schedule, const std::vector<double>& report_times,

@@ -19,6 +19,23 @@ double PotentiationDerivative(const PotentiationParams& p, double a, double stat
   return a * (1.0 - state) / p.rise_time_s - state / p.decay_time_s;
 }
 
+StateRatePartials FitnessDerivativePartials(const FatigueParams& p, double a, double fitness) {
+  return {(p.min_fitness - fitness) / p.fatigue_time_s - (1.0 - fitness) / p.recovery_time_s,
+          -a / p.fatigue_time_s - (1.0 - a) / p.recovery_time_s};
+}
+
+StateRatePartials PotentiationDerivativePartials(const PotentiationParams& p, double a,
+                                                 double state) {
+  return {(1.0 - state) / p.rise_time_s, -a / p.rise_time_s - 1.0 / p.decay_time_s};
+}
+
+double ActiveForceGain(const MechanismParams& m, double fitness, double potentiation) {
+  double gain = 1.0;
+  if (m.fatigue.enabled) gain *= fitness;
+  if (m.potentiation.enabled) gain *= 1.0 + m.potentiation.gain * potentiation;
+  return gain;
+}
+
 double TremorTorque(const TremorParams& p, double t) {
   if (!p.enabled) return 0.0;
   const double envelope = 1.0 + p.amplitude_modulation * std::sin(kTwoPi * p.modulation_hz * t);

@@ -88,13 +88,26 @@ struct MechanismParams {
 };
 
 /// True when a mechanism adds integrated states to the model (fatigue, potentiation, the
-/// stretch reflex): the forward-sensitivity integration does not carry them.
+/// stretch reflex).
 bool HasMechanismStates(const MechanismParams& m);
 
 /// dφ/dt of the fitness model for activation a (0–1) and fitness φ.
 double FitnessDerivative(const FatigueParams& p, double activation, double fitness);
 /// dp/dt of the potentiation state for activation a and state p.
 double PotentiationDerivative(const PotentiationParams& p, double activation, double state);
+/// Partial derivatives of FitnessDerivative and PotentiationDerivative (both bilinear in the
+/// activation and the state), 1/s: {∂/∂a, ∂/∂state} at activation a and the state.
+struct StateRatePartials {
+  double activation = 0.0;
+  double state = 0.0;
+};
+StateRatePartials FitnessDerivativePartials(const FatigueParams& p, double activation,
+                                            double fitness);
+StateRatePartials PotentiationDerivativePartials(const PotentiationParams& p, double activation,
+                                                 double state);
+/// The gain on a muscle's active force (the header's F ∝ φ and F ∝ 1 + g p): φ (1 + g p) with
+/// fitness φ and potentiation state p, each factor 1 when its mechanism is off.
+double ActiveForceGain(const MechanismParams& m, double fitness, double potentiation);
 /// Tremor torque at time t (N·m), 0 when disabled.
 double TremorTorque(const TremorParams& p, double t_s);
 /// Stretch-reflex torque (N·m) for gain G (N·m·s/rad, ≥ 0), threshold v_th (rad/s) and direction

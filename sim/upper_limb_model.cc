@@ -244,6 +244,11 @@ class SineMotion : public SimTK::Motion::Custom::Implementation {
   SinePrescription p_;
 };
 
+/// Muscle j's active-force gain: gains[j], 1 when `gains` is empty.
+double GainOf(const std::vector<double>& gains, std::size_t j) {
+  return gains.empty() ? 1.0 : gains[j];
+}
+
 }  // namespace
 
 /// Muscles: stimulation (discrete variable) → A → recruitment → activation ODE (z states)
@@ -310,6 +315,9 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   }
 
   int ZStart() const { return z_start_; }
+  /// Offsets from ZStart() of muscle 0's fitness and potentiation state (−1: mechanism off).
+  int FitnessOffset() const { return fitness_offset_; }
+  int PotentiationOffset() const { return potentiation_offset_; }
 
   void realizeDynamics(const State& s) const override {
     if (params_->muscles.empty()) return;
@@ -447,11 +455,9 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
     const double* arms_j = ws->arms.data();
     for (int j = 0; j < nm; ++j) {
       out.activation[j] = Activation(z, j);
-      double gain = 1.0;
-      if (fitness_offset_ >= 0) gain *= z[fitness_offset_ + j];
-      if (potentiation_offset_ >= 0) {
-        gain *= 1.0 + params_->mechanisms.potentiation.gain * z[potentiation_offset_ + j];
-      }
+      const double gain =
+          ActiveForceGain(params_->mechanisms, fitness_offset_ >= 0 ? z[fitness_offset_ + j] : 1.0,
+                          potentiation_offset_ >= 0 ? z[potentiation_offset_ + j] : 0.0);
       const MuscleTendonSample m = MuscleTendonForceAt(
           params_->muscles[j], ws->lengths[j],
           tendons::MusculotendonVelocity(paths_[j], arms_j, qd), out.activation[j], gain);
@@ -545,10 +551,11 @@ std::vector<double> MuscleAndPassiveTorques(const ModelParams& params,
                                             const std::vector<tendons::MusclePath>& paths,
                                             const std::vector<double>& q,
                                             const std::vector<double>& qd,
-                                            const std::vector<double>& a) {
+                                            const std::vector<double>& a,
+                                            const std::vector<double>& gains) {
   std::vector<double> f(params.muscles.size());
   for (std::size_t j = 0; j < f.size(); ++j) {
-    f[j] = MuscleTendonForce(params.muscles[j], paths[j], q, qd, a[j], 1.0).force_n;
+    f[j] = MuscleTendonForce(params.muscles[j], paths[j], q, qd, a[j], GainOf(gains, j)).force_n;
   }
   std::vector<double> tau = tendons::JointTorques(paths, q, f);
   for (int i = 0; i < kNumCoordinates; ++i) {
@@ -559,8 +566,8 @@ std::vector<double> MuscleAndPassiveTorques(const ModelParams& params,
 
 TorquePoint::TorquePoint(const ModelParams& params, const std::vector<tendons::MusclePath>& paths,
                          const std::vector<double>& q, const std::vector<double>& qd,
-                         const std::vector<double>& a)
-    : params_(params), paths_(paths), q_(q), qd_(qd), a_(a) {
+                         const std::vector<double>& a, std::vector<double> gains)
+    : params_(params), paths_(paths), q_(q), qd_(qd), a_(a), gains_(std::move(gains)) {
   // MuscleAndPassiveTorques' steps, through the arm-based overloads (the same bits).
   tendons::CrossingMomentArms(paths, q, &arms_);
   const std::size_t nm = params.muscles.size();
@@ -572,10 +579,11 @@ TorquePoint::TorquePoint(const ModelParams& params, const std::vector<tendons::M
     first_[j] = k;
     k += paths[j].crossings.size();
     lengths_[j] = tendons::MusculotendonLength(paths[j], q);
-    forces_[j] = MuscleTendonForceAt(
-                     params.muscles[j], lengths_[j],
-                     tendons::MusculotendonVelocity(paths[j], &arms_[first_[j]], qd), a[j], 1.0)
-                     .force_n;
+    forces_[j] =
+        MuscleTendonForceAt(params.muscles[j], lengths_[j],
+                            tendons::MusculotendonVelocity(paths[j], &arms_[first_[j]], qd), a[j],
+                            GainOf(gains_, j))
+            .force_n;
   }
   tendons::JointTorques(paths, arms_, forces_, kNumCoordinates, &muscle_tau_);
   tau_ = WithPassiveOf(params);
@@ -608,7 +616,7 @@ std::vector<double> TorquePoint::WithCoordinate(int coordinate, bool speed, doub
     const double length = speed ? lengths_[j] : tendons::MusculotendonLength(paths_[j], q);
     forces[j] = MuscleTendonForceAt(params_.muscles[j], length,
                                     tendons::MusculotendonVelocity(paths_[j], &arms[first_[j]], qd),
-                                    a_[j], 1.0)
+                                    a_[j], GainOf(gains_, j))
                     .force_n;
   }
   std::vector<double> tau;
@@ -619,21 +627,48 @@ std::vector<double> TorquePoint::WithCoordinate(int coordinate, bool speed, doub
   return tau;
 }
 
-std::vector<double> TorquePerActivation(const ModelParams& params,
-                                        const std::vector<tendons::MusclePath>& paths,
-                                        const std::vector<double>& q, const std::vector<double>& qd,
-                                        const std::vector<double>& a) {
-  constexpr double kDa = 1e-6;
+namespace {
+
+/// R_cj(q) ∂f_j/∂x_j for x = the activation (`gain` false) or the active-force gain, by a forward
+/// difference of the Hill tendon force (TorquePerActivation, TorquePerActiveGain).
+std::vector<double> TorquePerMuscleInput(const ModelParams& params,
+                                         const std::vector<tendons::MusclePath>& paths,
+                                         const std::vector<double>& q,
+                                         const std::vector<double>& qd,
+                                         const std::vector<double>& a,
+                                         const std::vector<double>& gains, bool gain) {
+  constexpr double kDx = 1e-6;
   const std::size_t nm = params.muscles.size();
   std::vector<double> out = tendons::MomentArmMatrix(paths, q);  // R, joints × muscles
   for (std::size_t j = 0; j < nm; ++j) {
     const auto& m = params.muscles[j];
-    const double df = (MuscleTendonForce(m, paths[j], q, qd, a[j] + kDa, 1.0).force_n -
-                       MuscleTendonForce(m, paths[j], q, qd, a[j], 1.0).force_n) /
-                      kDa;
+    const double g = GainOf(gains, j);
+    const double df =
+        (MuscleTendonForce(m, paths[j], q, qd, a[j] + (gain ? 0.0 : kDx), g + (gain ? kDx : 0.0))
+             .force_n -
+         MuscleTendonForce(m, paths[j], q, qd, a[j], g).force_n) /
+        kDx;
     for (int c = 0; c < kNumCoordinates; ++c) out[c * nm + j] *= df;
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<double> TorquePerActivation(const ModelParams& params,
+                                        const std::vector<tendons::MusclePath>& paths,
+                                        const std::vector<double>& q, const std::vector<double>& qd,
+                                        const std::vector<double>& a,
+                                        const std::vector<double>& gains) {
+  return TorquePerMuscleInput(params, paths, q, qd, a, gains, false);
+}
+
+std::vector<double> TorquePerActiveGain(const ModelParams& params,
+                                        const std::vector<tendons::MusclePath>& paths,
+                                        const std::vector<double>& q, const std::vector<double>& qd,
+                                        const std::vector<double>& a,
+                                        const std::vector<double>& gains) {
+  return TorquePerMuscleInput(params, paths, q, qd, a, gains, true);
 }
 
 UpperLimbModel::UpperLimbModel(ModelParams params, ModelBuildOptions options)
@@ -902,6 +937,28 @@ void UpperLimbModel::SetActivationsInClosedForm(State& state, bool closed_form) 
 int UpperLimbModel::ActivationYIndex(const State& s) const {
   return s.getNQ() + s.getNU() + s.getZStart(forces_->getMySubsystemIndex()) +
          muscle_force_->ZStart();
+}
+
+int UpperLimbModel::FitnessYIndex(const State& s) const {
+  const int offset = muscle_force_->FitnessOffset();
+  return offset < 0 ? -1 : ActivationYIndex(s) + offset;
+}
+
+int UpperLimbModel::PotentiationYIndex(const State& s) const {
+  const int offset = muscle_force_->PotentiationOffset();
+  return offset < 0 ? -1 : ActivationYIndex(s) + offset;
+}
+
+std::vector<double> UpperLimbModel::ActiveForceGains(const State& layout, const double* y) const {
+  const int fitness = FitnessYIndex(layout), potentiation = PotentiationYIndex(layout);
+  if (fitness < 0 && potentiation < 0) return {};
+  std::vector<double> gains(params_->muscles.size());
+  for (std::size_t j = 0; j < gains.size(); ++j) {
+    const auto i = static_cast<int>(j);
+    gains[j] = ActiveForceGain(params_->mechanisms, fitness < 0 ? 1.0 : y[fitness + i],
+                               potentiation < 0 ? 0.0 : y[potentiation + i]);
+  }
+  return gains;
 }
 
 std::vector<int> UpperLimbModel::LockedYIndices(const State& s) const {

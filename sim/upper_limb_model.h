@@ -48,22 +48,32 @@ std::vector<double> RecruitedFractions(const ModelParams& params, const muscles:
 
 /// The generalised forces (N·m per coordinate) that depend on muscle and joint parameters, at
 /// angles q (rad), speeds q̇ (rad/s) and activations a: τ = R(q) f (eq. 8–10) with the Hill
-/// tendon forces f (eq. 4, 7; no fatigue or potentiation gain) plus the passive joint moments
-/// (eq. 14 and range limits). `paths[j]` = params.muscles[j].path (built once by the caller).
-/// The force elements apply exactly these, plus gravity, support, tremor and mechanism gains.
+/// tendon forces f (eq. 4, 7; each muscle's active force × gains[j], the fatigue and
+/// potentiation gain ActiveForceGain; empty `gains`: 1) plus the passive joint moments (eq. 14 and
+/// range limits). `paths[j]` = params.muscles[j].path (built once by the caller). The force
+/// elements apply exactly these, plus gravity, support and tremor.
 std::vector<double> MuscleAndPassiveTorques(const ModelParams& params,
                                             const std::vector<tendons::MusclePath>& paths,
                                             const std::vector<double>& q,
                                             const std::vector<double>& qd,
-                                            const std::vector<double>& a);
+                                            const std::vector<double>& a,
+                                            const std::vector<double>& gains = {});
 
-/// ∂τ/∂a of MuscleAndPassiveTorques at (q, q̇, a), N·m per unit activation, coordinates ×
+/// ∂τ/∂a of MuscleAndPassiveTorques at (q, q̇, a, gains), N·m per unit activation, coordinates ×
 /// muscles row-major: [c · n_muscles + j] = R_cj(q) ∂f_j/∂a_j (forward difference of the Hill
 /// tendon force, exact where f is affine in a).
 std::vector<double> TorquePerActivation(const ModelParams& params,
                                         const std::vector<tendons::MusclePath>& paths,
                                         const std::vector<double>& q, const std::vector<double>& qd,
-                                        const std::vector<double>& a);
+                                        const std::vector<double>& a,
+                                        const std::vector<double>& gains = {});
+/// ∂τ/∂gain of MuscleAndPassiveTorques the same way: [c · n_muscles + j] = R_cj(q) ∂f_j/∂g_j,
+/// N·m per unit gain (f is affine in the gain: exact).
+std::vector<double> TorquePerActiveGain(const ModelParams& params,
+                                        const std::vector<tendons::MusclePath>& paths,
+                                        const std::vector<double>& q, const std::vector<double>& qd,
+                                        const std::vector<double>& a,
+                                        const std::vector<double>& gains = {});
 
 /// MuscleAndPassiveTorques at one (q, q̇, a) with its parts kept, for difference quotients that
 /// move one coordinate's q or q̇, or only passive joint parameters (the forward sensitivities'
@@ -72,12 +82,12 @@ std::vector<double> TorquePerActivation(const ModelParams& params,
 /// (UpperLimbModel.TorquePointGivesMuscleAndPassiveTorquesBits).
 class TorquePoint {
  public:
-  /// `params`, `paths`, `q`, `qd` and `a` as for MuscleAndPassiveTorques; all are referenced, not
-  /// copied, and must outlive the point.
+  /// `params`, `paths`, `q`, `qd`, `a` and `gains` as for MuscleAndPassiveTorques; all but the
+  /// gains are referenced, not copied, and must outlive the point.
   TorquePoint(const ModelParams& params, const std::vector<tendons::MusclePath>& paths,
               const std::vector<double>& q, const std::vector<double>& qd,
-              const std::vector<double>& a);
-  /// MuscleAndPassiveTorques(params, paths, q, qd, a).
+              const std::vector<double>& a, std::vector<double> gains = {});
+  /// MuscleAndPassiveTorques(params, paths, q, qd, a, gains).
   const std::vector<double>& torques() const { return tau_; }
   /// The same with q[coordinate] (speed: qd[coordinate]) set to `value`: the muscles that cross
   /// the coordinate are evaluated again, the others' forces (same lengths and velocities) kept.
@@ -92,6 +102,7 @@ class TorquePoint {
   const std::vector<double>& q_;
   const std::vector<double>& qd_;
   const std::vector<double>& a_;
+  std::vector<double> gains_;       // active-force gain of each muscle (empty: 1)
   std::vector<double> arms_;        // CrossingMomentArms(paths, q)
   std::vector<std::size_t> first_;  // index in arms_ of each path's first crossing
   std::vector<double> lengths_;     // l_MT of each muscle, m
@@ -194,6 +205,14 @@ class UpperLimbModel {
   /// Index in the state vector Y = [q, u, z] of muscle 0's activation a; muscle j's a and ȧ are
   /// at +2j and +2j+1. Integrators that solve eq. (6) in closed form use it.
   int ActivationYIndex(const SimTK::State& state) const;
+  /// Index in Y of muscle 0's fitness φ (fatigue) and of its potentiation state p; muscle j's at
+  /// +j. −1 when the mechanism is off.
+  int FitnessYIndex(const SimTK::State& state) const;
+  int PotentiationYIndex(const SimTK::State& state) const;
+  /// Each muscle's active-force gain φ (1 + g p) (ActiveForceGain) read from a whole Y `y`
+  /// (Simbody's layout; `layout` gives only the layout); empty when neither fatigue nor
+  /// potentiation is on (every gain 1).
+  std::vector<double> ActiveForceGains(const SimTK::State& layout, const double* y) const;
   /// Integrators that advance the activations in closed form (eq. 6; the CVODES integrator) set
   /// true: realising Stage::Dynamics then leaves the activations' ż unwritten (stale), which
   /// nothing of theirs reads, and skips the recruitment and eq. (6) per muscle per right-hand

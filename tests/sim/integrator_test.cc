@@ -289,84 +289,79 @@ TEST(Integrator, WeldedLockedCoordinatesIntegrateTheSameTrajectoryAndSensitiviti
   EXPECT_LT(worst_s, 3e-5 * largest_s);
 }
 
-TEST(Integrator, ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) {
-  // Hand rig (shoulder, elbow, pro/supination locked), both array channels stepped. Parameters of
-  // every kind the sensitivity right-hand side re-evaluates: passive stiffness (direct torque),
-  // recruitment β and γ and the array's current spread (through w and the closed-form activation
-  // sensitivities across breakpoints), a wrist moment arm (path, direct torque), F_max (Hill),
-  // an activation rate Ω and its deactivation ratio (eq. 6's free response), a wrist tremor's
-  // amplitude, frequency and phase (TremorTorque, a function of t) and the hand's mass (a second
-  // Simbody system).
+/// A parameter of a sensitivity test: its name, where it lives in the model and the relative
+/// step of its central differences (larger for a parameter whose outputs move so little that
+/// the integration's error, ≈ 1e-8 rad at tolerance 1e-10, would dominate a 1e-4 step's
+/// difference).
+struct ParameterAt {
+  std::string name;
+  std::function<double&(ModelParams&)> at;
+  double difference_step = 1e-4;
+};
+
+/// Muscle j's moment arm at the wrist.
+double& WristArm(ModelParams& m, int j) {
+  for (auto& cr : m.muscles[j].path.crossings) {
+    if (cr.joint == kWristFlexion) return cr.arm.d_m;
+  }
+  throw std::invalid_argument("no wrist crossing");
+}
+
+/// The hand rig of the sensitivity tests: shoulder, elbow and pro/supination locked.
+ModelParams SensitivityHandRig() {
   ModelParams base = DefaultModelParams();
-  base.mechanisms.tremor.enabled = true;
-  base.mechanisms.tremor.coordinate = kWristFlexion;
-  base.mechanisms.tremor.amplitude_nm = 0.05;
-  base.mechanisms.tremor.frequency_hz = 6.0;
-  base.mechanisms.tremor.phase_rad = 0.3;
   for (int c : {kShoulderElvPlane, kShoulderElevation, kShoulderRotation, kElbowFlexion, kProSup}) {
     base.coordinates[c].mode = CoordinateMode::kLocked;
   }
-  // Muscles deactivate at 0.6 Ω (muscles::IntervalOmega): channel 1 falls at 1.2 s, channel 2
-  // at 2.0 s.
-  for (auto& m : base.muscles) m.deactivation_ratio = 0.6;
-  const int ecrl = MuscleNamed(base, "ECRL"), fcr = MuscleNamed(base, "FCR");
-  const auto wrist_arm = [](ModelParams& m, int j) -> double& {
-    for (auto& cr : m.muscles[j].path.crossings) {
-      if (cr.joint == kWristFlexion) return cr.arm.d_m;
-    }
-    throw std::invalid_argument("no wrist crossing");
-  };
-  using Setter = std::function<double&(ModelParams&)>;
-  const std::vector<std::pair<std::string, Setter>> parameters = {
-      {"k.wrist",
-       [](ModelParams& m) -> double& {
-         return m.coordinates[kWristFlexion].passive.stiffness_nm_per_rad;
-       }},
-      {"beta.ECRL",
-       [&](ModelParams& m) -> double& { return m.muscles[ecrl].recruitment.beta_per_us; }},
-      {"gamma.FCR", [&](ModelParams& m) -> double& { return m.muscles[fcr].recruitment.gamma; }},
-      {"array.spread", [](ModelParams& m) -> double& { return m.array.spread_m; }},
-      {"d.ECRL.wrist", [&](ModelParams& m) -> double& { return wrist_arm(m, ecrl); }},
-      {"Fmax.FCR",
-       [&](ModelParams& m) -> double& { return m.muscles[fcr].hill.max_isometric_force_n; }},
-      {"omega.ECRL",
-       [&](ModelParams& m) -> double& { return m.muscles[ecrl].activation_omega_rad_s; }},
-      {"deact.ECRL", [&](ModelParams& m) -> double& { return m.muscles[ecrl].deactivation_ratio; }},
-      {"tremor.A", [](ModelParams& m) -> double& { return m.mechanisms.tremor.amplitude_nm; }},
-      {"tremor.f", [](ModelParams& m) -> double& { return m.mechanisms.tremor.frequency_hz; }},
-      {"tremor.phase", [](ModelParams& m) -> double& { return m.mechanisms.tremor.phase_rad; }},
-      {"mass.hand", [](ModelParams& m) -> double& { return m.segments[kHand].mass_kg; }},
-  };
+  return base;
+}
+
+/// Both array channels stepped: channel 1 falls at 1.2 s, channel 2 at 2.0 s.
+StimulationSchedule SensitivitySteps() {
   StimulationSchedule stim;
   stim.times = {0.0, 0.4, 1.2, 2.0};
   stim.values = {
       {0, 0, 0, 0, 0, 0}, {180, 60, 0, 0, 0, 0}, {70, 220, 0, 0, 0, 0}, {120, 120, 0, 0, 0, 0}};
+  return stim;
+}
+
+/// Forward sensitivities of `base` (3 s of SensitivitySteps at tolerance 1e-10) against central
+/// differences of whole simulations, per parameter: checks that each column is non-zero and
+/// within 0.2 % of the largest |∂q/∂θ| with ∂f/∂y formed at every step (exact) and within 1 % with
+/// its rigid-body part formed at every 16th (the default; the muscle and passive part at every
+/// step). With the rigid-body part reused the error follows the step sequence, which round-off
+/// moves: the array spread's column 0.08–0.56 % over tolerances 0.99–1.01 × 1e-10 with either
+/// right-hand side (UpperLimbModel::CalcYDot or Simbody's), the tremor's 0.02–0.63 %, the hand
+/// mass's 0.24–0.67 %; 1.2 % / 1.6 % when the whole ∂f/∂y is formed only at every 4th / 16th
+/// step. Returns the integration statistics, exact and default.
+std::pair<IntegrationStats, IntegrationStats> ExpectSensitivitiesMatchCentralDifferences(
+    const ModelParams& base, const std::vector<ParameterAt>& parameters) {
+  const StimulationSchedule stim = SensitivitySteps();
   const auto times = Times(3.0, 0.05);
   const IntegratorParams integrator{IntegratorParams::Method::kCvodes, 1e-10};
   const int np = static_cast<int>(parameters.size());
   std::vector<ParameterPerturbation> perturbed;
-  for (const auto& [name, at] : parameters) {
+  for (const ParameterAt& parameter : parameters) {
     ParameterPerturbation pp{base, 0.0, 1.0};
-    double& v = at(pp.params);
+    double& v = parameter.at(pp.params);
     pp.scale = std::abs(v);
     pp.step = 1e-7 * std::abs(v);
     v += pp.step;
     perturbed.push_back(pp);
   }
   const UpperLimbModel model(base);
-  // ∂f/∂y formed at every step (exact), and with its rigid-body part only at every 16th (the
-  // default; the muscle and passive part at every step).
-  std::vector<std::vector<double>> sens, sens4;  // [sample][c * np + k]
+  std::vector<std::vector<double>> sens, sens16;  // [sample][c * np + k]
   SimTK::State s = model.MakeInitialState();
   const IntegrationStats stats = IntegrateTrialSensitivities(
       model, integrator, stim, times, perturbed, &s,
       [&](double, const double*, const std::vector<double>& dq) { sens.push_back(dq); }, 1);
-  SimTK::State s4 = model.MakeInitialState();
-  const IntegrationStats stats4 = IntegrateTrialSensitivities(
-      model, integrator, stim, times, perturbed, &s4,
-      [&](double, const double*, const std::vector<double>& dq) { sens4.push_back(dq); });
-  ASSERT_EQ(sens.size(), times.size());
-  ASSERT_EQ(sens4.size(), times.size());
+  SimTK::State s16 = model.MakeInitialState();
+  const IntegrationStats stats16 = IntegrateTrialSensitivities(
+      model, integrator, stim, times, perturbed, &s16,
+      [&](double, const double*, const std::vector<double>& dq) { sens16.push_back(dq); });
+  EXPECT_EQ(sens.size(), times.size());
+  EXPECT_EQ(sens16.size(), times.size());
+  if (sens.size() != times.size() || sens16.size() != times.size()) return {stats, stats16};
   const auto simulate = [&](const ModelParams& m) {
     const UpperLimbModel limb(m);
     SimTK::State st = limb.MakeInitialState();
@@ -377,11 +372,11 @@ TEST(Integrator, ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) 
   };
   for (int k = 0; k < np; ++k) {
     ModelParams plus = base, minus = base;
-    const double h = 1e-4 * std::abs(parameters[k].second(plus));
-    parameters[k].second(plus) += h;
-    parameters[k].second(minus) -= h;
+    const double h = parameters[k].difference_step * std::abs(parameters[k].at(plus));
+    parameters[k].at(plus) += h;
+    parameters[k].at(minus) -= h;
     const auto qp = simulate(plus), qm = simulate(minus);
-    double largest = 0.0, worst = 0.0, worst4 = 0.0;
+    double largest = 0.0, worst = 0.0, worst16 = 0.0;
     for (std::size_t i = 0; i < times.size(); ++i) {
       for (int c = 0; c < kNumCoordinates; ++c) {
         const double fd = (qp[i][c] - qm[i][c]) / (2.0 * h);
@@ -392,30 +387,101 @@ TEST(Integrator, ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) 
         }
         largest = std::max(largest, std::abs(fd));
         worst = std::max(worst, std::abs(an - fd));
-        worst4 = std::max(worst4, std::abs(sens4[i][static_cast<std::size_t>(c) * np + k] - fd));
+        worst16 = std::max(worst16, std::abs(sens16[i][static_cast<std::size_t>(c) * np + k] - fd));
       }
     }
     std::printf(
         "%-13s max |dq/dtheta| %.4g, max |sensitivity - central difference| %.3g (every "
         "step), %.3g (default: rigid-body part every 16th)\n",
-        parameters[k].first.c_str(), largest, worst, worst4);
-    EXPECT_GT(largest, 0.0) << parameters[k].first;
-    EXPECT_LT(worst, 2e-3 * largest) << parameters[k].first;
-    // With the rigid-body part reused the error follows the step sequence, which round-off
-    // moves: the array spread's column 0.08–0.56 % over tolerances 0.99–1.01 × 1e-10 with either
-    // right-hand side (UpperLimbModel::CalcYDot or Simbody's), the tremor's 0.02–0.63 %, the
-    // hand mass's 0.24–0.67 %. 1.2 % / 1.6 % when the whole ∂f/∂y is formed only at every 4th /
-    // 16th step.
-    EXPECT_LT(worst4, 1e-2 * largest) << parameters[k].first;
+        parameters[k].name.c_str(), largest, worst, worst16);
+    EXPECT_GT(largest, 0.0) << parameters[k].name;
+    EXPECT_LT(worst, 2e-3 * largest) << parameters[k].name;
+    EXPECT_LT(worst16, 1e-2 * largest) << parameters[k].name;
   }
   std::printf("steps %ld / %ld, right-hand sides %ld / %ld (every step / default)\n", stats.steps,
-              stats4.steps, stats.rhs_evaluations, stats4.rhs_evaluations);
-  EXPECT_LT(stats4.rhs_evaluations, stats.rhs_evaluations / 2);
+              stats16.steps, stats.rhs_evaluations, stats16.rhs_evaluations);
+  return {stats, stats16};
+}
+
+TEST(Integrator, ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) {
+  // Parameters of every kind the sensitivity right-hand side re-evaluates: passive stiffness
+  // (direct torque), recruitment β and γ and the array's current spread (through w and the
+  // closed-form activation sensitivities across breakpoints), a wrist moment arm (path, direct
+  // torque), F_max (Hill), an activation rate Ω and its deactivation ratio (eq. 6's free
+  // response), a wrist tremor's amplitude, frequency and phase (TremorTorque, a function of t) and
+  // the hand's mass (a second Simbody system).
+  ModelParams base = SensitivityHandRig();
+  base.mechanisms.tremor.enabled = true;
+  base.mechanisms.tremor.coordinate = kWristFlexion;
+  base.mechanisms.tremor.amplitude_nm = 0.05;
+  base.mechanisms.tremor.frequency_hz = 6.0;
+  base.mechanisms.tremor.phase_rad = 0.3;
+  // Muscles deactivate at 0.6 Ω (muscles::IntervalOmega).
+  for (auto& m : base.muscles) m.deactivation_ratio = 0.6;
+  const int ecrl = MuscleNamed(base, "ECRL"), fcr = MuscleNamed(base, "FCR");
+  const std::vector<ParameterAt> parameters = {
+      {"k.wrist",
+       [](ModelParams& m) -> double& {
+         return m.coordinates[kWristFlexion].passive.stiffness_nm_per_rad;
+       }},
+      {"beta.ECRL",
+       [&](ModelParams& m) -> double& { return m.muscles[ecrl].recruitment.beta_per_us; }},
+      {"gamma.FCR", [&](ModelParams& m) -> double& { return m.muscles[fcr].recruitment.gamma; }},
+      {"array.spread", [](ModelParams& m) -> double& { return m.array.spread_m; }},
+      {"d.ECRL.wrist", [&](ModelParams& m) -> double& { return WristArm(m, ecrl); }},
+      {"Fmax.FCR",
+       [&](ModelParams& m) -> double& { return m.muscles[fcr].hill.max_isometric_force_n; }},
+      {"omega.ECRL",
+       [&](ModelParams& m) -> double& { return m.muscles[ecrl].activation_omega_rad_s; }},
+      {"deact.ECRL", [&](ModelParams& m) -> double& { return m.muscles[ecrl].deactivation_ratio; }},
+      {"tremor.A", [](ModelParams& m) -> double& { return m.mechanisms.tremor.amplitude_nm; }},
+      {"tremor.f", [](ModelParams& m) -> double& { return m.mechanisms.tremor.frequency_hz; }},
+      {"tremor.phase", [](ModelParams& m) -> double& { return m.mechanisms.tremor.phase_rad; }},
+      {"mass.hand", [](ModelParams& m) -> double& { return m.segments[kHand].mass_kg; }},
+  };
+  const auto [exact, reused] = ExpectSensitivitiesMatchCentralDifferences(base, parameters);
+  EXPECT_LT(reused.rhs_evaluations, exact.rhs_evaluations / 2);
+}
+
+TEST(Integrator, SensitivitiesWithFatigueAndPotentiationMatchCentralDifferences) {
+  // Fatigue and potentiation fast enough to change the force within the 3 s trial (fitness down
+  // to ≈ 0.5, potentiation up to ≈ 0.5 on the stimulated muscles): their states are CVODES
+  // components whose columns of ∂f/∂y are formed exactly (integrator.h). The person's parameters
+  // (through the activations, the torques and the masses) and the mechanisms' own rates and gain.
+  ModelParams base = SensitivityHandRig();
+  base.mechanisms.fatigue = {true, 2.0, 20.0, 0.3};
+  base.mechanisms.potentiation = {true, 0.8, 1.0, 10.0};
+  const int ecrl = MuscleNamed(base, "ECRL"), fcr = MuscleNamed(base, "FCR");
+  const std::vector<ParameterAt> parameters = {
+      {"k.wrist",
+       [](ModelParams& m) -> double& {
+         return m.coordinates[kWristFlexion].passive.stiffness_nm_per_rad;
+       }},
+      {"beta.ECRL",
+       [&](ModelParams& m) -> double& { return m.muscles[ecrl].recruitment.beta_per_us; }},
+      {"d.ECRL.wrist", [&](ModelParams& m) -> double& { return WristArm(m, ecrl); }},
+      {"Fmax.FCR",
+       [&](ModelParams& m) -> double& { return m.muscles[fcr].hill.max_isometric_force_n; }},
+      {"omega.ECRL",
+       [&](ModelParams& m) -> double& { return m.muscles[ecrl].activation_omega_rad_s; }},
+      {"mass.hand", [](ModelParams& m) -> double& { return m.segments[kHand].mass_kg; }},
+      {"fatigue.T_fat",
+       [](ModelParams& m) -> double& { return m.mechanisms.fatigue.fatigue_time_s; }},
+      {"fatigue.T_rec",
+       [](ModelParams& m) -> double& { return m.mechanisms.fatigue.recovery_time_s; }, 1e-3},
+      {"fatigue.min", [](ModelParams& m) -> double& { return m.mechanisms.fatigue.min_fitness; }},
+      {"pot.gain", [](ModelParams& m) -> double& { return m.mechanisms.potentiation.gain; }},
+      {"pot.rise", [](ModelParams& m) -> double& { return m.mechanisms.potentiation.rise_time_s; }},
+      {"pot.decay",
+       [](ModelParams& m) -> double& { return m.mechanisms.potentiation.decay_time_s; }, 1e-3},
+  };
+  ExpectSensitivitiesMatchCentralDifferences(base, parameters);
 }
 
 TEST(Integrator, SensitivitiesRejectStatesTheyCannotDifferentiate) {
   ModelParams p = DefaultModelParams();
-  p.mechanisms.fatigue.enabled = true;
+  p.mechanisms.stretch_reflex.gain = 0.1;
+  p.mechanisms.stretch_reflex.muscles = {"FCR"};
   const UpperLimbModel model(p);
   SimTK::State s = model.MakeInitialState();
   StimulationSchedule stim;
@@ -423,7 +489,15 @@ TEST(Integrator, SensitivitiesRejectStatesTheyCannotDifferentiate) {
       IntegrateTrialSensitivities(model, {}, stim, {0.0, 0.1}, {}, &s,
                                   [](double, const double*, const std::vector<double>&) {}),
       std::invalid_argument);
+  // A perturbed model that switches fatigue on has another state layout.
   const UpperLimbModel plain(DefaultModelParams());
+  ParameterPerturbation fatigued{DefaultModelParams(), 1e-6, 1.0};
+  fatigued.params.mechanisms.fatigue.enabled = true;
+  SimTK::State s1 = plain.MakeInitialState();
+  EXPECT_THROW(
+      IntegrateTrialSensitivities(plain, {}, stim, {0.0, 0.1}, {fatigued}, &s1,
+                                  [](double, const double*, const std::vector<double>&) {}),
+      std::invalid_argument);
   SimTK::State s2 = plain.MakeInitialState();
   EXPECT_THROW(IntegrateTrialSensitivities(
                    plain, {IntegratorParams::Method::kSimbodyRkMerson, 1e-6}, stim, {0.0, 0.1}, {},
