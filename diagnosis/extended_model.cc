@@ -236,7 +236,7 @@ void ForEachRow(const DataView& view, Fn fn) {
 
 /// The Jacobian columns `cols` (indices into the free columns c, parameter first_free + c) of
 /// trial t by forward sensitivities: −∂ŷ/∂θ on the trial's rows. Throws when the model cannot be
-/// differentiated (fatigue or potentiation states) or the integration fails.
+/// differentiated (the stretch reflex's states) or the integration fails.
 std::vector<Eigen::MatrixXd> SensitivityColumns(const sim::ModelParams& base,
                                                 const std::vector<ModelParameter>& params,
                                                 const Eigen::VectorXd& x, const DataView& view,

@@ -381,9 +381,8 @@ FitStage Extender::FitStageOf(const std::vector<int>& cands, const Eigen::Vector
     key.push_back("fd_step=" + ExactNumberText(fd_step));
   }
   return ctx_.cache.Get<FitStage>(key, [&] {
-    // All person parameters are fitted with the candidates' — on forward sensitivities where the
-    // extended model has them, on differences where it has states they lack (fatigue,
-    // potentiation; docs/diagnosis.md, Extension and acceptance).
+    // All person parameters are fitted with the candidates' (docs/diagnosis.md, Extension and
+    // acceptance).
     std::vector<int> columns(params.size());
     std::iota(columns.begin(), columns.end(), 0);
     Eigen::VectorXd x_start = x0;  // may be backtracked below

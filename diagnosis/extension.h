@@ -27,9 +27,8 @@
 // Screening. The candidates whose robust score test passes (p_adj < alpha), the best-scoring
 // joint per id, up to max_screened, are fitted in batches of max_fitted while none passes: their
 // own parameters from the test's Gauss–Newton step (Candidate::start_from_step), fitted together
-// with all the person parameters (screen_iterations LM steps, person priors on; their columns by
-// differences where the extended model has states the sensitivity integration lacks: fatigue,
-// potentiation). A mechanism whose
+// with all the person parameters (screen_iterations LM steps, person priors on; their columns
+// from the forward-sensitivity integration). A mechanism whose
 // joint is chosen by the fit (Mechanism::joint_by_fit: tremor) is fitted at each joint of a
 // significant test, here and on top, and only its fit of lowest training Σr² is judged: the
 // choice uses the training data alone, so the held-out test stays one test per mechanism

@@ -127,10 +127,11 @@ using SensitivityObserver =
 /// step and not differenced (∂u̇/∂z_j = M_ff⁻¹ ∂τ/∂g_j ∂g_j/∂z_j through the active-force gain
 /// g_j = φ_j (1 + g p_j), ∂ż_j/∂z_j of the bilinear rates), their rows of ∂f/∂θ are
 /// ∂ż_j/∂a_j ∂a_j/∂θ_k plus the direct difference quotient of a θ_k that moves their rate
-/// parameters, and τ carries the gains (Integrator.SensitivitiesWithFatigueAndPotentiationMatch
-/// CentralDifferences). Throws std::invalid_argument when the model has the stretch reflex's
-/// states, a perturbed model switches a mechanism with states on or off, or the method is
-/// Simbody's RKM, and std::runtime_error like IntegrateTrial on failure.
+/// parameters, and τ carries the gains
+/// (Integrator.SensitivitiesWithFatigueAndPotentiationMatchCentralDifferences). Throws
+/// std::invalid_argument when the model has the stretch reflex's states, a perturbed model
+/// switches a mechanism with states on or off, or the method is Simbody's RKM, and
+/// std::runtime_error like IntegrateTrial on failure.
 IntegrationStats IntegrateTrialSensitivities(
     const UpperLimbModel& model, const IntegratorParams& params,
     const StimulationSchedule& schedule, const std::vector<double>& report_times,

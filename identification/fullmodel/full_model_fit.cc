@@ -442,7 +442,7 @@ struct JacobianRequest {
 
 /// ∂r/∂x at x (residuals r0 there) by `options.jacobian` (UseSensitivities), by forward
 /// differences when a sensitivity integration fails or the rig has states sensitivities cannot
-/// differentiate (fatigue, potentiation). Adds the simulation sets it used to *evaluations (1
+/// differentiate (the stretch reflex). Adds the simulation sets it used to *evaluations (1
 /// augmented, or one per parameter); `progress` gets the forward differences' fraction done.
 Eigen::MatrixXd FitJacobian(const JacobianRequest& req, const Eigen::VectorXd& x,
                             const Eigen::VectorXd& r0, int* evaluations,

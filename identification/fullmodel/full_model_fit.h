@@ -128,7 +128,7 @@ struct FullModelFitOptions {
   /// over the threads); kAuto takes sensitivities for ≥ 4 parameters (the rule was set when an
   /// augmented simulation cost 3.6 plain ones and is kept; it ignores the thread count, so the
   /// figures do not depend on how the fit is run). A sensitivity integration that fails, or a rig
-  /// with fatigue or potentiation states, falls back to forward differences.
+  /// with the stretch reflex's states, falls back to forward differences.
   JacobianMethod jacobian = JacobianMethod::kAuto;
   /// The sensitivity simulations of the iterations run at this multiple of integrator_tolerance
   /// (residuals, hence the cost and the stop, at integrator_tolerance itself): LM needs the
@@ -196,7 +196,7 @@ Trial SimulateLike(const sim::ModelParams& model, const Trial& trial,
 /// parameters of `perturbed` (each the model with one parameter moved by its step; only what
 /// sim::ParameterPerturbation lists may differ): the simulated trial and, per q column of `trial`
 /// (same order), the samples × P matrix ∂q̂/∂θ_k (rad per unit of θ_k). Throws like SimulateLike,
-/// and std::invalid_argument for a model it cannot differentiate (fatigue or potentiation states,
+/// and std::invalid_argument for a model it cannot differentiate (the stretch reflex's states,
 /// Simbody's RKM).
 struct SimulationSensitivities {
   Trial trial;

@@ -83,7 +83,8 @@ TEST(SourceFingerprint, ThisBuildIsFingerprintedFromItsSources) {
   // The list the configure step wrote, fingerprinted now: what this build's sources are.
   const std::string now = Fingerprint(FESIM_FINGERPRINT_LIST, FESIM_SOURCE_DIR_PATH);
   const std::string built = BuildIdentity();
-  EXPECT_EQ(now.substr(now.find('+')), built.substr(built.find('+')));
+  EXPECT_EQ(now.substr(now.find('+')), built.substr(built.find('+')))
+      << "a source changed since this build: build again before testing";
 }
 
 }  // namespace

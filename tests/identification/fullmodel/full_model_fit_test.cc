@@ -196,11 +196,12 @@ TEST(FullModelFitTest, SensitivityAndForwardDifferenceJacobiansReachTheSamePlant
   EXPECT_GE(rf.evaluations, rf.jacobians * static_cast<int>(p.planted.size()));
 }
 
-TEST(FullModelFitTest, RigWithFatigueStatesFallsBackToForwardDifferences) {
-  // Sensitivities do not differentiate the fatigue states: asked for anyway, the ranking and the
-  // Jacobians fall back to forward differences and give exactly their figures.
+TEST(FullModelFitTest, RigWithStretchReflexStatesFallsBackToForwardDifferences) {
+  // Sensitivities do not differentiate the stretch reflex's states: asked for anyway, the ranking
+  // and the Jacobians fall back to forward differences and give exactly their figures.
   sim::ModelParams rig = DefaultHandRig();
-  rig.mechanisms.fatigue.enabled = true;
+  rig.mechanisms.stretch_reflex.gain = 0.2;
+  rig.mechanisms.stretch_reflex.muscles = {"FCR", "FCU"};
   const Trial data = MakeTrial(rig, Staircase(rig), 3.0, 0.0, 1);
   FullModelFitOptions o;
   o.fit_names = {"k.wrist_flexion"};
@@ -218,6 +219,38 @@ TEST(FullModelFitTest, RigWithFatigueStatesFallsBackToForwardDifferences) {
   }
   EXPECT_EQ(sens.values(0), fd.values(0));
   EXPECT_EQ(sens.runs[0].evaluations, fd.runs[0].evaluations);
+}
+
+TEST(FullModelFitTest, RigWithFatigueStatesFitsOnSensitivities) {
+  // Fatigue's states are in the sensitivity integration (sim/integrator.h): the fit counts one
+  // augmented simulation per Jacobian (the differences one per parameter) and ends where the
+  // forward-difference fit does, at the planted stiffnesses.
+  sim::ModelParams rig = DefaultHandRig();
+  rig.mechanisms.fatigue = {true, 3.0, 30.0, 0.3};
+  sim::ModelParams truth = rig;
+  truth.coordinates[sim::kWristFlexion].passive.stiffness_nm_per_rad *= 1.3;
+  truth.coordinates[sim::kMcpFlexion].passive.stiffness_nm_per_rad *= 0.8;
+  const Trial data = MakeTrial(truth, Staircase(rig), 3.0, 0.0, 1);
+  FullModelFitOptions o;
+  o.fit_names = {"k.wrist_flexion", "k.mcp_flexion"};
+  o.starts = 1;
+  o.max_iterations = 6;
+  o.integrator_tolerance = 1e-8;
+  o.jacobian = JacobianMethod::kSensitivities;
+  const FullModelFit sens = FitFullModel(rig, {data}, o);
+  o.jacobian = JacobianMethod::kForwardDifferences;
+  const FullModelFit fd = FitFullModel(rig, {data}, o);
+  const std::vector<int> joints = {sim::kWristFlexion, sim::kMcpFlexion};
+  for (int i = 0; i < 2; ++i) {
+    const double planted = truth.coordinates[joints[i]].passive.stiffness_nm_per_rad;
+    std::printf("fatigue rig: %s %.6g (sensitivities), %.6g (differences), planted %.6g\n",
+                o.fit_names[i].c_str(), sens.values(i), fd.values(i), planted);
+    EXPECT_NEAR(sens.values(i), planted, 1e-3 * planted) << o.fit_names[i];
+    EXPECT_NEAR(sens.values(i), fd.values(i), 1e-3 * planted) << o.fit_names[i];
+  }
+  std::printf("evaluations: %d with sensitivities, %d with differences\n", sens.runs[0].evaluations,
+              fd.runs[0].evaluations);
+  EXPECT_LT(sens.runs[0].evaluations, fd.runs[0].evaluations);
 }
 
 TEST(FullModelFitTest, StaysCloseUnderHalfDegreeAngleNoise) {
