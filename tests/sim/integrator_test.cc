@@ -403,6 +403,26 @@ std::pair<IntegrationStats, IntegrationStats> ExpectSensitivitiesMatchCentralDif
   return {stats, stats16};
 }
 
+/// Person parameters of the sensitivity tests: the wrist's passive stiffness, ECRL's recruitment
+/// β, wrist moment arm and activation rate Ω, FCR's F_max and the hand's mass.
+std::vector<ParameterAt> PersonParametersAt(const ModelParams& base) {
+  const int ecrl = MuscleNamed(base, "ECRL"), fcr = MuscleNamed(base, "FCR");
+  return {
+      {"k.wrist",
+       [](ModelParams& m) -> double& {
+         return m.coordinates[kWristFlexion].passive.stiffness_nm_per_rad;
+       }},
+      {"beta.ECRL",
+       [ecrl](ModelParams& m) -> double& { return m.muscles[ecrl].recruitment.beta_per_us; }},
+      {"d.ECRL.wrist", [ecrl](ModelParams& m) -> double& { return WristArm(m, ecrl); }},
+      {"Fmax.FCR",
+       [fcr](ModelParams& m) -> double& { return m.muscles[fcr].hill.max_isometric_force_n; }},
+      {"omega.ECRL",
+       [ecrl](ModelParams& m) -> double& { return m.muscles[ecrl].activation_omega_rad_s; }},
+      {"mass.hand", [](ModelParams& m) -> double& { return m.segments[kHand].mass_kg; }},
+  };
+}
+
 TEST(Integrator, ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) {
   // Parameters of every kind the sensitivity right-hand side re-evaluates: passive stiffness
   // (direct torque), recruitment β and γ and the array's current spread (through w and the
@@ -419,26 +439,16 @@ TEST(Integrator, ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) 
   // Muscles deactivate at 0.6 Ω (muscles::IntervalOmega).
   for (auto& m : base.muscles) m.deactivation_ratio = 0.6;
   const int ecrl = MuscleNamed(base, "ECRL"), fcr = MuscleNamed(base, "FCR");
-  const std::vector<ParameterAt> parameters = {
-      {"k.wrist",
-       [](ModelParams& m) -> double& {
-         return m.coordinates[kWristFlexion].passive.stiffness_nm_per_rad;
-       }},
-      {"beta.ECRL",
-       [&](ModelParams& m) -> double& { return m.muscles[ecrl].recruitment.beta_per_us; }},
+  std::vector<ParameterAt> parameters = PersonParametersAt(base);
+  const std::vector<ParameterAt> more = {
       {"gamma.FCR", [&](ModelParams& m) -> double& { return m.muscles[fcr].recruitment.gamma; }},
       {"array.spread", [](ModelParams& m) -> double& { return m.array.spread_m; }},
-      {"d.ECRL.wrist", [&](ModelParams& m) -> double& { return WristArm(m, ecrl); }},
-      {"Fmax.FCR",
-       [&](ModelParams& m) -> double& { return m.muscles[fcr].hill.max_isometric_force_n; }},
-      {"omega.ECRL",
-       [&](ModelParams& m) -> double& { return m.muscles[ecrl].activation_omega_rad_s; }},
       {"deact.ECRL", [&](ModelParams& m) -> double& { return m.muscles[ecrl].deactivation_ratio; }},
       {"tremor.A", [](ModelParams& m) -> double& { return m.mechanisms.tremor.amplitude_nm; }},
       {"tremor.f", [](ModelParams& m) -> double& { return m.mechanisms.tremor.frequency_hz; }},
       {"tremor.phase", [](ModelParams& m) -> double& { return m.mechanisms.tremor.phase_rad; }},
-      {"mass.hand", [](ModelParams& m) -> double& { return m.segments[kHand].mass_kg; }},
   };
+  parameters.insert(parameters.end(), more.begin(), more.end());
   const auto [exact, reused] = ExpectSensitivitiesMatchCentralDifferences(base, parameters);
   EXPECT_LT(reused.rhs_evaluations, exact.rhs_evaluations / 2);
 }
@@ -451,20 +461,8 @@ TEST(Integrator, SensitivitiesWithFatigueAndPotentiationMatchCentralDifferences)
   ModelParams base = SensitivityHandRig();
   base.mechanisms.fatigue = {true, 2.0, 20.0, 0.3};
   base.mechanisms.potentiation = {true, 0.8, 1.0, 10.0};
-  const int ecrl = MuscleNamed(base, "ECRL"), fcr = MuscleNamed(base, "FCR");
-  const std::vector<ParameterAt> parameters = {
-      {"k.wrist",
-       [](ModelParams& m) -> double& {
-         return m.coordinates[kWristFlexion].passive.stiffness_nm_per_rad;
-       }},
-      {"beta.ECRL",
-       [&](ModelParams& m) -> double& { return m.muscles[ecrl].recruitment.beta_per_us; }},
-      {"d.ECRL.wrist", [&](ModelParams& m) -> double& { return WristArm(m, ecrl); }},
-      {"Fmax.FCR",
-       [&](ModelParams& m) -> double& { return m.muscles[fcr].hill.max_isometric_force_n; }},
-      {"omega.ECRL",
-       [&](ModelParams& m) -> double& { return m.muscles[ecrl].activation_omega_rad_s; }},
-      {"mass.hand", [](ModelParams& m) -> double& { return m.segments[kHand].mass_kg; }},
+  std::vector<ParameterAt> parameters = PersonParametersAt(base);
+  const std::vector<ParameterAt> mechanisms = {
       {"fatigue.T_fat",
        [](ModelParams& m) -> double& { return m.mechanisms.fatigue.fatigue_time_s; }},
       {"fatigue.T_rec",
@@ -475,6 +473,7 @@ TEST(Integrator, SensitivitiesWithFatigueAndPotentiationMatchCentralDifferences)
       {"pot.decay",
        [](ModelParams& m) -> double& { return m.mechanisms.potentiation.decay_time_s; }, 1e-3},
   };
+  parameters.insert(parameters.end(), mechanisms.begin(), mechanisms.end());
   ExpectSensitivitiesMatchCentralDifferences(base, parameters);
 }
 
