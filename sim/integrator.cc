@@ -1185,6 +1185,107 @@ IntegrationStats IntegrateTrialVariables(const UpperLimbModel& model,
                    observe == VariablesObserved::kAll, observer);
 }
 
+/// The CVODES components of `d` (d->ctx set): each coordinate's q and u, each muscle's fitness
+/// and potentiation state (CVODES components too: not locked, not activations) and the free
+/// coordinates' u. Throws std::invalid_argument when a free coordinate is not integrated.
+void MapComponents(const UpperLimbModel& model, const SimTK::State& state, SensitivityData* d) {
+  const ModelParams& base = model.params();
+  d->n = static_cast<int>(d->ctx->y_index.size());
+  const int nq = state.getNQ();
+  d->q_component.assign(kNumCoordinates, -1);
+  std::vector<int> u_component_of(kNumCoordinates, -1);
+  for (int i = 0; i < d->n; ++i) {
+    const int yi = d->ctx->y_index[i];
+    for (int c = 0; c < kNumCoordinates; ++c) {
+      if (model.Welded(c)) continue;
+      if (yi == model.QIndex(c)) d->q_component[c] = i;
+      if (yi == nq + model.UIndex(c)) u_component_of[c] = i;
+    }
+  }
+  // The fatigue and potentiation states are CVODES components (not locked, not activations).
+  const std::size_t n_muscles = base.muscles.size();
+  d->fitness_component.assign(n_muscles, -1);
+  d->potentiation_component.assign(n_muscles, -1);
+  d->state_muscle.assign(d->n, -1);
+  const int fitness_y = model.FitnessYIndex(state),
+            potentiation_y = model.PotentiationYIndex(state);
+  for (int i = 0; i < d->n; ++i) {
+    const int yi = d->ctx->y_index[i];
+    for (std::size_t j = 0; j < n_muscles; ++j) {
+      const int m = static_cast<int>(j);
+      const bool is_fitness = fitness_y >= 0 && yi == fitness_y + m;
+      const bool is_potentiation = potentiation_y >= 0 && yi == potentiation_y + m;
+      if (is_fitness) d->fitness_component[j] = i;
+      if (is_potentiation) d->potentiation_component[j] = i;
+      if (is_fitness || is_potentiation) d->state_muscle[i] = m;
+    }
+  }
+  for (int c = 0; c < kNumCoordinates; ++c) {
+    if (base.coordinates[c].mode != CoordinateMode::kFree) continue;
+    if (d->q_component[c] < 0 || u_component_of[c] < 0) {
+      throw std::invalid_argument("sensitivities: free coordinate " + CoordinateNames()[c] +
+                                  " is not integrated");
+    }
+    d->free_coordinates.push_back(c);
+    d->free_u_slot.push_back(model.UIndex(c));
+    d->u_component.push_back(u_component_of[c]);
+  }
+}
+
+/// The sensitivity parameter of `pp` against `model`: what it moves, and for a parameter that
+/// moves a segment's inertia its own Simbody system (*any_body set). Throws std::invalid_argument
+/// when the perturbed model has other muscles or channels, switches a mechanism with states or
+/// has another state layout.
+SensitivityData::Parameter MakeSensitivityParameter(const UpperLimbModel& model,
+                                                    const ParameterPerturbation& pp,
+                                                    const SimTK::State& state, bool* any_body) {
+  const ModelParams& base = model.params();
+  if (pp.params.muscles.size() != base.muscles.size() ||
+      pp.params.channels.size() != base.channels.size()) {
+    throw std::invalid_argument("sensitivities: perturbed model has other muscles or channels");
+  }
+  if (pp.params.mechanisms.stretch_reflex.enabled() ||
+      pp.params.mechanisms.fatigue.enabled != base.mechanisms.fatigue.enabled ||
+      pp.params.mechanisms.potentiation.enabled != base.mechanisms.potentiation.enabled) {
+    throw std::invalid_argument(
+        "sensitivities: perturbed model switches fatigue, potentiation or the stretch reflex");
+  }
+  SensitivityData::Parameter q{
+      &pp.params,
+      BuildElectrodeMatrix(pp.params),
+      {},
+      pp.step,
+      TorqueParametersMayDiffer(pp.params, base),
+      MuscleParametersMayDiffer(pp.params, base),
+      TremorParametersDiffer(pp.params.mechanisms.tremor, base.mechanisms.tremor),
+      {},
+      {},
+      false,
+      StateRatesDiffer(pp.params.mechanisms, base.mechanisms),
+      base.mechanisms.potentiation.enabled &&
+          pp.params.mechanisms.potentiation.gain != base.mechanisms.potentiation.gain,
+      nullptr,
+      nullptr};
+  for (std::size_t j = 0; j < pp.params.muscles.size(); ++j) {
+    const auto& m = pp.params.muscles[j];
+    q.paths.push_back(m.path);
+    q.omega.push_back(m.activation_omega_rad_s);
+    q.deactivation_ratio.push_back(m.deactivation_ratio);
+    q.moves_omega = q.moves_omega ||
+                    m.activation_omega_rad_s != base.muscles[j].activation_omega_rad_s ||
+                    m.deactivation_ratio != base.muscles[j].deactivation_ratio;
+  }
+  if (BodyInertiaDiffers(pp.params, base)) {
+    q.body = std::make_shared<const UpperLimbModel>(pp.params, model.build_options());
+    q.body_state = std::make_shared<SimTK::State>(q.body->MakeInitialState());
+    *any_body = true;
+    if (q.body_state->getNY() != state.getNY()) {
+      throw std::invalid_argument("sensitivities: perturbed model has another state layout");
+    }
+  }
+  return q;
+}
+
 IntegrationStats IntegrateTrialSensitivities(
     const UpperLimbModel& model, const IntegratorParams& integrator,
     const StimulationSchedule& schedule, const std::vector<double>& report_times,
@@ -1201,46 +1302,7 @@ IntegrationStats IntegrateTrialSensitivities(
   CvodesContext ctx(&model, state, HasPrescribed(base), params.simbody_right_hand_side);
   SensitivityData d;
   d.ctx = &ctx;
-  d.n = static_cast<int>(ctx.y_index.size());
-  const int nq = state->getNQ();
-  d.q_component.assign(kNumCoordinates, -1);
-  std::vector<int> u_component_of(kNumCoordinates, -1);
-  for (int i = 0; i < d.n; ++i) {
-    const int yi = ctx.y_index[i];
-    for (int c = 0; c < kNumCoordinates; ++c) {
-      if (model.Welded(c)) continue;
-      if (yi == model.QIndex(c)) d.q_component[c] = i;
-      if (yi == nq + model.UIndex(c)) u_component_of[c] = i;
-    }
-  }
-  // The fatigue and potentiation states are CVODES components (not locked, not activations).
-  const std::size_t n_muscles = base.muscles.size();
-  d.fitness_component.assign(n_muscles, -1);
-  d.potentiation_component.assign(n_muscles, -1);
-  d.state_muscle.assign(d.n, -1);
-  const int fitness_y = model.FitnessYIndex(*state),
-            potentiation_y = model.PotentiationYIndex(*state);
-  for (int i = 0; i < d.n; ++i) {
-    const int yi = ctx.y_index[i];
-    for (std::size_t j = 0; j < n_muscles; ++j) {
-      const int m = static_cast<int>(j);
-      const bool is_fitness = fitness_y >= 0 && yi == fitness_y + m;
-      const bool is_potentiation = potentiation_y >= 0 && yi == potentiation_y + m;
-      if (is_fitness) d.fitness_component[j] = i;
-      if (is_potentiation) d.potentiation_component[j] = i;
-      if (is_fitness || is_potentiation) d.state_muscle[i] = m;
-    }
-  }
-  for (int c = 0; c < kNumCoordinates; ++c) {
-    if (base.coordinates[c].mode != CoordinateMode::kFree) continue;
-    if (d.q_component[c] < 0 || u_component_of[c] < 0) {
-      throw std::invalid_argument("sensitivities: free coordinate " + CoordinateNames()[c] +
-                                  " is not integrated");
-    }
-    d.free_coordinates.push_back(c);
-    d.free_u_slot.push_back(model.UIndex(c));
-    d.u_component.push_back(u_component_of[c]);
-  }
+  MapComponents(model, *state, &d);
   for (const auto& m : base.muscles) d.paths.push_back(m.path);
   std::vector<double> scales;
   for (const auto& pp : parameters) {
@@ -1249,50 +1311,7 @@ IntegrationStats IntegrateTrialSensitivities(
           "sensitivities: parameter step must be finite and nonzero, "
           "scale > 0");
     }
-    if (pp.params.muscles.size() != base.muscles.size() ||
-        pp.params.channels.size() != base.channels.size()) {
-      throw std::invalid_argument("sensitivities: perturbed model has other muscles or channels");
-    }
-    if (HasMechanismStates(pp.params.mechanisms) != HasMechanismStates(base.mechanisms) ||
-        pp.params.mechanisms.fatigue.enabled != base.mechanisms.fatigue.enabled ||
-        pp.params.mechanisms.potentiation.enabled != base.mechanisms.potentiation.enabled) {
-      throw std::invalid_argument(
-          "sensitivities: perturbed model switches fatigue, potentiation or the stretch reflex");
-    }
-    SensitivityData::Parameter q{
-        &pp.params,
-        BuildElectrodeMatrix(pp.params),
-        {},
-        pp.step,
-        TorqueParametersMayDiffer(pp.params, base),
-        MuscleParametersMayDiffer(pp.params, base),
-        TremorParametersDiffer(pp.params.mechanisms.tremor, base.mechanisms.tremor),
-        {},
-        {},
-        false,
-        StateRatesDiffer(pp.params.mechanisms, base.mechanisms),
-        base.mechanisms.potentiation.enabled &&
-            pp.params.mechanisms.potentiation.gain != base.mechanisms.potentiation.gain,
-        nullptr,
-        nullptr};
-    for (std::size_t j = 0; j < pp.params.muscles.size(); ++j) {
-      const auto& m = pp.params.muscles[j];
-      q.paths.push_back(m.path);
-      q.omega.push_back(m.activation_omega_rad_s);
-      q.deactivation_ratio.push_back(m.deactivation_ratio);
-      q.moves_omega = q.moves_omega ||
-                      m.activation_omega_rad_s != base.muscles[j].activation_omega_rad_s ||
-                      m.deactivation_ratio != base.muscles[j].deactivation_ratio;
-    }
-    if (BodyInertiaDiffers(pp.params, base)) {
-      q.body = std::make_shared<const UpperLimbModel>(pp.params, model.build_options());
-      q.body_state = std::make_shared<SimTK::State>(q.body->MakeInitialState());
-      d.any_body = true;
-      if (q.body_state->getNY() != state->getNY()) {
-        throw std::invalid_argument("sensitivities: perturbed model has another state layout");
-      }
-    }
-    d.p.push_back(std::move(q));
+    d.p.push_back(MakeSensitivityParameter(model, pp, *state, &d.any_body));
     scales.push_back(pp.scale);
   }
   const std::size_t nm = base.muscles.size();
