@@ -642,7 +642,10 @@ int ParseArguments(int argc, char** argv, Options* out) {
   Options& o = *out;
   for (int i = 1; i < argc; ++i) {
     const std::string k = argv[i];
-    if (k == "--help" || k == "-h") return Usage("help") == 2 ? 0 : 0;
+    if (k == "--help" || k == "-h") {
+      Usage("help");
+      return 0;
+    }
     if (i + 1 >= argc) return Usage(("option " + k + " has no value").c_str());
     const std::string v = argv[++i];
     if (k == "--suite")
