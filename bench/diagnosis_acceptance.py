@@ -19,7 +19,14 @@ first. OUT.md gets:
    whose fit reached the statistics, a planted data set counted right when its mechanism is
    accepted with the largest held-out gain of the accepted ones, a clean person wrong when any
    mechanism (not a control) is accepted; the best planted count for each number of clean persons
-   named, and the thresholds that give it.
+   named, and the thresholds that give it;
+3. per-mechanism held-out thresholds from a reference cohort, judged out of sample: the data sets
+   are grouped by draw (seed // 1000); for each draw, the clean persons of the *other* draws are
+   the cohort, and a mechanism's threshold T_m is a quantile of its null — per cohort person the
+   largest held-out gain of that mechanism's fits that pass every other shipped test (training
+   LR, own part), 0 where it has none. The draw's data sets are then re-decided with the rules
+   below; the sums over the draws are what a cohort of clean persons measured beforehand would
+   give on persons it has not seen.
 
 The re-decision is an upper bound on what thresholds alone can give: the suite's forward
 selection, second round and the verdict's confidence rules are not replayed, and a candidate that
@@ -29,6 +36,7 @@ import argparse
 import collections
 import itertools
 import json
+import math
 import os
 import sys
 import tempfile
@@ -130,6 +138,105 @@ def redecide(singles, cleans, thresholds):
     return right, named
 
 
+# The rules of section 3, each (held-out gain, z, T_m) -> accepted, on top of the shipped
+# training-LR and own-part tests: "or" can only add names to the shipped rule (a gain above the
+# mechanism's cohort threshold counts as a clear gain when that is below the shipped 10 %),
+# "instead" replaces the Diebold–Mariano test and the 10 % by the threshold, "and" can only remove.
+COHORT_RULES = {
+    "shipped or gain > T_m": lambda g, z, t: z > SHIPPED[1] or g > min(SHIPPED[2], t),
+    "gain > T_m instead": lambda g, z, t: g > t,
+    "shipped and gain > T_m": lambda g, z, t: (z > SHIPPED[1] or g > SHIPPED[2]) and g > t,
+}
+COHORT_QUANTILES = (0.9, 0.95, 1.0)
+
+
+def draw_of(data_set):
+    return data_set["seed"] // 1000
+
+
+def passes_other_tests(candidate):
+    """The shipped tests but the held-out gain's: training LR and the own part."""
+    lr, _, _, own_z, own = SHIPPED
+    o = number(candidate, "heldout_own_gain", 0.0)
+    return (number(candidate, "lr_p_adjusted", 1.0) < lr and
+            (number(candidate, "heldout_own_z", 0.0) > own_z or o > own))
+
+
+def judged_fits(data_set):
+    return [c for c in data_set["diagnosis"].get("candidates", [])
+            if not c.get("control") and stage_of(c) in ("statistics", "passed")]
+
+
+def quantile(values, q):
+    """The q-quantile of values by the nearest rank (q = 1: the largest)."""
+    ordered = sorted(values)
+    rank = min(max(1, math.ceil(q * len(ordered) - 1e-9)), len(ordered))
+    return ordered[rank - 1]
+
+
+def cohort_thresholds(cohort, q):
+    """T_m per mechanism: the q-quantile over the cohort persons of m's largest null gain."""
+    mechanisms = {c["id"] for d in cohort for c in judged_fits(d)}
+    thresholds = {}
+    for m in mechanisms:
+        null = [max([number(c, "heldout_gain", 0.0) for c in judged_fits(d)
+                     if c["id"] == m and passes_other_tests(c)] + [0.0]) for d in cohort]
+        thresholds[m] = quantile(null, q)
+    return thresholds
+
+
+def cohort_decide(data_set, thresholds, rule):
+    ok = []
+    for c in judged_fits(data_set):
+        g = number(c, "heldout_gain", 0.0)
+        t = thresholds.get(c["id"], 0.0)
+        if passes_other_tests(c) and g > 0.0 and rule(g, number(c, "heldout_z", 0.0), t):
+            ok.append(c)
+    return ok
+
+
+def cohort_table(singles, cleans):
+    draws = sorted({draw_of(d) for d in singles + cleans})
+    lines = ["| rule | T_m quantile | planted named right | clean persons named | "
+             "draws without a cohort |", "|---|---|---|---|---|"]
+    shipped = redecide(singles, cleans, SHIPPED)
+    lines.append(f"| shipped thresholds | — | {shipped[0]} | {shipped[1]} | — |")
+    for name, rule in COHORT_RULES.items():
+        for q in COHORT_QUANTILES:
+            right = named = alone = 0
+            for k in draws:
+                cohort = [d for d in cleans if draw_of(d) != k]
+                if not cohort:
+                    alone += 1
+                    continue
+                thresholds = cohort_thresholds(cohort, q)
+                for d in singles:
+                    if draw_of(d) == k:
+                        ok = cohort_decide(d, thresholds, rule)
+                        best = max(ok, key=lambda c: number(c, "heldout_gain", 0.0), default=None)
+                        right += best is not None and best["id"] == d["planted"][0]
+                for d in cleans:
+                    if draw_of(d) == k:
+                        named += bool(cohort_decide(d, thresholds, rule))
+            lines.append(f"| {name} | {q:g} | {right} | {named} | {alone} |")
+    return lines
+
+
+def threshold_table(cleans):
+    """Per mechanism over all clean persons: how many have a null gain above 0, T_m at 0.95, 1."""
+    nulls = collections.defaultdict(list)
+    for m in {c["id"] for d in cleans for c in judged_fits(d)}:
+        for d in cleans:
+            nulls[m].append(max([number(c, "heldout_gain", 0.0) for c in judged_fits(d)
+                                 if c["id"] == m and passes_other_tests(c)] + [0.0]))
+    lines = [f"| mechanism | clean persons with a null gain > 0 (of {len(cleans)}) | T_m at 0.95 | "
+             "T_m at 1 (the largest) |", "|---|---|---|---|"]
+    for m in sorted(nulls):
+        lines.append(f"| {m} | {sum(v > 0.0 for v in nulls[m])} | "
+                     f"{quantile(nulls[m], 0.95):.4f} | {quantile(nulls[m], 1.0):.4f} |")
+    return lines
+
+
 def stage_table(singles):
     per = collections.defaultdict(collections.Counter)
     for d in singles:
@@ -187,7 +294,9 @@ def main():
          "## The furthest stage each planted mechanism's candidate reached", ""] +
         stage_table(singles) +
         ["", "## Thresholds re-decided (an upper bound: no forward selection, no new fits)", ""] +
-        frontier_table(singles, cleans) + [""])
+        frontier_table(singles, cleans) +
+        ["", "## Per-mechanism thresholds from a reference cohort (leave one draw out)", ""] +
+        cohort_table(singles, cleans) + [""] + threshold_table(cleans) + [""])
     directory = os.path.dirname(os.path.abspath(args.out))
     fd, tmp = tempfile.mkstemp(dir=directory, prefix=".diagnosis_acceptance.")
     try:

@@ -81,3 +81,32 @@ def test_a_file_that_is_not_a_record_is_a_one_line_error_and_writes_nothing(tmp_
     r = run(["--out", str(out), str(bad)])
     assert r.returncode != 0 and "no key 'planted'" in r.stderr
     assert not out.exists()
+
+
+def test_per_mechanism_thresholds_come_from_the_clean_persons_of_the_other_draws(tmp_path):
+    not_significant = "held-out gain below 10 % and not significant"
+    records = [
+        # draw 1: a clean person whose crosstalk fit gains 5 % (its own part clear)
+        data_set(1001, "clean", ["clean"], True,
+                 [cand("crosstalk", not_significant, 0.05, 1.0, 0.05, 1.0)], ratio=0.0),
+        # draw 2: a delay gaining 3 %, not significant — no clean person of draw 1 has a delay
+        # fit, so its threshold is 0 — and a clean person whose crosstalk gains 4 %, below draw
+        # 1's 5 %
+        data_set(2001, "single", ["delay"], False,
+                 [cand("delay", not_significant, 0.03, 1.0, 0.03, 1.0)]),
+        data_set(2002, "clean", ["clean"], True,
+                 [cand("crosstalk", not_significant, 0.04, 1.0, 0.04, 1.0)], ratio=0.0),
+    ]
+    a = tmp_path / "a.json"
+    a.write_text(json.dumps(records), encoding="utf-8")
+    out = tmp_path / "acc.md"
+    r = run(["--out", str(out), str(a)])
+    assert r.returncode == 0, r.stderr
+    text = out.read_text(encoding="utf-8").split("reference cohort (leave one draw out)")[1]
+    assert "| shipped thresholds | — | 0 | 0 | — |" in text
+    # at the largest null: the delay is named (T = 0) and so is 1001 (5 % against draw 2's 4 %),
+    # not 2002 (4 % against draw 1's 5 %)
+    assert "| shipped or gain > T_m | 1 | 1 | 1 | 0 |" in text
+    assert "| gain > T_m instead | 1 | 1 | 1 | 0 |" in text
+    assert "| shipped and gain > T_m | 1 | 0 | 0 | 0 |" in text
+    assert "| crosstalk | 2 | 0.0500 | 0.0500 |" in text
