@@ -27,14 +27,15 @@
 // name (e.g. those that fitted a given candidate): the others' diagnoses are the same by
 // determinism (fixed seeds, results independent of the thread count).
 //
-// --twin 1 (foreign suite): every data set with planted effects is diagnosed a second time
-// without them — its clean twin: the same person, stimulation, noise and dropouts, the effects off
-// (foreign::MakeDataset with no effects, the same seeds). Beside each such data set the Markdown
-// gives the twin's verdict and, on the held-out trial, the planted effect's RMS (noiseless reads
-// with − without) and what the calibrated model leaves of it: the RMS of that difference minus the
-// difference of the two calibrated models' held-out predictions, both over the noise σ. An effect
-// the calibration reproduces leaves ≈ 0 for any mechanism to explain; --json holds the twin's
-// whole diagnosis. Not with --reuse (the twin needs the planted run's predictions).
+// --twin 1: every data set with planted effects is diagnosed a second time without them — its
+// clean twin: the same person, stimulation, noise and dropouts, the effects off
+// (foreign::MakeDataset or diagnosis::MakePlantedDataset with no effects, the same seeds). Beside
+// each such data set the Markdown gives the twin's verdict and, on the held-out trial, the planted
+// effect's RMS (noiseless reads with − without) and what the calibrated model leaves of it: the RMS
+// of that difference minus the difference of the two calibrated models' held-out predictions, both
+// over the noise σ. An effect the calibration reproduces leaves ≈ 0 for any mechanism to explain;
+// --json holds the twin's whole diagnosis. Not with --reuse (the twin needs the planted run's
+// predictions).
 //
 // --protocols (foreign suite): the trials of each data set, in order (steps, grid, multisine;
 // default steps,grid,steps), the last --heldout of them held out; the first trials are the same
@@ -136,8 +137,8 @@ struct Case {
   std::string protocol;       // family suite: steps / grid
   double effect_ratio = 0.0;  // effect RMS / noise RMS
   std::vector<fesim::Trial> trials;
-  std::vector<fesim::Trial> truth;  // foreign suite: noiseless reads
-  double noise_rad = NAN;           // foreign suite: noise σ, rad
+  std::vector<fesim::Trial> truth;  // noiseless reads (--twin)
+  double noise_rad = NAN;           // noise σ, rad
   std::string rig;                  // scenario file of the rig
   /// What was planted: the family suite's mechanism parameters; the foreign suite's effect
   /// scales s as raised to the floor (`<id>.scale`; foreign/effects.cc gives each effect's
@@ -276,6 +277,28 @@ fesim::foreign::Dataset ForeignData(const Options& o, std::uint64_t seed,
   return fesim::foreign::MakeDataset(spec);
 }
 
+/// A family case's rig (scenario file) and data set spec: a wide person of the case's seed on the
+/// hand rig, or on the elbow rig for arm_support; the case's effects at scale 1.
+struct FamilyRig {
+  std::string file;
+  dg::PlantedSpec spec;
+};
+
+FamilyRig FamilySpec(const Case& c) {
+  const bool elbow = !c.planted.empty() && c.planted[0] == "arm_support";
+  FamilyRig r;
+  r.file = elbow ? "scenarios/elbow_support_rig.yaml" : "scenarios/hand_rig.yaml";
+  r.spec.mechanisms = c.planted;
+  r.spec.person = dg::PersonSpread::kWide;
+  r.spec.protocol = c.protocol;
+  r.spec.seed = c.seed;
+  if (elbow) {
+    r.spec.channels = {"bic", "tri"};
+    r.spec.max_us = 240.0;
+  }
+  return r;
+}
+
 void MakeData(const Options& o, double floor, Case* c) {
   if (o.suite == "foreign") {
     const fesim::foreign::Dataset d = ForeignData(o, c->seed, c->planted, floor);
@@ -292,22 +315,15 @@ void MakeData(const Options& o, double floor, Case* c) {
     }
     return;
   }
-  const bool elbow = !c->planted.empty() && c->planted[0] == "arm_support";
-  c->rig = elbow ? "scenarios/elbow_support_rig.yaml" : "scenarios/hand_rig.yaml";
-  const fesim::Scenario rig = fesim::LoadScenario(SourcePath(c->rig));
-  dg::PlantedSpec spec;
-  spec.mechanisms = c->planted;
-  spec.person = dg::PersonSpread::kWide;
-  spec.protocol = c->protocol;
-  spec.seed = c->seed;
-  if (elbow) {
-    spec.channels = {"bic", "tri"};
-    spec.max_us = 240.0;
-  }
+  FamilyRig r = FamilySpec(*c);
+  c->rig = r.file;
+  const fesim::Scenario rig = fesim::LoadScenario(SourcePath(r.file));
   const dg::PlantedDataset d = c->kind == "clean"
-                                   ? dg::MakePlantedDataset(rig, spec)
-                                   : dg::MakePlantedDatasetAtLeast(rig, &spec, floor);
+                                   ? dg::MakePlantedDataset(rig, r.spec)
+                                   : dg::MakePlantedDatasetAtLeast(rig, &r.spec, floor);
   c->trials = d.trials;
+  c->truth = d.truth;
+  c->noise_rad = d.noise_rms_rad;
   c->effect_ratio = d.effect_rms_rad / d.noise_rms_rad;
   c->planted_values = d.planted;
   if (c->kind == "single" && !d.planted.empty()) {  // label "id@joint:parameter"
@@ -341,31 +357,48 @@ dg::Diagnosis DiagnoseTrials(const Options& o, const Case& c,
   return d;
 }
 
-/// The held-out trial's figures of Twin: over the samples where both measured records have the
-/// output, the RMS of (noiseless with − without) and of that minus (calibrated prediction with −
-/// without), each over the noise σ. Throws std::runtime_error when the records' grids differ.
+/// Column `q` of `t` at `times` (a subset of t.time, matched within 1 ns), NaN where t has no
+/// such sample or no such column.
+std::vector<double> ColumnAt(const fesim::Trial& t, const std::string& q,
+                             const std::vector<double>& times) {
+  std::vector<double> out(times.size(), NAN);
+  if (!t.Has(q)) return out;
+  const std::vector<double>& v = t.Column(q);
+  for (std::size_t i = 0, k = 0; i < times.size(); ++i) {
+    while (k < t.size() && t.time[k] < times[i] - 1e-9) ++k;
+    if (k < t.size() && t.time[k] <= times[i] + 1e-9) out[i] = v[k];
+  }
+  return out;
+}
+
+/// The held-out trial's figures of Twin: at the samples of the calibrated model's held-out
+/// prediction where both measured records have the output, the RMS of (noiseless with − without)
+/// and of that minus (calibrated prediction with − without), and of the twin's calibrated
+/// residual, each over the noise σ (the measured records may join several sensors' grids; the
+/// predictions are on the outputs' sensor's). Throws std::runtime_error when the two predictions'
+/// grids differ.
 void HeldoutEffect(const Case& c, const std::vector<fesim::Trial>& twin_trials,
                    const std::vector<fesim::Trial>& twin_truth, Twin* twin) {
-  const fesim::Trial& y1 = c.trials.back();
-  const fesim::Trial& y0 = twin_trials.back();
-  const fesim::Trial& t1 = c.truth.back();
-  const fesim::Trial& t0 = twin_truth.back();
   const fesim::Trial& p1 = c.result.heldout_baseline.back();
   const fesim::Trial& p0 = twin->result.heldout_baseline.back();
-  for (const fesim::Trial* t : {&y0, &t1, &t0, &p1, &p0}) {
-    if (t->size() != y1.size()) {
-      throw std::runtime_error("--twin: held-out records of " + std::to_string(c.seed) +
-                               " on different time grids");
-    }
+  if (p0.time != p1.time) {
+    throw std::runtime_error("--twin: held-out predictions of " + std::to_string(c.seed) +
+                             " on different time grids");
   }
   double effect = 0.0, left = 0.0, misfit = 0.0;
   long n = 0;
-  for (const std::string& q : y1.NamesWithPrefix("q.")) {
-    if (!p1.Has(q) || !p0.Has(q)) continue;
-    const std::vector<double>&ya = y1.Column(q), &yb = y0.Column(q), &ta = t1.Column(q),
-          &tb = t0.Column(q), &pa = p1.Column(q), &pb = p0.Column(q);
-    for (std::size_t i = 0; i < ya.size(); ++i) {
-      if (!std::isfinite(ya[i]) || !std::isfinite(yb[i])) continue;
+  for (const std::string& q : p1.NamesWithPrefix("q.")) {
+    if (!p0.Has(q)) continue;
+    const std::vector<double> ya = ColumnAt(c.trials.back(), q, p1.time),
+                              yb = ColumnAt(twin_trials.back(), q, p1.time),
+                              ta = ColumnAt(c.truth.back(), q, p1.time),
+                              tb = ColumnAt(twin_truth.back(), q, p1.time);
+    const std::vector<double>&pa = p1.Column(q), &pb = p0.Column(q);
+    for (std::size_t i = 0; i < pa.size(); ++i) {
+      if (!std::isfinite(ya[i]) || !std::isfinite(yb[i]) || !std::isfinite(ta[i]) ||
+          !std::isfinite(tb[i])) {
+        continue;
+      }
       const double de = ta[i] - tb[i], dp = pa[i] - pb[i], r0 = yb[i] - pb[i];
       effect += de * de;
       left += (de - dp) * (de - dp);
@@ -381,10 +414,21 @@ void HeldoutEffect(const Case& c, const std::vector<fesim::Trial>& twin_trials,
 
 /// --twin: diagnoses the case's clean twin and measures what the calibration left of the effect.
 void DiagnoseTwin(const Options& o, Case* c) {
-  const fesim::foreign::Dataset d = ForeignData(o, c->seed, {}, 0.0);
-  c->twin.result = DiagnoseTrials(o, *c, d.trials, &c->twin.wall_s);
+  std::vector<fesim::Trial> trials, truth;
+  if (o.suite == "foreign") {
+    fesim::foreign::Dataset d = ForeignData(o, c->seed, {}, 0.0);
+    trials = std::move(d.trials);
+    truth = std::move(d.truth);
+  } else {
+    FamilyRig r = FamilySpec(*c);
+    r.spec.mechanisms.clear();  // the same person, stimulation and noise seeds
+    dg::PlantedDataset d = dg::MakePlantedDataset(fesim::LoadScenario(SourcePath(r.file)), r.spec);
+    trials = std::move(d.trials);
+    truth = std::move(d.truth);
+  }
+  c->twin.result = DiagnoseTrials(o, *c, trials, &c->twin.wall_s);
   c->twin.run = true;
-  HeldoutEffect(*c, d.trials, d.truth, &c->twin);
+  HeldoutEffect(*c, trials, truth, &c->twin);
   std::fprintf(stderr,
                "  twin: %s (%.2f), held-out effect %.2f σ, left %.2f σ, twin residual %.2f σ\n",
                c->twin.result.cause.c_str(), c->twin.result.confidence, c->twin.heldout_effect,
@@ -727,8 +771,8 @@ int CheckOptions(const Options& o) {
     return Usage("--protocols needs --suite foreign and at least two trials (the last held out)");
   }
   if (!o.diagnose && o.data.empty()) return Usage("--diagnose 0 needs --data DIR");
-  if (o.twin && (o.suite != "foreign" || !o.reuse.empty() || !o.diagnose)) {
-    return Usage("--twin 1 needs --suite foreign, --diagnose 1 and no --reuse");
+  if (o.twin && (!o.reuse.empty() || !o.diagnose)) {
+    return Usage("--twin 1 needs --diagnose 1 and no --reuse");
   }
   return -1;
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <stdexcept>
 
@@ -190,6 +191,8 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
     const sim::TrialResult without = sim::RunTrial(clean_model, req);
     Trial measured = with.measured;
     measured.metadata["planted"] = spec.mechanisms.empty() ? "none" : spec.mechanisms[0];
+    Trial noiseless;  // the outputs without noise, on the measured record's grid
+    noiseless.time = with.measured.time;
     for (const auto& o : ctx.outputs) {
       auto& y = measured.MutableColumn(o);
       for (std::size_t i = 0; i < y.size(); ++i) {
@@ -205,8 +208,20 @@ PlantedDataset MakePlantedDataset(const Scenario& rig, const PlantedSpec& spec) 
         effect_ss += d * d;
         ++effect_n;
       }
+      // The truth record's samples at the measured record's times (the angle sensor's grid, a
+      // subset of the measured one, which joins every sensor's grid).
+      std::vector<double> z(noiseless.size(), std::numeric_limits<double>::quiet_NaN());
+      for (std::size_t i = 0, k = 0; i < a.size(); ++i) {
+        const double ti = with.truth.time[i];
+        while (k < z.size() && noiseless.time[k] < ti - 1e-9) ++k;
+        if (k == z.size() || noiseless.time[k] > ti + 1e-9) continue;
+        z[k] = a[i] + sensors.angles.offset_drift_per_s * ti +
+               wander_rad * std::sin(2.0 * kPi * 0.1 * ti);
+      }
+      noiseless.AddColumn(o, std::move(z));
     }
     out.trials.push_back(std::move(measured));
+    out.truth.push_back(std::move(noiseless));
   }
   out.effect_rms_rad = effect_n ? std::sqrt(effect_ss / effect_n) : 0.0;
   return out;

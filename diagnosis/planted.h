@@ -49,7 +49,13 @@ struct PlantedSpec {
 };
 
 struct PlantedDataset {
-  std::vector<Trial> trials;        ///< measured records (what diagnose sees).
+  std::vector<Trial> trials;  ///< measured records (what diagnose sees).
+  /// Noiseless reads of the outputs (the q.* columns of `trials`), per trial, on the measured
+  /// records' grids: the truth record of the simulation with the effects plus the sensor-level
+  /// ones (drift, wander) at the angle sensor's samples, NaN between them — what the outputs of
+  /// `trials` would be without noise and dropouts (the clean twin of bench/diagnosis_suite.cc
+  /// --twin).
+  std::vector<Trial> truth;
   std::vector<NamedValue> planted;  ///< planted values, named like the fitted parameters.
   double effect_rms_rad = 0.0;      ///< RMS of truth(with) − truth(without) over outputs.
   double noise_rms_rad = 0.0;       ///< sensor noise standard deviation, rad.

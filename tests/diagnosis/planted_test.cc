@@ -45,6 +45,49 @@ TEST(Planted, CleanDataHaveNoEffectAndAPlantedOneIsOfTheNoiseOrder) {
   EXPECT_THROW(MakePlantedDataset(rig, spec), std::invalid_argument);
 }
 
+TEST(Planted, NoiselessReadsOfTheTwinsDifferByTheEffectAndTheMeasuredByTheNoise) {
+  // The clean twin of bench/diagnosis_suite.cc --twin: the same seed without the mechanism. Its
+  // noiseless reads differ from the planted data set's by the effect, whose RMS is the reported
+  // effect size; each data set's measured outputs differ from its noiseless reads by the sensor
+  // noise (the same draws in both, σ = 1°), on the measured record's grid.
+  const Scenario rig = Rig();
+  PlantedSpec spec;
+  spec.trials = 1;
+  spec.duration_s = 20.0;
+  spec.seed = 11;
+  const PlantedDataset twin = MakePlantedDataset(rig, spec);
+  spec.mechanisms = {"sensor_drift"};
+  const PlantedDataset with = MakePlantedDataset(rig, spec);
+  ASSERT_EQ(with.truth.size(), 1u);
+  ASSERT_EQ(twin.truth.size(), 1u);
+  const Trial &m = with.trials[0], &z = with.truth[0], &m0 = twin.trials[0], &z0 = twin.truth[0];
+  ASSERT_EQ(z.time, m.time);
+  ASSERT_EQ(z0.time, m.time);
+  double effect_ss = 0.0, noise_ss = 0.0;
+  long effect_n = 0, noise_n = 0, read = 0;
+  for (const std::string q : {"q.wrist_flexion", "q.mcp_flexion", "q.pip_flexion"}) {
+    for (std::size_t i = 0; i < m.size(); ++i) {
+      const double e = z.Column(q)[i] - z0.Column(q)[i];
+      if (std::isfinite(e)) {
+        effect_ss += e * e;
+        ++effect_n;
+      }
+      if (std::isfinite(m.Column(q)[i])) {
+        ASSERT_TRUE(std::isfinite(z.Column(q)[i])) << q << " at " << m.time[i];
+        ++read;
+        const double noise = m.Column(q)[i] - z.Column(q)[i];
+        // the same noise draw in the twin
+        EXPECT_NEAR(m0.Column(q)[i] - z0.Column(q)[i], noise, 1e-12);
+        noise_ss += noise * noise;
+        ++noise_n;
+      }
+    }
+  }
+  ASSERT_GT(read, 1000);
+  EXPECT_NEAR(std::sqrt(effect_ss / effect_n), with.effect_rms_rad, 1e-12);
+  EXPECT_NEAR(std::sqrt(noise_ss / noise_n), with.noise_rms_rad, 0.05 * with.noise_rms_rad);
+}
+
 TEST(Planted, PostureAndVelocityEffectsAtScaleOneReachTheNoiseOnBothProtocols) {
   // Issue 7 asks for effect sizes from "effect RMS = noise RMS" upward, so effect scale 1 (the
   // suite's smallest) must reach it whatever the participant and protocol. The range-limit
