@@ -3,7 +3,7 @@
 
 Usage: diagnosis_twins.py --out OUT.md RECORD.json...
 
-Each RECORD.json is a file written by `diagnosis_suite --suite foreign --twin 1 --json`
+Each RECORD.json is a file written by `diagnosis_suite --twin 1 --json` (either suite)
 (bench/diagnosis_suite.cc): every data set with planted effects was diagnosed a second time without
 them (its clean twin: the same person, stimulation, noise and dropouts) and carries `twin` with
 the twin's whole diagnosis and, on the held-out trial, the planted effect's RMS, what the
@@ -186,7 +186,7 @@ def main():
     rows = analyse(read_records(a.records))
     if not rows:
         fail("no data set with a twin in " + ", ".join(a.records) +
-             " (run diagnosis_suite --suite foreign --twin 1 --json)")
+             " (run diagnosis_suite --twin 1 --json)")
     command = "python3 bench/diagnosis_twins.py --out " + a.out + " " + " ".join(a.records)
     text = report(rows, a.records, command)
     folder = os.path.dirname(os.path.abspath(a.out))
