@@ -124,17 +124,20 @@ def accepted(candidate, thresholds):
             (number(candidate, "heldout_own_z", 0.0) > own_z or o > own))
 
 
+def judged_fits(data_set):
+    """The candidates (not controls) whose fit reached the acceptance statistics."""
+    return [c for c in data_set["diagnosis"].get("candidates", [])
+            if not c.get("control") and stage_of(c) in ("statistics", "passed")]
+
+
 def redecide(singles, cleans, thresholds):
     """(planted named right, clean persons named) with every statistics-stage fit re-decided."""
-    def judged(d):
-        return [c for c in d["diagnosis"].get("candidates", [])
-                if not c.get("control") and stage_of(c) in ("statistics", "passed")]
     right = 0
     for d in singles:
-        ok = [c for c in judged(d) if accepted(c, thresholds)]
+        ok = [c for c in judged_fits(d) if accepted(c, thresholds)]
         if ok and max(ok, key=lambda c: number(c, "heldout_gain", 0.0))["id"] == d["planted"][0]:
             right += 1
-    named = sum(any(accepted(c, thresholds) for c in judged(d)) for d in cleans)
+    named = sum(any(accepted(c, thresholds) for c in judged_fits(d)) for d in cleans)
     return right, named
 
 
@@ -162,11 +165,6 @@ def passes_other_tests(candidate):
             (number(candidate, "heldout_own_z", 0.0) > own_z or o > own))
 
 
-def judged_fits(data_set):
-    return [c for c in data_set["diagnosis"].get("candidates", [])
-            if not c.get("control") and stage_of(c) in ("statistics", "passed")]
-
-
 def quantile(values, q):
     """The q-quantile of values by the nearest rank (q = 1: the largest)."""
     ordered = sorted(values)
@@ -174,15 +172,17 @@ def quantile(values, q):
     return ordered[rank - 1]
 
 
+def null_gains(cleans):
+    """Per mechanism fitted on some clean person: per clean person, the largest held-out gain of
+    that mechanism's fits that pass the other tests (0 where none does)."""
+    return {m: [max([number(c, "heldout_gain", 0.0) for c in judged_fits(d)
+                     if c["id"] == m and passes_other_tests(c)] + [0.0]) for d in cleans]
+            for m in {c["id"] for d in cleans for c in judged_fits(d)}}
+
+
 def cohort_thresholds(cohort, q):
     """T_m per mechanism: the q-quantile over the cohort persons of m's largest null gain."""
-    mechanisms = {c["id"] for d in cohort for c in judged_fits(d)}
-    thresholds = {}
-    for m in mechanisms:
-        null = [max([number(c, "heldout_gain", 0.0) for c in judged_fits(d)
-                     if c["id"] == m and passes_other_tests(c)] + [0.0]) for d in cohort]
-        thresholds[m] = quantile(null, q)
-    return thresholds
+    return {m: quantile(null, q) for m, null in null_gains(cohort).items()}
 
 
 def cohort_decide(data_set, thresholds, rule):
@@ -224,11 +224,7 @@ def cohort_table(singles, cleans):
 
 def threshold_table(cleans):
     """Per mechanism over all clean persons: how many have a null gain above 0, T_m at 0.95, 1."""
-    nulls = collections.defaultdict(list)
-    for m in {c["id"] for d in cleans for c in judged_fits(d)}:
-        for d in cleans:
-            nulls[m].append(max([number(c, "heldout_gain", 0.0) for c in judged_fits(d)
-                                 if c["id"] == m and passes_other_tests(c)] + [0.0]))
+    nulls = null_gains(cleans)
     lines = [f"| mechanism | clean persons with a null gain > 0 (of {len(cleans)}) | T_m at 0.95 | "
              "T_m at 1 (the largest) |", "|---|---|---|---|"]
     for m in sorted(nulls):
