@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -18,6 +19,7 @@
 #include "muscles/activation.h"
 #include "sim/chain_dynamics.h"
 #include "sim/dense_linear_solver.h"
+#include "sim/sensitivity_taylor.h"
 #include "sim/serial_vector.h"
 #include "sim/upper_limb_model.h"
 
@@ -956,9 +958,7 @@ class Cvodes {
                                why + "); " + DescribeState(*ctx_->model, *ctx_->state) +
                                kFailureHint);
     }
-    if (ns_ > 0) {
-      Check(CVodeGetSens(mem_, &t_reached, yS_), "CVodeGetSens", t_out);
-    }
+    if (ns_ > 0) Check(taylor_->Evaluate(mem_, y_, t_out, &sens_), "CVodeGetSensDky1", t_out);
     // No stage realised here: Drive realises the stage its observer asked for right after, so an
     // observer that reads state variables alone (the trial records, the full-model fit) pays
     // neither for kinematics (≈ 1/3 of a 140 s, 40 Hz hand-rig simulation) nor for Stage::Time
@@ -980,13 +980,18 @@ class Cvodes {
     state_current_ = true;
   }
   /// Integrate forward sensitivities of `scales.size()` parameters (typical magnitudes |θ_k|)
-  /// from the start; call before the first Start.
-  void EnableSensitivities(std::vector<double> scales) {
+  /// from the start, reporting those of the CVODES components `components`; call before the
+  /// first Start.
+  void EnableSensitivities(std::vector<double> scales, std::vector<int> components) {
     pbar_ = std::move(scales);
     ns_ = static_cast<int>(pbar_.size());
+    reported_ = components.size();
+    sens_.assign(static_cast<std::size_t>(ns_) * reported_, 0.0);
+    taylor_.emplace(std::move(components), ns_);
   }
-  /// Sensitivity k at the last AdvanceTo's time (zero before the first).
-  const double* Sensitivity(int k) const { return N_VGetArrayPointer(yS_[k]); }
+  /// ∂y_c/∂θ_k of component c = components[m] at the last AdvanceTo's time (zero before the
+  /// first).
+  double Sensitivity(int k, std::size_t m) const { return sens_[k * reported_ + m]; }
   void AddStats(IntegrationStats* s) const {
     if (!initialised_) return;
     long v = 0;
@@ -1020,6 +1025,9 @@ class Cvodes {
   int ns_ = 0;                // sensitivities integrated
   std::vector<double> pbar_;  // their parameters' scales
   N_Vector* yS_ = nullptr;
+  std::size_t reported_ = 0;                 // components whose sensitivities are reported
+  std::vector<double> sens_;                 // theirs at the last report, [k · reported + m]
+  std::optional<SensitivityTaylor> taylor_;  // CVodeGetSens' polynomial for them
   bool initialised_ = false;
   bool state_current_ = true;  // the context's state holds the last solution
   double solution_t_ = 0.0;    // time of the last AdvanceTo
@@ -1334,7 +1342,15 @@ IntegrationStats IntegrateTrialSensitivities(
             params.method == IntegratorParams::Method::kCvodesAdams, &ctx);
   cv.SetStepBudget(params.max_steps);
   const int np = static_cast<int>(parameters.size());
-  if (np > 0) cv.EnableSensitivities(scales);
+  // The reported sensitivities: q of each free coordinate (the others' dq stay 0).
+  std::vector<int> reported, reported_coordinate;
+  for (int c = 0; c < kNumCoordinates; ++c) {
+    if (d.q_component[c] >= 0 && base.coordinates[c].mode == CoordinateMode::kFree) {
+      reported.push_back(d.q_component[c]);
+      reported_coordinate.push_back(c);
+    }
+  }
+  if (np > 0) cv.EnableSensitivities(scales, reported);
   std::vector<double> dq(static_cast<std::size_t>(kNumCoordinates) * np, 0.0);
   // As RunCvodes with observe_variables: a report leaves the solution in CVODES' y (the state is
   // loaded only at breakpoints, where the new interval starts from it, and at the end).
@@ -1344,12 +1360,8 @@ IntegrationStats IntegrateTrialSensitivities(
       [&](double t, double stop) {
         cv.AdvanceTo(t, stop, !in_y);
         for (int k = 0; k < np; ++k) {
-          const double* sk = cv.Sensitivity(k);
-          for (int c = 0; c < kNumCoordinates; ++c) {
-            dq[static_cast<std::size_t>(c) * np + k] =
-                d.q_component[c] >= 0 && base.coordinates[c].mode == CoordinateMode::kFree
-                    ? sk[d.q_component[c]]
-                    : 0.0;
+          for (std::size_t m = 0; m < reported.size(); ++m) {
+            dq[static_cast<std::size_t>(reported_coordinate[m]) * np + k] = cv.Sensitivity(k, m);
           }
         }
       },
