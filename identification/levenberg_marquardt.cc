@@ -34,16 +34,6 @@ Eigen::MatrixXd Jacobian(const ResidualFn& residual, const Eigen::VectorXd& x,
 /// Consecutive rejected trial steps on a secant Jacobian before it is re-evaluated.
 constexpr int kSecantRejectionsBeforeRefresh = 3;
 
-/// JᵀJ as column dot products (cheaper than a packed GEMM for tall, thin J).
-Eigen::MatrixXd Gram(const Eigen::MatrixXd& J) {
-  const Eigen::Index p = J.cols();
-  Eigen::MatrixXd G(p, p);
-  for (Eigen::Index i = 0; i < p; ++i) {
-    for (Eigen::Index j = 0; j <= i; ++j) G(i, j) = G(j, i) = J.col(i).dot(J.col(j));
-  }
-  return G;
-}
-
 /// The damped Gauss–Newton step Δx = −(JᵀJ + λ diag(JᵀJ))⁻¹ g (diagonal entries at least
 /// 1e-12). With `hold_active_bounds`, a variable on a bound whose descent direction −g_k points
 /// outwards gets Δx_k = 0 and the others solve the reduced system.
@@ -163,7 +153,7 @@ LmResult Minimise(const ResidualFn& residual, const CostFn& cost, Eigen::VectorX
       normal_equations(res.x, res.residual, &jtj, &g, &res.evaluations);
     } else {
       J = jac(res.x, res.residual);
-      jtj = Gram(J);
+      jtj = JacobianGram(J);
       g = J.transpose() * res.residual;
     }
     fresh = true;
@@ -227,7 +217,7 @@ LmResult Minimise(const ResidualFn& residual, const CostFn& cost, Eigen::VectorX
       nu = 2.0;
       rejected = 0;
       if (options.broyden) {
-        jtj = Gram(J);
+        jtj = JacobianGram(J);
         g = J.transpose() * res.residual;
       } else {
         refresh();
@@ -253,7 +243,7 @@ LmResult Minimise(const ResidualFn& residual, const CostFn& cost, Eigen::VectorX
         continue;
       }
       if (!fresh) {  // J now holds the rejected step's secant information
-        jtj = Gram(J);
+        jtj = JacobianGram(J);
         g = J.transpose() * res.residual;
       }
       lambda *= nu;
@@ -271,6 +261,15 @@ LmResult Minimise(const ResidualFn& residual, const CostFn& cost, Eigen::VectorX
 }
 
 }  // namespace
+
+Eigen::MatrixXd JacobianGram(const Eigen::MatrixXd& J) {
+  const Eigen::Index p = J.cols();
+  Eigen::MatrixXd G(p, p);
+  for (Eigen::Index i = 0; i < p; ++i) {
+    for (Eigen::Index j = 0; j <= i; ++j) G(i, j) = G(j, i) = J.col(i).dot(J.col(j));
+  }
+  return G;
+}
 
 LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
                             const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,

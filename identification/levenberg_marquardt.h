@@ -112,6 +112,10 @@ using NormalEquationsFn =
 /// x → ‖r(x)‖², for residuals that supply their normal equations and need not be stored.
 using CostFn = std::function<double(const Eigen::VectorXd&)>;
 
+/// JᵀJ as column dot products (cheaper than a packed GEMM for tall, thin J): the Gram the
+/// iteration forms from a Jacobian, for callers that supply normal equations and fall back to one.
+Eigen::MatrixXd JacobianGram(const Eigen::MatrixXd& J);
+
 /// Minimises ‖r(x)‖² subject to lower ≤ x ≤ upper (entries may be ±inf).
 LmResult LevenbergMarquardt(const ResidualFn& residual, Eigen::VectorXd x0,
                             const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,

@@ -173,6 +173,9 @@ struct TrainingData {
   long residuals = 0;
   std::vector<SimPlan> plans;  // distinct simulations
   std::vector<int> plan_of;    // [trial] → index in plans
+  /// [trial][joint][sample] → the sample's row in the residual vector (FillResiduals' order), or
+  /// −1 for a NaN sample.
+  std::vector<std::vector<std::vector<long>>> row_of;
 };
 
 void CheckTrials(const sim::ModelParams& rig, const std::vector<Trial>& trials,
@@ -225,6 +228,7 @@ TrainingData ReadTraining(const sim::ModelParams& rig, const std::vector<Trial>&
     }
   }
   CheckTrials(rig, train, "train", d.joints);
+  long row = 0;
   for (const auto& tr : train) {
     std::vector<std::vector<double>> cols;
     for (const auto& j : d.joints) {
@@ -232,6 +236,14 @@ TrainingData ReadTraining(const sim::ModelParams& rig, const std::vector<Trial>&
       for (double v : cols.back()) d.residuals += std::isnan(v) ? 0 : 1;
     }
     d.y.push_back(std::move(cols));
+    std::vector<std::vector<long>> rows;
+    for (const auto& column : d.y.back()) {
+      rows.emplace_back(column.size(), -1);
+      for (std::size_t i = 0; i < column.size(); ++i) {
+        if (!std::isnan(column[i])) rows.back()[i] = row++;
+      }
+    }
+    d.row_of.push_back(std::move(rows));
     SimPlan plan = PlanFor(rig, tr);
     const auto same = std::find(d.plans.begin(), d.plans.end(), plan);
     d.plan_of.push_back(static_cast<int>(same - d.plans.begin()));
@@ -334,46 +346,32 @@ Eigen::MatrixXd ParallelJacobian(const sim::ModelParams& base,
   return J;
 }
 
-/// ∂q̂/∂x of `plan` on ApplyParameters(base, params, x) by CVODES forward sensitivities:
-/// dq[sample][column · P + k] for the plan's q columns (same set-up as SimulatePlan).
-std::vector<std::vector<double>> PlanSensitivities(
-    const sim::ModelParams& model, const std::vector<sim::ParameterPerturbation>& perturbed,
-    const SimPlan& plan, double tolerance) {
+/// ∂q̂/∂x of `plan` on `model` by CVODES forward sensitivities (same set-up as SimulatePlan):
+/// `row(i, dq)` at each sample i with dq[coordinate · P + k] (sim::SensitivityObserver).
+void PlanSensitivities(const sim::ModelParams& model,
+                       const std::vector<sim::ParameterPerturbation>& perturbed,
+                       const SimPlan& plan, double tolerance,
+                       const std::function<void(std::size_t, const std::vector<double>&)>& row) {
   const sim::UpperLimbModel limb(model, kFitBuild);
   const sim::StimulationSchedule delayed = sim::MuscleStimulation(model, plan.schedule);
   sim::IntegratorParams integrator;
   integrator.tolerance = tolerance;
   SimTK::State state = limb.MakeInitialState();
-  const std::size_t p = perturbed.size();
-  std::vector<std::vector<double>> out;
-  out.reserve(plan.times.size());
-  sim::IntegrateTrialSensitivities(limb, integrator, delayed, plan.times, perturbed, &state,
-                                   [&](double, const double*, const std::vector<double>& dq) {
-                                     std::vector<double> row(plan.coords.size() * p);
-                                     for (std::size_t j = 0; j < plan.coords.size(); ++j) {
-                                       std::copy_n(dq.begin() + plan.coords[j] * p, p,
-                                                   row.begin() + j * p);
-                                     }
-                                     out.push_back(std::move(row));
-                                   });
-  return out;
+  std::size_t i = 0;
+  sim::IntegrateTrialSensitivities(
+      limb, integrator, delayed, plan.times, perturbed, &state,
+      [&](double, const double*, const std::vector<double>& dq) { row(i++, dq); });
 }
 
-/// Jacobian ∂r/∂x = −∂ŷ/∂x from forward sensitivities (sim::IntegrateTrialSensitivities): one
-/// augmented simulation per distinct simulation, on `threads` workers, instead of one perturbed
-/// simulation per (parameter, distinct simulation). The perturbed models only feed difference
-/// quotients of pure functions (recruitment, muscle and joint torques), so their step is small
-/// (1e-7 relative) and the Jacobian is exact to the integrator's tolerance. Throws
-/// std::runtime_error (or std::invalid_argument for a rig it cannot differentiate).
-Eigen::MatrixXd SensitivityJacobian(const sim::ModelParams& base,
-                                    const std::vector<FitParameter>& params,
-                                    const Eigen::VectorXd& x, const Eigen::VectorXd& upper,
-                                    const TrainingData& data, double tolerance, int threads) {
-  const int p = static_cast<int>(x.size());
-  const sim::ModelParams model = ApplyParameters(base, params, x);
+/// The perturbed models of the sensitivity Jacobian at x: the perturbed models only feed
+/// difference quotients of pure functions (recruitment, muscle and joint torques), so their step
+/// is small (1e-7 relative) and the Jacobian is exact to the integrator's tolerance.
+std::vector<sim::ParameterPerturbation> SensitivityPerturbations(
+    const sim::ModelParams& base, const std::vector<FitParameter>& params, const Eigen::VectorXd& x,
+    const Eigen::VectorXd& upper) {
   std::vector<sim::ParameterPerturbation> perturbed;
-  perturbed.reserve(p);
-  for (int c = 0; c < p; ++c) {
+  perturbed.reserve(x.size());
+  for (Eigen::Index c = 0; c < x.size(); ++c) {
     const double scale = std::max(std::abs(x(c)), 1e-3);
     double step = 1e-7 * scale;
     if (x(c) + step > upper(c)) step = -step;
@@ -381,25 +379,102 @@ Eigen::MatrixXd SensitivityJacobian(const sim::ModelParams& base,
     xp(c) += step;
     perturbed.push_back({ApplyParameters(base, params, xp), step, scale});
   }
+  return perturbed;
+}
+
+/// Jacobian ∂r/∂x = −∂ŷ/∂x from forward sensitivities (sim::IntegrateTrialSensitivities): one
+/// augmented simulation per distinct simulation, on `threads` workers, instead of one perturbed
+/// simulation per (parameter, distinct simulation). Throws std::runtime_error (or
+/// std::invalid_argument for a rig it cannot differentiate).
+Eigen::MatrixXd SensitivityJacobian(const sim::ModelParams& base,
+                                    const std::vector<FitParameter>& params,
+                                    const Eigen::VectorXd& x, const Eigen::VectorXd& upper,
+                                    const TrainingData& data, double tolerance, int threads) {
+  const int p = static_cast<int>(x.size());
+  const sim::ModelParams model = ApplyParameters(base, params, x);
+  const auto perturbed = SensitivityPerturbations(base, params, x, upper);
   const int nt = static_cast<int>(data.plans.size());
   std::vector<std::vector<std::vector<double>>> dq(nt);
   ParallelFor(nt, threads, [&](int t) {
-    dq[t] = PlanSensitivities(model, perturbed, data.plans[t], tolerance);
+    const SimPlan& plan = data.plans[t];
+    dq[t].resize(plan.times.size());
+    PlanSensitivities(model, perturbed, plan, tolerance,
+                      [&](std::size_t i, const std::vector<double>& d) {
+                        auto& out = dq[t][i];
+                        out.resize(plan.coords.size() * p);
+                        for (std::size_t j = 0; j < plan.coords.size(); ++j) {
+                          std::copy_n(d.begin() + plan.coords[j] * p, p, out.begin() + j * p);
+                        }
+                      });
   });
   Eigen::MatrixXd J(data.residuals, p);
-  Eigen::Index row = 0;
   for (std::size_t t = 0; t < data.y.size(); ++t) {
     const auto& d = dq[static_cast<std::size_t>(data.plan_of[t])];
     for (std::size_t j = 0; j < data.joints.size(); ++j) {
-      const auto& y = data.y[t][j];
-      for (std::size_t i = 0; i < y.size(); ++i) {
-        if (std::isnan(y[i])) continue;
-        for (int k = 0; k < p; ++k) J(row, k) = -d[i][j * p + k];
-        ++row;
+      const auto& rows = data.row_of[t][j];
+      for (std::size_t i = 0; i < rows.size(); ++i) {
+        if (rows[i] < 0) continue;
+        for (int k = 0; k < p; ++k) J(rows[i], k) = -d[i][j * p + k];
       }
     }
   }
   return J;
+}
+
+/// JᵀJ and Jᵀr of SensitivityJacobian's J without forming it: each worker accumulates its
+/// distinct simulation's rows (once per training trial that shares it) as the sensitivities come,
+/// in blocks of kNormalEquationsBlock rows (a rank-k update of the lower triangle); the parts are
+/// summed in plan order, so the result does not depend on `threads`. No J matrix (≈ 12 MB on the
+/// hand-array data, first-touched every iteration), no serial assembly and Gram between the
+/// parallel simulations (docs/performance.md "Full-model fit local step").
+constexpr int kNormalEquationsBlock = 256;
+void SensitivityNormalEquations(const sim::ModelParams& base,
+                                const std::vector<FitParameter>& params, const Eigen::VectorXd& x,
+                                const Eigen::VectorXd& upper, const TrainingData& data,
+                                double tolerance, int threads, const Eigen::VectorXd& r,
+                                Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) {
+  const int p = static_cast<int>(x.size());
+  const sim::ModelParams model = ApplyParameters(base, params, x);
+  const auto perturbed = SensitivityPerturbations(base, params, x, upper);
+  const int nt = static_cast<int>(data.plans.size());
+  std::vector<Eigen::MatrixXd> gram(nt, Eigen::MatrixXd::Zero(p, p));
+  std::vector<Eigen::VectorXd> gradient(nt, Eigen::VectorXd::Zero(p));
+  ParallelFor(nt, threads, [&](int t) {
+    const SimPlan& plan = data.plans[t];
+    std::vector<std::size_t> trials;  // the training trials simulated by plan t
+    for (std::size_t s = 0; s < data.plan_of.size(); ++s) {
+      if (data.plan_of[s] == t) trials.push_back(s);
+    }
+    Eigen::MatrixXd block(p, kNormalEquationsBlock);  // columns: ∂ŷ/∂x of one residual each
+    Eigen::VectorXd residual(kNormalEquationsBlock);
+    int filled = 0;
+    const auto flush = [&] {
+      const auto rows = block.leftCols(filled);
+      gram[t].selfadjointView<Eigen::Lower>().rankUpdate(rows);
+      gradient[t].noalias() -= rows * residual.head(filled);  // J = −∂ŷ/∂x
+      filled = 0;
+    };
+    PlanSensitivities(
+        model, perturbed, plan, tolerance, [&](std::size_t i, const std::vector<double>& d) {
+          for (std::size_t j = 0; j < plan.coords.size(); ++j) {
+            for (std::size_t s : trials) {
+              const long row = data.row_of[s][j][i];
+              if (row < 0) continue;
+              std::copy_n(d.begin() + plan.coords[j] * p, p, block.col(filled).data());
+              residual(filled) = r(row);
+              if (++filled == kNormalEquationsBlock) flush();
+            }
+          }
+        });
+    flush();
+  });
+  *jtj = Eigen::MatrixXd::Zero(p, p);
+  *jtr = Eigen::VectorXd::Zero(p);
+  for (int t = 0; t < nt; ++t) {
+    *jtj += gram[t];
+    *jtr += gradient[t];
+  }
+  *jtj = jtj->selfadjointView<Eigen::Lower>();
 }
 
 /// Cost of one augmented (sensitivity) simulation in plain simulations, as the kAuto rule counts
@@ -440,6 +515,24 @@ struct JacobianRequest {
   int threads;
 };
 
+/// The integrator tolerance of the sensitivity Jacobians: the residuals' times
+/// jacobian_tolerance_factor, never coarser than kCoarsestJacobianTolerance (unless the residuals
+/// are).
+double JacobianTolerance(const JacobianRequest& req) {
+  return std::max(req.tolerance, std::min(req.tolerance * req.options.jacobian_tolerance_factor,
+                                          kCoarsestJacobianTolerance));
+}
+
+/// The forward-difference Jacobian of the request at x (residuals r0 there); adds its p
+/// simulation sets to *evaluations.
+Eigen::MatrixXd ForwardDifferenceJacobian(const JacobianRequest& req, const Eigen::VectorXd& x,
+                                          const Eigen::VectorXd& r0, int* evaluations,
+                                          const std::function<void(double)>& progress) {
+  *evaluations += static_cast<int>(x.size());
+  return ParallelJacobian(req.base, req.params, x, r0, req.upper, req.data, req.tolerance,
+                          req.options.fd_relative_step, req.threads, progress);
+}
+
 /// ∂r/∂x at x (residuals r0 there) by `options.jacobian` (UseSensitivities), by forward
 /// differences when a sensitivity integration fails or the rig has states sensitivities cannot
 /// differentiate (the stretch reflex). Adds the simulation sets it used to *evaluations (1
@@ -447,24 +540,39 @@ struct JacobianRequest {
 Eigen::MatrixXd FitJacobian(const JacobianRequest& req, const Eigen::VectorXd& x,
                             const Eigen::VectorXd& r0, int* evaluations,
                             const std::function<void(double)>& progress) {
-  const int p = static_cast<int>(x.size());
-  if (UseSensitivities(req.options.jacobian, p)) {
+  if (UseSensitivities(req.options.jacobian, static_cast<int>(x.size()))) {
     try {
-      // Never coarser than kCoarsestJacobianTolerance (unless the residuals are).
-      const double jacobian_tolerance =
-          std::max(req.tolerance, std::min(req.tolerance * req.options.jacobian_tolerance_factor,
-                                           kCoarsestJacobianTolerance));
       Eigen::MatrixXd J = SensitivityJacobian(req.base, req.params, x, req.upper, req.data,
-                                              jacobian_tolerance, req.threads);
+                                              JacobianTolerance(req), req.threads);
       ++*evaluations;
       return J;
     } catch (const std::exception&) {
       // Forward differences below; their failed columns are zero.
     }
   }
-  *evaluations += p;
-  return ParallelJacobian(req.base, req.params, x, r0, req.upper, req.data, req.tolerance,
-                          req.options.fd_relative_step, req.threads, progress);
+  return ForwardDifferenceJacobian(req, x, r0, evaluations, progress);
+}
+
+/// JᵀJ and Jᵀr of FitJacobian's J at x (residuals r0 there): from SensitivityNormalEquations
+/// when sensitivities apply (UseSensitivities), else (or when they fail) from the
+/// forward-difference J's column Gram, as the Levenberg–Marquardt iteration forms it.
+void FitNormalEquations(const JacobianRequest& req, const Eigen::VectorXd& x,
+                        const Eigen::VectorXd& r0, int* evaluations,
+                        const std::function<void(double)>& progress, Eigen::MatrixXd* jtj,
+                        Eigen::VectorXd* jtr) {
+  if (UseSensitivities(req.options.jacobian, static_cast<int>(x.size()))) {
+    try {
+      SensitivityNormalEquations(req.base, req.params, x, req.upper, req.data,
+                                 JacobianTolerance(req), req.threads, r0, jtj, jtr);
+      ++*evaluations;
+      return;
+    } catch (const std::exception&) {
+      // Forward differences below.
+    }
+  }
+  const Eigen::MatrixXd J = ForwardDifferenceJacobian(req, x, r0, evaluations, progress);
+  *jtj = JacobianGram(J);
+  *jtr = J.transpose() * r0;
 }
 
 int ResolveThreads(int threads) {
@@ -836,16 +944,27 @@ LmResult MultiStart(const FullModelFitOptions& options, const JacobianRequest& r
                      request.threads, false);
   };
   int current_start = 0, jacobians = 0;
-  const JacobianFn jacobian = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& r,
-                                  int* evaluations) {
+  const auto jacobian_progress = [&] {
     ++jacobians;
     const std::string label = "start " + std::to_string(current_start + 1) + "/" +
                               std::to_string(options.starts) + ", Jacobian " +
                               std::to_string(jacobians);
-    return FitJacobian(request, x, r, evaluations, [&](double f) {
+    return [&, label](double f) {
       if (progress) progress(0.1 + 0.85 * (current_start + f) / options.starts, label);
-    });
+    };
   };
+  const JacobianFn jacobian = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& r,
+                                  int* evaluations) {
+    return FitJacobian(request, x, r, evaluations, jacobian_progress());
+  };
+  // With sensitivities (and no secant updates) the iteration takes JᵀJ and Jᵀr accumulated in
+  // the simulations' workers (SensitivityNormalEquations) instead of J.
+  const NormalEquationsFn normal_equations = [&](const Eigen::VectorXd& x, const Eigen::VectorXd& r,
+                                                 Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr,
+                                                 int* evaluations) {
+    FitNormalEquations(request, x, r, evaluations, jacobian_progress(), jtj, jtr);
+  };
+  const bool use_normal_equations = !options.broyden && UseSensitivities(options.jacobian, p);
   const LmOptions lm = LocalRunOptions(options);
   double best_cost = std::numeric_limits<double>::infinity();
   LmResult best;
@@ -869,7 +988,10 @@ LmResult MultiStart(const FullModelFitOptions& options, const JacobianRequest& r
     }
     const auto t_run = Clock::now();
     const double cpu_run = ProcessCpuSeconds();
-    LmResult res = LevenbergMarquardt(residual, x0, lower, upper, lm, {}, jacobian);
+    LmResult res =
+        use_normal_equations
+            ? LevenbergMarquardt(residual, x0, lower, upper, lm, {}, {}, normal_equations)
+            : LevenbergMarquardt(residual, x0, lower, upper, lm, {}, jacobian);
     LocalRun run;
     run.start = x0;
     run.x = res.x;
@@ -920,6 +1042,23 @@ Eigen::MatrixXd ConfidenceJtJ(const JacobianRequest& request, const LmResult& be
 }
 
 }  // namespace
+
+GaussNewtonQuantities SensitivityGaussNewton(const sim::ModelParams& rig,
+                                             const std::vector<Trial>& train,
+                                             const std::vector<FitParameter>& params,
+                                             const Eigen::VectorXd& x, double tolerance,
+                                             double jacobian_tolerance, int threads) {
+  const TrainingData data = ReadTraining(rig, train);
+  const sim::ModelParams base = WithExplicitArrayWeights(rig);
+  Eigen::VectorXd upper(static_cast<Eigen::Index>(params.size()));
+  for (std::size_t k = 0; k < params.size(); ++k) upper(k) = params[k].upper;
+  GaussNewtonQuantities g;
+  g.r = Residuals(base, params, x, data, tolerance, threads, true);
+  g.J = SensitivityJacobian(base, params, x, upper, data, jacobian_tolerance, threads);
+  SensitivityNormalEquations(base, params, x, upper, data, jacobian_tolerance, threads, g.r, &g.jtj,
+                             &g.jtr);
+  return g;
+}
 
 FullModelFit FitFullModel(const sim::ModelParams& rig, const std::vector<Trial>& train,
                           const FullModelFitOptions& options, const ProgressFn& progress) {

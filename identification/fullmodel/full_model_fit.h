@@ -207,6 +207,23 @@ SimulationSensitivities SimulateLikeSensitivities(
     const std::vector<sim::ParameterPerturbation>& perturbed,
     const sim::IntegratorParams& integrator);
 
+/// The Gauss–Newton quantities of FitFullModel's residuals r = y − ŷ on `train` (q.* columns,
+/// NaN samples skipped) at parameter values x of `params` (applied to `rig` as the fit applies
+/// them): J = ∂r/∂x from CVODES forward sensitivities at `jacobian_tolerance`, and JᵀJ and Jᵀr
+/// accumulated without J, per distinct simulation in its worker, as the fit's sensitivity
+/// iterations take them; r from simulations at `tolerance`. Throws like FitFullModel.
+struct GaussNewtonQuantities {
+  Eigen::VectorXd r;
+  Eigen::MatrixXd J;
+  Eigen::MatrixXd jtj;
+  Eigen::VectorXd jtr;
+};
+GaussNewtonQuantities SensitivityGaussNewton(const sim::ModelParams& rig,
+                                             const std::vector<Trial>& train,
+                                             const std::vector<FitParameter>& params,
+                                             const Eigen::VectorXd& x, double tolerance,
+                                             double jacobian_tolerance, int threads);
+
 /// Sensitivity ranking + multi-start local optimisation on `train` (the q.* columns; NaN samples
 /// are skipped). `progress` may be empty. Throws std::runtime_error with a one-line reason on
 /// unusable data.
