@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <map>
@@ -194,6 +195,38 @@ TEST(FullModelFitTest, SensitivityAndForwardDifferenceJacobiansReachTheSamePlant
   // Evaluations count one per augmented simulation set (sensitivities) or per parameter (FD).
   EXPECT_LE(rs.evaluations, rs.iterations * 4 + 4);
   EXPECT_GE(rf.evaluations, rf.jacobians * static_cast<int>(p.planted.size()));
+}
+
+TEST(FullModelFitTest, NormalEquationsOfSharedAndGappedTrialsAreThoseOfTheJacobian) {
+  // The sensitivity iterations take JᵀJ and Jᵀr accumulated per distinct simulation in its
+  // worker, without J. Three noisy trials — two of one stimulation (one simulation, its rows
+  // counted once per trial), one with dropped samples (NaN rows skipped), one of another
+  // stimulation — at a point off the plant: the products equal those of the sensitivity Jacobian
+  // to round-off, and one and two worker threads give the same bits (parts summed in plan order).
+  const PlantedProblem p = MakePlanted();
+  const Trial a = MakeTrial(p.truth_model, Staircase(p.rig), 7.0, 0.005, 1);
+  Trial a_gapped = MakeTrial(p.truth_model, Staircase(p.rig), 7.0, 0.005, 2);
+  for (const auto& name : a_gapped.NamesWithPrefix("q.")) {
+    std::vector<double>& q = a_gapped.MutableColumn(name);
+    for (std::size_t i = 17; i < q.size(); i += 23) q[i] = std::nan("");
+  }
+  sim::StimulationSchedule other = Staircase(p.rig);
+  std::reverse(other.values.begin(), other.values.end());
+  const std::vector<Trial> train = {a, a_gapped, MakeTrial(p.truth_model, other, 7.0, 0.005, 3)};
+  Eigen::VectorXd x(static_cast<Eigen::Index>(p.planted.size()));
+  for (std::size_t k = 0; k < p.planted.size(); ++k) x(k) = p.planted[k].nominal;
+  const GaussNewtonQuantities one =
+      SensitivityGaussNewton(p.rig, train, p.planted, x, 1e-6, 1e-5, 1);
+  const GaussNewtonQuantities two =
+      SensitivityGaussNewton(p.rig, train, p.planted, x, 1e-6, 1e-5, 2);
+  const Eigen::MatrixXd jtj = one.J.transpose() * one.J;
+  const Eigen::VectorXd jtr = one.J.transpose() * one.r;
+  EXPECT_LT((one.jtj - jtj).norm(), 1e-12 * jtj.norm());
+  EXPECT_LT((one.jtr - jtr).norm(), 1e-12 * jtr.norm());
+  EXPECT_GT(jtr.norm(), 0.0);
+  EXPECT_EQ(one.jtj, one.jtj.transpose());
+  EXPECT_EQ(one.jtj, two.jtj);
+  EXPECT_EQ(one.jtr, two.jtr);
 }
 
 TEST(FullModelFitTest, RigWithStretchReflexStatesFallsBackToForwardDifferences) {
