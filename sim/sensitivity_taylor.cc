@@ -2,6 +2,7 @@
 
 #include <cvodes/cvodes.h>
 
+#include <algorithm>
 #include <utility>
 
 namespace fesim::sim {
@@ -17,7 +18,7 @@ int SensitivityTaylor::Evaluate(void* cvode_mem, N_Vector like, double t,
                                 std::vector<double>* out) {
   const std::size_t nc = components_.size();
   const std::size_t row = nc * static_cast<std::size_t>(parameters_);
-  out->assign(row, 0.0);
+  out->resize(row);
   if (row == 0) return 0;
   long steps = 0;
   if (const int flag = CVodeGetNumSteps(cvode_mem, &steps); flag < 0) return flag;
@@ -45,12 +46,15 @@ int SensitivityTaylor::Evaluate(void* cvode_mem, N_Vector like, double t,
     }
     steps_ = steps;
   }
+  // Horner's rule over whole rows (i = is · nc + m), highest order first.
   const std::size_t terms = coefficients_.size() / row;
   const double dt = t - tn_;
-  for (std::size_t i = 0; i < row; ++i) {  // Horner's rule, i = is · nc + m
-    double v = coefficients_[(terms - 1) * row + i];
-    for (std::size_t k = terms - 1; k-- > 0;) v = v * dt + coefficients_[k * row + i];
-    (*out)[i] = v;
+  double* v = out->data();
+  const double* c = coefficients_.data() + (terms - 1) * row;
+  std::copy(c, c + row, v);
+  for (std::size_t k = terms - 1; k-- > 0;) {
+    c -= row;
+    for (std::size_t i = 0; i < row; ++i) v[i] = v[i] * dt + c[i];
   }
   return 0;
 }

@@ -422,7 +422,7 @@ Eigen::MatrixXd SensitivityJacobian(const sim::ModelParams& base,
 }
 
 /// JᵀJ and Jᵀr of SensitivityJacobian's J without forming it: each worker accumulates its
-/// distinct simulation's rows (once per training trial that shares it) as the sensitivities come,
+/// distinct simulation's rows (weighted by the training trials that share it) as they come,
 /// in blocks of kNormalEquationsBlock rows (a rank-k update of the lower triangle); the parts are
 /// summed in plan order, so the result does not depend on `threads`. No J matrix (≈ 12 MB on the
 /// hand-array data, first-touched every iteration), no serial assembly and Gram between the
@@ -454,16 +454,25 @@ void SensitivityNormalEquations(const sim::ModelParams& base,
       gradient[t].noalias() -= rows * residual.head(filled);  // J = −∂ŷ/∂x
       filled = 0;
     };
+    // A sample's row of ∂ŷ/∂x is the same in every trial of the plan: it enters once, times
+    // √w for the w trials where the sample is valid, with their residuals' sum over √w.
     PlanSensitivities(
         model, perturbed, plan, tolerance, [&](std::size_t i, const std::vector<double>& d) {
           for (std::size_t j = 0; j < plan.coords.size(); ++j) {
+            int valid = 0;
+            double sum = 0.0;
             for (std::size_t s : trials) {
               const long row = data.row_of[s][j][i];
               if (row < 0) continue;
-              std::copy_n(d.begin() + plan.coords[j] * p, p, block.col(filled).data());
-              residual(filled) = r(row);
-              if (++filled == kNormalEquationsBlock) flush();
+              ++valid;
+              sum += r(row);
             }
+            if (valid == 0) continue;
+            const double root = valid == 1 ? 1.0 : std::sqrt(static_cast<double>(valid));
+            auto column = block.col(filled);
+            for (int k = 0; k < p; ++k) column(k) = root * d[plan.coords[j] * p + k];
+            residual(filled) = sum / root;
+            if (++filled == kNormalEquationsBlock) flush();
           }
         });
     flush();
