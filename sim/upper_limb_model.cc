@@ -586,7 +586,12 @@ TorquePoint::TorquePoint(const ModelParams& params, const std::vector<tendons::M
             .force_n;
   }
   tendons::JointTorques(paths, arms_, forces_, kNumCoordinates, &muscle_tau_);
-  tau_ = WithPassiveOf(params);
+  passive_.resize(kNumCoordinates);
+  tau_ = muscle_tau_;
+  for (int i = 0; i < kNumCoordinates; ++i) {
+    passive_[i] = PassiveJointTorque(params.coordinates[i].passive, q[i], qd[i]);
+    tau_[i] += passive_[i];
+  }
 }
 
 std::vector<double> TorquePoint::WithPassiveOf(const ModelParams& other) const {
@@ -621,8 +626,10 @@ std::vector<double> TorquePoint::WithCoordinate(int coordinate, bool speed, doub
   }
   std::vector<double> tau;
   tendons::JointTorques(paths_, arms, forces, kNumCoordinates, &tau);
+  // A joint's passive torque reads its own q and q̇ only: the others' are the point's.
   for (int i = 0; i < kNumCoordinates; ++i) {
-    tau[i] += PassiveJointTorque(params_.coordinates[i].passive, q[i], qd[i]);
+    tau[i] += i == coordinate ? PassiveJointTorque(params_.coordinates[i].passive, q[i], qd[i])
+                              : passive_[i];
   }
   return tau;
 }

@@ -108,6 +108,7 @@ class TorquePoint {
   std::vector<double> lengths_;     // l_MT of each muscle, m
   std::vector<double> forces_;      // tendon force of each muscle, N
   std::vector<double> muscle_tau_;  // R f, N·m
+  std::vector<double> passive_;     // PassiveJointTorque of each coordinate, N·m
   std::vector<double> tau_;         // R f + passive
 };
 
