@@ -958,7 +958,15 @@ class Cvodes {
                                why + "); " + DescribeState(*ctx_->model, *ctx_->state) +
                                kFailureHint);
     }
-    if (ns_ > 0) Check(taylor_->Evaluate(mem_, y_, t_out, &sens_), "CVodeGetSensDky1", t_out);
+    if (ns_ > 0 && taylor_) {
+      Check(taylor_->Evaluate(mem_, y_, t_out, &sens_), "CVodeGetSensDky1", t_out);
+    } else if (ns_ > 0) {
+      Check(CVodeGetSens(mem_, &t_reached, yS_), "CVodeGetSens", t_out);
+      for (int k = 0; k < ns_; ++k) {
+        const double* sk = N_VGetArrayPointer(yS_[k]);
+        for (std::size_t m = 0; m < reported_; ++m) sens_[k * reported_ + m] = sk[components_[m]];
+      }
+    }
     // No stage realised here: Drive realises the stage its observer asked for right after, so an
     // observer that reads state variables alone (the trial records, the full-model fit) pays
     // neither for kinematics (≈ 1/3 of a 140 s, 40 Hz hand-rig simulation) nor for Stage::Time
@@ -982,12 +990,18 @@ class Cvodes {
   /// Integrate forward sensitivities of `scales.size()` parameters (typical magnitudes |θ_k|)
   /// from the start, reporting those of the CVODES components `components`; call before the
   /// first Start.
-  void EnableSensitivities(std::vector<double> scales, std::vector<int> components) {
+  /// With `per_step`, from one Taylor polynomial per step (IntegratorParams::
+  /// sensitivities_per_step), else by CVodeGetSens at each report time.
+  void EnableSensitivities(std::vector<double> scales, std::vector<int> components, bool per_step) {
     pbar_ = std::move(scales);
     ns_ = static_cast<int>(pbar_.size());
     reported_ = components.size();
     sens_.assign(static_cast<std::size_t>(ns_) * reported_, 0.0);
-    taylor_.emplace(std::move(components), ns_);
+    if (per_step) {
+      taylor_.emplace(std::move(components), ns_);
+    } else {
+      components_ = std::move(components);
+    }
   }
   /// ∂y_c/∂θ_k of component c = components[m] at the last AdvanceTo's time (zero before the
   /// first).
@@ -1027,7 +1041,8 @@ class Cvodes {
   N_Vector* yS_ = nullptr;
   std::size_t reported_ = 0;                 // components whose sensitivities are reported
   std::vector<double> sens_;                 // theirs at the last report, [k · reported + m]
-  std::optional<SensitivityTaylor> taylor_;  // CVodeGetSens' polynomial for them
+  std::vector<int> components_;              // their CVODES components (CVodeGetSens path)
+  std::optional<SensitivityTaylor> taylor_;  // CVodeGetSens' polynomial for them (per step)
   bool initialised_ = false;
   bool state_current_ = true;  // the context's state holds the last solution
   double solution_t_ = 0.0;    // time of the last AdvanceTo
@@ -1350,7 +1365,7 @@ IntegrationStats IntegrateTrialSensitivities(
       reported_coordinate.push_back(c);
     }
   }
-  if (np > 0) cv.EnableSensitivities(scales, reported);
+  if (np > 0) cv.EnableSensitivities(scales, reported, params.sensitivities_per_step);
   std::vector<double> dq(static_cast<std::size_t>(kNumCoordinates) * np, 0.0);
   // As RunCvodes with observe_variables: a report leaves the solution in CVODES' y (the state is
   // loaded only at breakpoints, where the new interval starts from it, and at the end).

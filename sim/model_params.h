@@ -190,6 +190,12 @@ struct IntegratorParams {
   /// the default whenever no coordinate is prescribed). The same dynamics to round-off; for
   /// cross-checks and the benchmarks' side-by-side figures.
   bool simbody_right_hand_side = false;
+  /// Forward sensitivities (IntegrateTrialSensitivities): report them from one Taylor polynomial
+  /// per CVODES step (sim/sensitivity_taylor.h; the full-model fit's Jacobians) instead of
+  /// CVodeGetSens at each report time. The same polynomial to round-off and cheaper when reports
+  /// outnumber steps; off by default because round-off alone moves the diagnosis' calibrations
+  /// (docs/performance.md "Full-model fit local step").
+  bool sensitivities_per_step = false;
 };
 
 /// Everything that defines one virtual participant on one rig.

@@ -356,6 +356,7 @@ void PlanSensitivities(const sim::ModelParams& model,
   const sim::StimulationSchedule delayed = sim::MuscleStimulation(model, plan.schedule);
   sim::IntegratorParams integrator;
   integrator.tolerance = tolerance;
+  integrator.sensitivities_per_step = true;  // 40 Hz reports, fewer steps
   SimTK::State state = limb.MakeInitialState();
   std::size_t i = 0;
   sim::IntegrateTrialSensitivities(

@@ -453,6 +453,52 @@ TEST(Integrator, ForwardSensitivitiesMatchCentralDifferencesOfWholeSimulations) 
   EXPECT_LT(reused.rhs_evaluations, exact.rhs_evaluations / 2);
 }
 
+TEST(Integrator, SensitivitiesPerStepEqualCvodesInterpolationAtTheReports) {
+  // IntegratorParams::sensitivities_per_step reports the sensitivities from one Taylor
+  // polynomial per CVODES step instead of CVodeGetSens at each report: on the sensitivity rig at
+  // the fits' coarse tolerance (several 100 Hz reports per step) the same values to round-off,
+  // the same steps and zeros for the locked coordinates.
+  const ModelParams base = SensitivityHandRig();
+  const std::vector<ParameterAt> parameters = PersonParametersAt(base);
+  std::vector<ParameterPerturbation> perturbed;
+  for (const ParameterAt& parameter : parameters) {
+    ParameterPerturbation pp{base, 0.0, 1.0};
+    double& v = parameter.at(pp.params);
+    pp.scale = std::abs(v);
+    pp.step = 1e-7 * std::abs(v);
+    v += pp.step;
+    perturbed.push_back(pp);
+  }
+  const UpperLimbModel model(base);
+  const auto times = Times(3.0, 0.01);
+  const auto run = [&](bool per_step, IntegrationStats* stats) {
+    IntegratorParams integrator{IntegratorParams::Method::kCvodes, 1e-2};
+    integrator.sensitivities_per_step = per_step;
+    SimTK::State s = model.MakeInitialState();
+    std::vector<std::vector<double>> sens;
+    *stats = IntegrateTrialSensitivities(
+        model, integrator, SensitivitySteps(), times, perturbed, &s,
+        [&](double, const double*, const std::vector<double>& dq) { sens.push_back(dq); });
+    return sens;
+  };
+  IntegrationStats cvodes_stats, step_stats;
+  const auto cvodes = run(false, &cvodes_stats), per_step = run(true, &step_stats);
+  ASSERT_EQ(cvodes.size(), times.size());
+  ASSERT_EQ(per_step.size(), times.size());
+  EXPECT_EQ(cvodes_stats.steps, step_stats.steps);
+  EXPECT_LT(step_stats.steps, static_cast<long>(times.size()) / 2);
+  double largest = 0.0, worst = 0.0;
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    for (std::size_t j = 0; j < cvodes[i].size(); ++j) {
+      largest = std::max(largest, std::abs(cvodes[i][j]));
+      worst = std::max(worst, std::abs(per_step[i][j] - cvodes[i][j]));
+      if (cvodes[i][j] == 0.0) EXPECT_EQ(per_step[i][j], 0.0);
+    }
+  }
+  EXPECT_GT(largest, 0.0);
+  EXPECT_LT(worst, 1e-12 * largest);
+}
+
 TEST(Integrator, SensitivitiesWithFatigueAndPotentiationMatchCentralDifferences) {
   // Fatigue and potentiation fast enough to change the force within the 3 s trial (fitness down
   // to ≈ 0.5, potentiation up to ≈ 0.5 on the stimulated muscles): their states are CVODES
