@@ -325,6 +325,21 @@ StimulationSchedule SensitivitySteps() {
   return stim;
 }
 
+/// `base` with each parameter moved by 1e-7 of its value (the sensitivity integration's steps).
+std::vector<ParameterPerturbation> Perturbations(const ModelParams& base,
+                                                 const std::vector<ParameterAt>& parameters) {
+  std::vector<ParameterPerturbation> perturbed;
+  for (const ParameterAt& parameter : parameters) {
+    ParameterPerturbation pp{base, 0.0, 1.0};
+    double& v = parameter.at(pp.params);
+    pp.scale = std::abs(v);
+    pp.step = 1e-7 * std::abs(v);
+    v += pp.step;
+    perturbed.push_back(pp);
+  }
+  return perturbed;
+}
+
 /// Forward sensitivities of `base` (3 s of SensitivitySteps at tolerance 1e-10) against central
 /// differences of whole simulations, per parameter: checks that each column is non-zero and
 /// within 0.2 % of the largest |∂q/∂θ| with ∂f/∂y formed at every step (exact) and within 1 % with
@@ -340,15 +355,7 @@ std::pair<IntegrationStats, IntegrationStats> ExpectSensitivitiesMatchCentralDif
   const auto times = Times(3.0, 0.05);
   const IntegratorParams integrator{IntegratorParams::Method::kCvodes, 1e-10};
   const int np = static_cast<int>(parameters.size());
-  std::vector<ParameterPerturbation> perturbed;
-  for (const ParameterAt& parameter : parameters) {
-    ParameterPerturbation pp{base, 0.0, 1.0};
-    double& v = parameter.at(pp.params);
-    pp.scale = std::abs(v);
-    pp.step = 1e-7 * std::abs(v);
-    v += pp.step;
-    perturbed.push_back(pp);
-  }
+  const std::vector<ParameterPerturbation> perturbed = Perturbations(base, parameters);
   const UpperLimbModel model(base);
   std::vector<std::vector<double>> sens, sens16;  // [sample][c * np + k]
   SimTK::State s = model.MakeInitialState();
@@ -460,15 +467,7 @@ TEST(Integrator, SensitivitiesPerStepEqualCvodesInterpolationAtTheReports) {
   // the same steps and zeros for the locked coordinates.
   const ModelParams base = SensitivityHandRig();
   const std::vector<ParameterAt> parameters = PersonParametersAt(base);
-  std::vector<ParameterPerturbation> perturbed;
-  for (const ParameterAt& parameter : parameters) {
-    ParameterPerturbation pp{base, 0.0, 1.0};
-    double& v = parameter.at(pp.params);
-    pp.scale = std::abs(v);
-    pp.step = 1e-7 * std::abs(v);
-    v += pp.step;
-    perturbed.push_back(pp);
-  }
+  const std::vector<ParameterPerturbation> perturbed = Perturbations(base, parameters);
   const UpperLimbModel model(base);
   const auto times = Times(3.0, 0.01);
   const auto run = [&](bool per_step, IntegrationStats* stats) {
