@@ -422,13 +422,15 @@ Eigen::MatrixXd SensitivityJacobian(const sim::ModelParams& base,
   return J;
 }
 
+/// Rows per rank update of SensitivityNormalEquations (≈ 60 KB of 29 parameters: L2-resident).
+constexpr int kNormalEquationsBlock = 256;
+
 /// JᵀJ and Jᵀr of SensitivityJacobian's J without forming it: each worker accumulates its
 /// distinct simulation's rows (weighted by the training trials that share it) as they come,
 /// in blocks of kNormalEquationsBlock rows (a rank-k update of the lower triangle); the parts are
 /// summed in plan order, so the result does not depend on `threads`. No J matrix (≈ 12 MB on the
 /// hand-array data, first-touched every iteration), no serial assembly and Gram between the
 /// parallel simulations (docs/performance.md "Full-model fit local step").
-constexpr int kNormalEquationsBlock = 256;
 void SensitivityNormalEquations(const sim::ModelParams& base,
                                 const std::vector<FitParameter>& params, const Eigen::VectorXd& x,
                                 const Eigen::VectorXd& upper, const TrainingData& data,
