@@ -3,8 +3,10 @@
 #include <sunmatrix/sunmatrix_dense.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 namespace fesim::sim {
@@ -40,7 +42,16 @@ sunindextype DenseLuFactor(double* a, sunindextype n, sunindextype* p) {
   return 0;
 }
 
-void DenseLuSolve(const double* a, sunindextype n, const sunindextype* p, double* b) {
+namespace {
+
+/// DenseLuSolve's substitutions for an n known when compiled (N > 0) or not (N = 0, n given):
+/// the same operations in the same order either way; a known n lets the compiler unroll the short
+/// loops of the models' systems (10 components on the hand rig, 20 on the default arm: −24 % of
+/// the solves' instructions on the hand rig, docs/performance.md "Full-model fit local step").
+template <sunindextype N>
+void LuSolve(const double* __restrict__ a, sunindextype n_runtime,
+             const sunindextype* __restrict__ p, double* __restrict__ b) {
+  const sunindextype n = N > 0 ? N : n_runtime;
   for (sunindextype k = 0; k < n; ++k) {  // b ← P b
     const sunindextype pk = p[k];
     if (pk != k) {
@@ -59,6 +70,28 @@ void DenseLuSolve(const double* a, sunindextype n, const sunindextype* p, double
     for (sunindextype i = 0; i < k; ++i) b[i] -= col_k[i] * b[k];
   }
   if (n > 0) b[0] /= a[0];
+}
+
+/// Sizes below it have a compiled solve: the CVODES systems of the rigs without fatigue or
+/// potentiation states (10 components on the hand rig, 20 on the default arm); larger ones take
+/// LuSolve<0>.
+constexpr sunindextype kCompiledSizes = 32;
+
+using LuSolveFn = void (*)(const double*, sunindextype, const sunindextype*, double*);
+
+template <sunindextype... N>
+constexpr std::array<LuSolveFn, sizeof...(N)> LuSolveTable(
+    std::integer_sequence<sunindextype, N...>) {
+  return {&LuSolve<N>...};
+}
+
+/// LuSolve<n> for n < kCompiledSizes (entry 0: the runtime-size loop).
+constexpr auto kLuSolves = LuSolveTable(std::make_integer_sequence<sunindextype, kCompiledSizes>());
+
+}  // namespace
+
+void DenseLuSolve(const double* a, sunindextype n, const sunindextype* p, double* b) {
+  kLuSolves[n > 0 && n < kCompiledSizes ? n : 0](a, n, p, b);
 }
 
 namespace {
