@@ -618,7 +618,7 @@ TorqueInputs GatherTorqueInputs(const SensitivityData& d, const SimTK::State& s,
 /// The column of muscle j's fitness or potentiation state (component i), exact at every point:
 /// its torques move the free u rows (M_ff⁻¹ ∂τ/∂g_j ∂g_j/∂y_i, the gain affine in either state),
 /// its own rate its row (∂ż/∂z at the activation of t); nothing else depends on it. `dtau_dg` =
-/// TorquePerActiveGain at the point.
+/// TorquePerActiveGain at the point (TorquePoint::PerMuscleInput).
 void FormMuscleStateColumn(SensitivityData* d, int i, const TorqueInputs& in,
                            const std::vector<double>& dtau_dg) {
   const MechanismParams& mech = d->ctx->model->params().mechanisms;
@@ -649,10 +649,8 @@ void FormMuscleColumns(SensitivityData* d, const double* y, const TorqueInputs& 
                        const TorquePoint& point, bool refresh) {
   const int n = d->n;
   const int nf = static_cast<int>(d->free_coordinates.size());
-  const ModelParams& base = d->ctx->model->params();
   const std::vector<double> dtau_dg =
-      in.gains.empty() ? std::vector<double>{}
-                       : TorquePerActiveGain(base, d->paths, in.q, in.qd, in.a, in.gains);
+      in.gains.empty() ? std::vector<double>{} : point.PerMuscleInput(true);
   std::vector<double> udot(nf);
   for (int i = 0; i < n; ++i) {
     if (d->state_muscle[i] >= 0) {
@@ -702,9 +700,8 @@ int FormParameterColumns(SensitivityData* d, double t, const double* ydot, const
   const int n = d->n;
   const int nf = static_cast<int>(d->free_coordinates.size());
   const std::size_t nm = in.a.size();
-  // M_ff⁻¹ ∂τ_f/∂a_j for every muscle (nf × nm, column-major).
-  const std::vector<double> dtau_da =
-      TorquePerActivation(base, d->paths, in.q, in.qd, in.a, in.gains);
+  // M_ff⁻¹ ∂τ_f/∂a_j for every muscle (nf × nm, column-major); TorquePerActivation's bits.
+  const std::vector<double> dtau_da = point.PerMuscleInput(false);
   std::vector<double> v(nf), udot(nf);
   std::vector<double> x_da(static_cast<std::size_t>(nf) * nm);
   for (std::size_t j = 0; j < nm; ++j) {

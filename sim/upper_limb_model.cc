@@ -573,16 +573,16 @@ TorquePoint::TorquePoint(const ModelParams& params, const std::vector<tendons::M
   const std::size_t nm = params.muscles.size();
   first_.resize(nm);
   lengths_.resize(nm);
+  velocities_.resize(nm);
   forces_.resize(nm);
   std::size_t k = 0;
   for (std::size_t j = 0; j < nm; ++j) {
     first_[j] = k;
     k += paths[j].crossings.size();
     lengths_[j] = tendons::MusculotendonLength(paths[j], q);
+    velocities_[j] = tendons::MusculotendonVelocity(paths[j], &arms_[first_[j]], qd);
     forces_[j] =
-        MuscleTendonForceAt(params.muscles[j], lengths_[j],
-                            tendons::MusculotendonVelocity(paths[j], &arms_[first_[j]], qd), a[j],
-                            GainOf(gains_, j))
+        MuscleTendonForceAt(params.muscles[j], lengths_[j], velocities_[j], a[j], GainOf(gains_, j))
             .force_n;
   }
   tendons::JointTorques(paths, arms_, forces_, kNumCoordinates, &muscle_tau_);
@@ -600,6 +600,36 @@ std::vector<double> TorquePoint::WithPassiveOf(const ModelParams& other) const {
     tau[i] += PassiveJointTorque(other.coordinates[i].passive, q_[i], qd_[i]);
   }
   return tau;
+}
+
+namespace {
+
+/// The activation or active-force-gain step of TorquePoint::PerMuscleInput's forward differences
+/// (TorquePerActivation, TorquePerActiveGain).
+constexpr double kMuscleInputStep = 1e-6;
+
+}  // namespace
+
+std::vector<double> TorquePoint::PerMuscleInput(bool gain) const {
+  const std::size_t nm = paths_.size();
+  // R as tendons::MomentArmMatrix sums it (from 0, crossing by crossing), from the kept arms.
+  std::vector<double> out(q_.size() * nm, 0.0);
+  for (std::size_t j = 0; j < nm; ++j) {
+    const auto& crossings = paths_[j].crossings;
+    for (std::size_t i = 0; i < crossings.size(); ++i) {
+      out[crossings[i].joint * nm + j] += arms_[first_[j] + i];
+    }
+  }
+  for (std::size_t j = 0; j < nm; ++j) {
+    const double g = GainOf(gains_, j);
+    const double moved = MuscleTendonForceAt(params_.muscles[j], lengths_[j], velocities_[j],
+                                             a_[j] + (gain ? 0.0 : kMuscleInputStep),
+                                             g + (gain ? kMuscleInputStep : 0.0))
+                             .force_n;
+    const double df = (moved - forces_[j]) / kMuscleInputStep;
+    for (int c = 0; c < kNumCoordinates; ++c) out[c * nm + j] *= df;
+  }
+  return out;
 }
 
 std::vector<double> TorquePoint::WithCoordinate(int coordinate, bool speed, double value) const {
@@ -634,40 +664,12 @@ std::vector<double> TorquePoint::WithCoordinate(int coordinate, bool speed, doub
   return tau;
 }
 
-namespace {
-
-/// R_cj(q) ∂f_j/∂x_j for x = the activation (`gain` false) or the active-force gain, by a forward
-/// difference of the Hill tendon force (TorquePerActivation, TorquePerActiveGain).
-std::vector<double> TorquePerMuscleInput(const ModelParams& params,
-                                         const std::vector<tendons::MusclePath>& paths,
-                                         const std::vector<double>& q,
-                                         const std::vector<double>& qd,
-                                         const std::vector<double>& a,
-                                         const std::vector<double>& gains, bool gain) {
-  constexpr double kDx = 1e-6;
-  const std::size_t nm = params.muscles.size();
-  std::vector<double> out = tendons::MomentArmMatrix(paths, q);  // R, joints × muscles
-  for (std::size_t j = 0; j < nm; ++j) {
-    const auto& m = params.muscles[j];
-    const double g = GainOf(gains, j);
-    const double df =
-        (MuscleTendonForce(m, paths[j], q, qd, a[j] + (gain ? 0.0 : kDx), g + (gain ? kDx : 0.0))
-             .force_n -
-         MuscleTendonForce(m, paths[j], q, qd, a[j], g).force_n) /
-        kDx;
-    for (int c = 0; c < kNumCoordinates; ++c) out[c * nm + j] *= df;
-  }
-  return out;
-}
-
-}  // namespace
-
 std::vector<double> TorquePerActivation(const ModelParams& params,
                                         const std::vector<tendons::MusclePath>& paths,
                                         const std::vector<double>& q, const std::vector<double>& qd,
                                         const std::vector<double>& a,
                                         const std::vector<double>& gains) {
-  return TorquePerMuscleInput(params, paths, q, qd, a, gains, false);
+  return TorquePoint(params, paths, q, qd, a, gains).PerMuscleInput(false);
 }
 
 std::vector<double> TorquePerActiveGain(const ModelParams& params,
@@ -675,7 +677,7 @@ std::vector<double> TorquePerActiveGain(const ModelParams& params,
                                         const std::vector<double>& q, const std::vector<double>& qd,
                                         const std::vector<double>& a,
                                         const std::vector<double>& gains) {
-  return TorquePerMuscleInput(params, paths, q, qd, a, gains, true);
+  return TorquePoint(params, paths, q, qd, a, gains).PerMuscleInput(true);
 }
 
 UpperLimbModel::UpperLimbModel(ModelParams params, ModelBuildOptions options)

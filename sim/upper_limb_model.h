@@ -95,6 +95,10 @@ class TorquePoint {
   /// MuscleAndPassiveTorques(other, paths, q, qd, a) for `other` with the same muscles as
   /// `params` (only passive joint parameters may differ): the muscles' torques kept.
   std::vector<double> WithPassiveOf(const ModelParams& other) const;
+  /// TorquePerActivation (`gain` false) or TorquePerActiveGain (true) at the point, from its
+  /// moment arms, lengths, velocities and forces: one Hill force per muscle, no moment arm
+  /// evaluated again (the forward sensitivities form it at every step).
+  std::vector<double> PerMuscleInput(bool gain) const;
 
  private:
   const ModelParams& params_;
@@ -106,6 +110,7 @@ class TorquePoint {
   std::vector<double> arms_;        // CrossingMomentArms(paths, q)
   std::vector<std::size_t> first_;  // index in arms_ of each path's first crossing
   std::vector<double> lengths_;     // l_MT of each muscle, m
+  std::vector<double> velocities_;  // musculotendon velocity of each muscle, m/s
   std::vector<double> forces_;      // tendon force of each muscle, N
   std::vector<double> muscle_tau_;  // R f, N·m
   std::vector<double> passive_;     // PassiveJointTorque of each coordinate, N·m

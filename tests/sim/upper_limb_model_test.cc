@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstring>
 
+#include "muscles/hill.h"
 #include "sim/chain_dynamics.h"
 #include "sim/default_model.h"
 #include "sim/integrator.h"
@@ -455,6 +456,64 @@ TEST(UpperLimbModel, TorquePointGivesMuscleAndPassiveTorquesBits) {
   const std::vector<double> passive = point.WithPassiveOf(stiffer);
   EXPECT_TRUE(same(passive, MuscleAndPassiveTorques(stiffer, paths, q, qd, a)));
   EXPECT_FALSE(same(passive, point.torques()));
+}
+
+TEST(UpperLimbModel, TorquePerActivationAndGainAreTheirForwardDifferencesAndDerivatives) {
+  // TorquePerActivation and TorquePerActiveGain (TorquePoint::PerMuscleInput, from the point's
+  // kept arms, lengths, velocities and forces) give, bit for bit, R_cj (f_j(x + 1e-6) − f_j(x)) /
+  // 1e-6 composed from the tendon and Hill functions, with and without active-force gains
+  // (fatigue), at two postures; and the activation entries are the torques' derivatives (a
+  // central difference of MuscleAndPassiveTorques).
+  const ModelParams p = DefaultModelParams();
+  std::vector<tendons::MusclePath> paths;
+  for (const auto& m : p.muscles) paths.push_back(m.path);
+  const auto same = [](const std::vector<double>& x, const std::vector<double>& y) {
+    return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0;
+  };
+  const std::size_t nm = p.muscles.size();
+  for (double shift : {0.0, 0.35}) {
+    std::vector<double> q(kNumCoordinates), qd(kNumCoordinates), a(nm);
+    for (int c = 0; c < kNumCoordinates; ++c) {
+      q[c] = p.coordinates[c].initial_rad + 0.2 * std::sin(1.3 * c + 0.4) + shift;
+      qd[c] = 0.7 * std::cos(0.9 * c + shift);
+    }
+    for (std::size_t j = 0; j < nm; ++j) a[j] = 0.1 + 0.05 * static_cast<double>(j);
+    std::vector<double> gains(nm);
+    for (std::size_t j = 0; j < nm; ++j) gains[j] = 0.6 + 0.03 * static_cast<double>(j);
+    for (const std::vector<double>& g : {std::vector<double>{}, gains}) {
+      for (bool per_gain : {false, true}) {
+        std::vector<double> expected = tendons::MomentArmMatrix(paths, q);
+        for (std::size_t j = 0; j < nm; ++j) {
+          const auto& hill = p.muscles[j].hill;
+          const auto fibre =
+              muscles::FibreFromMusculotendon(hill, tendons::MusculotendonLength(paths[j], q),
+                                              tendons::MusculotendonVelocity(paths[j], q, qd));
+          const double gj = g.empty() ? 1.0 : g[j];
+          const double df = (muscles::HillTendonForce(hill, a[j] + (per_gain ? 0.0 : 1e-6), fibre,
+                                                      gj + (per_gain ? 1e-6 : 0.0)) -
+                             muscles::HillTendonForce(hill, a[j], fibre, gj)) /
+                            1e-6;
+          for (int c = 0; c < kNumCoordinates; ++c) expected[c * nm + j] *= df;
+        }
+        const std::vector<double> got = per_gain ? TorquePerActiveGain(p, paths, q, qd, a, g)
+                                                 : TorquePerActivation(p, paths, q, qd, a, g);
+        EXPECT_TRUE(same(got, expected)) << "shift " << shift << " per gain " << per_gain;
+      }
+      const std::vector<double> per_a = TorquePerActivation(p, paths, q, qd, a, g);
+      for (std::size_t j : {std::size_t{0}, nm / 2, nm - 1}) {
+        std::vector<double> up = a, down = a;
+        up[j] += 1e-5;
+        down[j] -= 1e-5;
+        const auto tu = MuscleAndPassiveTorques(p, paths, q, qd, up, g);
+        const auto td = MuscleAndPassiveTorques(p, paths, q, qd, down, g);
+        for (int c = 0; c < kNumCoordinates; ++c) {
+          const double central = (tu[c] - td[c]) / 2e-5;
+          EXPECT_NEAR(per_a[c * nm + j], central, 1e-3 * (std::abs(central) + 1e-3))
+              << "muscle " << j << " coordinate " << c;
+        }
+      }
+    }
+  }
 }
 
 TEST(UpperLimbModel, StimulationIsClippedToPulseWidthLimits) {
