@@ -82,6 +82,33 @@ void Scale(sunrealtype c, N_Vector x, N_Vector z) {
   }
 }
 
+// The element-wise operations of the error weights (cvEwtSet: |y|, then 1 / (rtol |y| + atol)) and
+// of CVODES' zeroed corrections, for every sensitivity at every step of an augmented integration.
+void Const(sunrealtype c, N_Vector z) {
+  double* zd = NV_DATA_S(z);
+  for (sunindextype i = 0; i < NV_LENGTH_S(z); ++i) zd[i] = c;
+}
+
+void Abs(N_Vector x, N_Vector z) {
+  const double* xd = NV_DATA_S(x);
+  double* zd = NV_DATA_S(z);
+  for (sunindextype i = 0; i < NV_LENGTH_S(x); ++i) zd[i] = std::abs(xd[i]);
+}
+
+void Inv(N_Vector x, N_Vector z) {
+  const double* xd = NV_DATA_S(x);
+  double* zd = NV_DATA_S(z);
+  for (sunindextype i = 0; i < NV_LENGTH_S(x); ++i) zd[i] = 1.0 / xd[i];
+}
+
+void AddConst(N_Vector x, sunrealtype b, N_Vector z) {
+  const double* xd = NV_DATA_S(x);
+  double* zd = NV_DATA_S(z);
+  for (sunindextype i = 0; i < NV_LENGTH_S(x); ++i) zd[i] = xd[i] + b;
+}
+
+sunrealtype* ArrayPointer(N_Vector v) { return NV_DATA_S(v); }
+
 sunrealtype WSqrSumLocal(N_Vector x, N_Vector w) {
   const sunindextype n = NV_LENGTH_S(x);
   const double* xd = NV_DATA_S(x);
@@ -211,6 +238,11 @@ void UseCompiledSerialOps(N_Vector v) {
   v->ops->nvlinearsum = LinearSum;
   v->ops->nvscale = Scale;
   v->ops->nvwrmsnorm = WrmsNorm;
+  v->ops->nvconst = Const;
+  v->ops->nvabs = Abs;
+  v->ops->nvinv = Inv;
+  v->ops->nvaddconst = AddConst;
+  v->ops->nvgetarraypointer = ArrayPointer;
   v->ops->nvwsqrsumlocal = WSqrSumLocal;
   v->ops->nvlinearcombination = LinearCombination;
   v->ops->nvscaleaddmulti = ScaleAddMulti;

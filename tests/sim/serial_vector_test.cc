@@ -21,7 +21,8 @@ void Fill(N_Vector v, double phase) {
 
 TEST(SerialVector, SameBitsAsSundials) {
   // Every case of nvector_serial's N_VLinearSum (a, b ∈ {±1, ±0.3, 0.7, 0}, z a third vector or
-  // aliasing x or y), N_VScale (c ∈ {±1, 0.3}, in place or not) and N_VWrmsNorm, against
+  // aliasing x or y), N_VScale (c ∈ {±1, 0.3}, in place or not), N_VAbs, N_VInv, N_VAddConst,
+  // N_VConst and N_VWrmsNorm, against
   // SUNDIALS' own functions, bit for bit.
   SUNContext ctx = nullptr;
   ASSERT_EQ(SUNContext_Create(nullptr, &ctx), 0);
@@ -60,6 +61,24 @@ TEST(SerialVector, SameBitsAsSundials) {
       EXPECT_TRUE(SameBits(ours[z], theirs[z])) << "c " << a << " z " << z;
     }
   }
+  // The element-wise operations of CVODES' error weights and zeroed corrections (Fill's values
+  // cross zero; a −0 and a 0 entry give 1/x = ∓∞).
+  reset();
+  NV_Ith_S(ours[0], 3) = NV_Ith_S(theirs[0], 3) = -0.0;
+  NV_Ith_S(ours[0], 4) = NV_Ith_S(theirs[0], 4) = 0.0;
+  N_VAbs(ours[0], ours[2]);
+  N_VAbs_Serial(theirs[0], theirs[2]);
+  EXPECT_TRUE(SameBits(ours[2], theirs[2])) << "abs";
+  N_VInv(ours[0], ours[1]);
+  N_VInv_Serial(theirs[0], theirs[1]);
+  EXPECT_TRUE(SameBits(ours[1], theirs[1])) << "inv";
+  N_VAddConst(ours[0], -0.3, ours[0]);
+  N_VAddConst_Serial(theirs[0], -0.3, theirs[0]);
+  EXPECT_TRUE(SameBits(ours[0], theirs[0])) << "add const";
+  N_VConst(-0.7, ours[2]);
+  N_VConst_Serial(-0.7, theirs[2]);
+  EXPECT_TRUE(SameBits(ours[2], theirs[2])) << "const";
+  EXPECT_EQ(N_VGetArrayPointer(ours[2]), NV_DATA_S(ours[2]));
   reset();
   const double want = N_VWrmsNorm_Serial(theirs[0], theirs[1]);
   const double got = N_VWrmsNorm(ours[0], ours[1]);
