@@ -87,6 +87,7 @@ std::string DescribeState(const UpperLimbModel& model, const SimTK::State& s) {
 
 struct SensitivityData;
 void BeginSensitivityInterval(SensitivityData* d, const SimTK::State& state, double t);
+void ReachedMuscles(SensitivityData* d);
 
 /// CVODES integrates y = the Simbody state Y without the muscle activation states: between
 /// breakpoints the stimulation, hence w, is constant and eq. (6) is solved in closed form
@@ -166,6 +167,7 @@ struct CvodesContext {
       falling[j] = muscles::Deactivating(w[j], a0[j]);
       omega[j] = muscles::IntervalOmega(omega_rising[j], deactivation_ratio[j], w[j], a0[j]);
     }
+    if (sens != nullptr) ReachedMuscles(sens);  // with the new interval's Ω
   }
 };
 
@@ -320,6 +322,13 @@ struct SensitivityData {
   // ∂a/∂θ_k, ∂ȧ/∂θ_k of every muscle at the interval start and ∂w/∂θ_k in it: [k][j].
   std::vector<std::vector<muscles::ActivationState>> da0;
   std::vector<std::vector<double>> dw;
+  // [k] the muscles whose ∂a/∂θ_k may be non-zero in the interval (ReachedMuscles) or that have
+  // a fitness or potentiation state; FormParameterColumns visits only these (a muscle outside
+  // contributes exactly 0: θ_k of one channel, Hill or recruitment parameter reaches one or a few
+  // muscles of 14). `reached_any`: [j] muscle j is in some list (its ActivationFreeResponse
+  // coefficients are needed).
+  std::vector<std::vector<std::size_t>> reached;
+  std::vector<char> reached_any;
   double t0 = 0.0;
   bool started = false;
   // ∂f/∂y (n × n, column-major) and ∂f/∂θ (n × P, column-major) at (t_cache, y_cache).
@@ -430,6 +439,30 @@ muscles::ActivationState DirectOmegaSensitivity(const CvodesContext& c,
   const auto moved = muscles::ActivationFreeResponse(omega, c.w[j], c.a0[j], dt);
   const auto base = muscles::ActivationFreeResponse(c.omega[j], c.w[j], c.a0[j], dt);
   return {(moved.a - base.a) / pk.step, (moved.a_dot - base.a_dot) / pk.step};
+}
+
+/// Sets d->reached and d->reached_any for the interval that begins (d->da0 and d->dw of it): a
+/// muscle j enters θ_k's list unless ∂w_j/∂θ_k, ∂a_j/∂θ_k and ∂ȧ_j/∂θ_k at the interval start
+/// are all ±0 and θ_k leaves its Ω_j as it is (DirectOmegaSensitivity 0) — then ∂a_j/∂θ_k is a
+/// sum of ±0 in the whole interval — or when it has a fitness or potentiation state.
+void ReachedMuscles(SensitivityData* d) {
+  const CvodesContext& c = *d->ctx;
+  const std::size_t nm = c.omega.size();
+  d->reached.resize(d->p.size());
+  d->reached_any.assign(nm, 0);
+  for (std::size_t k = 0; k < d->p.size(); ++k) {
+    const auto& pk = d->p[k];
+    d->reached[k].clear();
+    for (std::size_t j = 0; j < nm; ++j) {
+      const double omega_k = c.falling[j] ? pk.omega[j] * pk.deactivation_ratio[j] : pk.omega[j];
+      const bool reached = d->dw[k][j] != 0.0 || d->da0[k][j].a != 0.0 ||
+                           d->da0[k][j].a_dot != 0.0 || (pk.moves_omega && omega_k != c.omega[j]) ||
+                           d->fitness_component[j] >= 0 || d->potentiation_component[j] >= 0;
+      if (!reached) continue;
+      d->reached[k].push_back(j);
+      d->reached_any[j] = 1;
+    }
+  }
 }
 
 /// At a stimulation breakpoint (or the start): ∂a/∂θ carried over in closed form (eq. 6 is linear
@@ -713,6 +746,7 @@ int FormParameterColumns(SensitivityData* d, double t, const double* ydot, const
   const double dt = t - d->t0;
   std::vector<double> c_w(nm), c_a(nm), c_ad(nm);
   for (std::size_t j = 0; j < nm; ++j) {
+    if (!d->reached_any[j]) continue;
     c_w[j] = muscles::ActivationFreeResponse(c.omega[j], 1.0, {0.0, 0.0}, dt).a;
     c_a[j] = muscles::ActivationFreeResponse(c.omega[j], 0.0, {1.0, 0.0}, dt).a;
     c_ad[j] = muscles::ActivationFreeResponse(c.omega[j], 0.0, {0.0, 1.0}, dt).a;
@@ -734,8 +768,8 @@ int FormParameterColumns(SensitivityData* d, double t, const double* ydot, const
       MassSolveDifference(*d, PerturbedTorques(pk, base, t, in.q, in.qd, in.a, gains_k, point),
                           point.torques(), pk.step, &udot);
     }
-    for (std::size_t j = 0; j < nm; ++j) {
-      // ∂a_j/∂θ_k at t (zero for muscles θ_k does not reach).
+    for (const std::size_t j : d->reached[k]) {
+      // ∂a_j/∂θ_k at t (±0 for the muscles θ_k does not reach, which the list leaves out).
       const auto& a0 = d->da0[k][j];
       const double da = c_w[j] * d->dw[k][j] + c_a[j] * a0.a + c_ad[j] * a0.a_dot +
                         DirectOmegaSensitivity(c, pk, j, dt).a;
