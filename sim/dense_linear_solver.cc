@@ -3,11 +3,11 @@
 #include <sunmatrix/sunmatrix_dense.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <stdexcept>
-#include <utility>
 #include <vector>
+
+#include "sim/compiled_size.h"
 
 namespace fesim::sim {
 
@@ -48,50 +48,36 @@ namespace {
 /// the same operations in the same order either way; a known n lets the compiler unroll the short
 /// loops of the models' systems (10 components on the hand rig, 20 on the default arm: −24 % of
 /// the solves' instructions on the hand rig, docs/performance.md "Full-model fit local step").
-template <sunindextype N>
-void LuSolve(const double* __restrict__ a, sunindextype n_runtime,
-             const sunindextype* __restrict__ p, double* __restrict__ b) {
-  const sunindextype n = N > 0 ? N : n_runtime;
-  for (sunindextype k = 0; k < n; ++k) {  // b ← P b
-    const sunindextype pk = p[k];
-    if (pk != k) {
-      const double t = b[k];
-      b[k] = b[pk];
-      b[pk] = t;
+struct LuSolveKernel {
+  template <std::size_t N>
+  static void Run(std::size_t n_runtime, const double* __restrict__ a,
+                  const sunindextype* __restrict__ p, double* __restrict__ b) {
+    const auto n = static_cast<sunindextype>(N > 0 ? N : n_runtime);
+    for (sunindextype k = 0; k < n; ++k) {  // b ← P b
+      const sunindextype pk = p[k];
+      if (pk != k) {
+        const double t = b[k];
+        b[k] = b[pk];
+        b[pk] = t;
+      }
     }
+    for (sunindextype k = 0; k + 1 < n; ++k) {  // L y = b (unit diagonal)
+      const double* col_k = a + k * n;
+      for (sunindextype i = k + 1; i < n; ++i) b[i] -= col_k[i] * b[k];
+    }
+    for (sunindextype k = n - 1; k > 0; --k) {  // U x = y
+      const double* col_k = a + k * n;
+      b[k] /= col_k[k];
+      for (sunindextype i = 0; i < k; ++i) b[i] -= col_k[i] * b[k];
+    }
+    if (n > 0) b[0] /= a[0];
   }
-  for (sunindextype k = 0; k + 1 < n; ++k) {  // L y = b (unit diagonal)
-    const double* col_k = a + k * n;
-    for (sunindextype i = k + 1; i < n; ++i) b[i] -= col_k[i] * b[k];
-  }
-  for (sunindextype k = n - 1; k > 0; --k) {  // U x = y
-    const double* col_k = a + k * n;
-    b[k] /= col_k[k];
-    for (sunindextype i = 0; i < k; ++i) b[i] -= col_k[i] * b[k];
-  }
-  if (n > 0) b[0] /= a[0];
-}
-
-/// Sizes below it have a compiled solve: the CVODES systems of the rigs without fatigue or
-/// potentiation states (10 components on the hand rig, 20 on the default arm); larger ones take
-/// LuSolve<0>.
-constexpr sunindextype kCompiledSizes = 32;
-
-using LuSolveFn = void (*)(const double*, sunindextype, const sunindextype*, double*);
-
-template <sunindextype... N>
-constexpr std::array<LuSolveFn, sizeof...(N)> LuSolveTable(
-    std::integer_sequence<sunindextype, N...>) {
-  return {&LuSolve<N>...};
-}
-
-/// LuSolve<n> for n < kCompiledSizes (entry 0: the runtime-size loop).
-constexpr auto kLuSolves = LuSolveTable(std::make_integer_sequence<sunindextype, kCompiledSizes>());
+};
 
 }  // namespace
 
 void DenseLuSolve(const double* a, sunindextype n, const sunindextype* p, double* b) {
-  kLuSolves[n > 0 && n < kCompiledSizes ? n : 0](a, n, p, b);
+  RunForSize<LuSolveKernel>(static_cast<std::size_t>(std::max<sunindextype>(n, 0)), a, p, b);
 }
 
 namespace {

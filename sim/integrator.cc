@@ -18,6 +18,7 @@
 
 #include "muscles/activation.h"
 #include "sim/chain_dynamics.h"
+#include "sim/compiled_size.h"
 #include "sim/dense_linear_solver.h"
 #include "sim/sensitivity_taylor.h"
 #include "sim/serial_vector.h"
@@ -844,6 +845,28 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
   return 0;
 }
 
+/// ṡ_k = (∂f/∂y) s_k + ∂f/∂θ_k for k < ns, column by column of ∂f/∂y (`jac`, n × n) from ∂f/∂θ_k
+/// (`dfdp`, n × ns), both column-major; compiled for each small n (RunForSize).
+struct SensitivityProductKernel {
+  template <std::size_t N>
+  static void Run(std::size_t n_runtime, const double* jac, const double* dfdp, int ns,
+                  N_Vector* yS, N_Vector* ySdot) {
+    const std::size_t n = N > 0 ? N : n_runtime;
+    for (int k = 0; k < ns; ++k) {
+      const double* __restrict__ sk = NV_DATA_S(yS[k]);
+      double* __restrict__ out = NV_DATA_S(ySdot[k]);
+      const double* __restrict__ dfdp_k = dfdp + static_cast<std::size_t>(k) * n;
+      for (std::size_t r = 0; r < n; ++r) out[r] = dfdp_k[r];
+      for (std::size_t i = 0; i < n; ++i) {
+        const double si = sk[i];
+        if (si == 0.0) continue;
+        const double* __restrict__ col = jac + i * n;
+        for (std::size_t r = 0; r < n; ++r) out[r] += col[r] * si;
+      }
+    }
+  }
+};
+
 /// CVODES' sensitivity right-hand side (CVSensRhsFn): ṡ_k = (∂f/∂y) s_k + ∂f/∂θ_k for all k.
 int SensitivityRhs(int ns, sunrealtype t, N_Vector y, N_Vector ydot, N_Vector* yS, N_Vector* ySdot,
                    void* user, N_Vector /*tmp1*/, N_Vector /*tmp2*/) {
@@ -853,18 +876,8 @@ int SensitivityRhs(int ns, sunrealtype t, N_Vector y, N_Vector ydot, N_Vector* y
   const bool hit =
       d->cached && d->t_cache == t && std::equal(d->y_cache.begin(), d->y_cache.end(), yp);
   if (!hit && FormSensitivityMatrices(d, t, yp, N_VGetArrayPointer(ydot)) != 0) return 1;
-  const int n = d->n;
-  for (int k = 0; k < ns; ++k) {
-    const double* sk = N_VGetArrayPointer(yS[k]);
-    double* out = N_VGetArrayPointer(ySdot[k]);
-    for (int r = 0; r < n; ++r) out[r] = d->dfdp[static_cast<std::size_t>(k) * n + r];
-    for (int i = 0; i < n; ++i) {
-      const double si = sk[i];
-      if (si == 0.0) continue;
-      const double* col = &d->jac[static_cast<std::size_t>(i) * n];
-      for (int r = 0; r < n; ++r) out[r] += col[r] * si;
-    }
-  }
+  RunForSize<SensitivityProductKernel>(static_cast<std::size_t>(d->n), d->jac.data(),
+                                       d->dfdp.data(), ns, yS, ySdot);
   return 0;
 }
 
