@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+#include <type_traits>
 
 #include "muscles/activation.h"
 #include "muscles/hill.h"
@@ -592,12 +593,23 @@ TorquePoint::TorquePoint(const ModelParams& params, const std::vector<tendons::M
     passive_[i] = PassiveJointTorque(params.coordinates[i].passive, q[i], qd[i]);
     tau_[i] += passive_[i];
   }
+  moved_q_ = q;
+  moved_qd_ = qd;
+  moved_arms_ = arms_;
+  moved_forces_ = forces_;
 }
 
 std::vector<double> TorquePoint::WithPassiveOf(const ModelParams& other) const {
+  static_assert(std::is_trivially_copyable_v<PassiveJointParams>, "compared bytewise");
   std::vector<double> tau = muscle_tau_;
   for (int i = 0; i < kNumCoordinates; ++i) {
-    tau[i] += PassiveJointTorque(other.coordinates[i].passive, q_[i], qd_[i]);
+    const PassiveJointParams& mine = params_.coordinates[i].passive;
+    const PassiveJointParams& theirs = other.coordinates[i].passive;
+    // The same parameters give the same bits (a pure function of them, q and q̇).
+    // NOLINTNEXTLINE(bugprone-suspicious-memory-comparison): bytewise on purpose (±0 differ).
+    tau[i] += std::memcmp(&mine, &theirs, sizeof mine) == 0
+                  ? passive_[i]
+                  : PassiveJointTorque(theirs, q_[i], qd_[i]);
   }
   return tau;
 }
@@ -632,10 +644,11 @@ std::vector<double> TorquePoint::PerMuscleInput(bool gain) const {
   return out;
 }
 
-std::vector<double> TorquePoint::WithCoordinate(int coordinate, bool speed, double value) const {
-  std::vector<double> q = q_, qd = qd_;
+const std::vector<double>& TorquePoint::WithCoordinate(int coordinate, bool speed,
+                                                       double value) const {
+  std::vector<double>& q = moved_q_;
+  std::vector<double>& qd = moved_qd_;
   (speed ? qd : q)[coordinate] = value;
-  std::vector<double> arms = arms_, forces = forces_;
   for (std::size_t j = 0; j < paths_.size(); ++j) {
     const auto& crossings = paths_[j].crossings;
     bool crosses = false;
@@ -644,24 +657,35 @@ std::vector<double> TorquePoint::WithCoordinate(int coordinate, bool speed, doub
       crosses = true;
       if (!speed) {
         const auto& c = crossings[i];
-        arms[first_[j] + i] = tendons::MomentArm(c.arm, q[c.joint] - c.q_ref_rad);
+        moved_arms_[first_[j] + i] = tendons::MomentArm(c.arm, q[c.joint] - c.q_ref_rad);
       }
     }
     if (!crosses) continue;
     const double length = speed ? lengths_[j] : tendons::MusculotendonLength(paths_[j], q);
-    forces[j] = MuscleTendonForceAt(params_.muscles[j], length,
-                                    tendons::MusculotendonVelocity(paths_[j], &arms[first_[j]], qd),
-                                    a_[j], GainOf(gains_, j))
-                    .force_n;
+    moved_forces_[j] =
+        MuscleTendonForceAt(params_.muscles[j], length,
+                            tendons::MusculotendonVelocity(paths_[j], &moved_arms_[first_[j]], qd),
+                            a_[j], GainOf(gains_, j))
+            .force_n;
   }
-  std::vector<double> tau;
-  tendons::JointTorques(paths_, arms, forces, kNumCoordinates, &tau);
+  tendons::JointTorques(paths_, moved_arms_, moved_forces_, kNumCoordinates, &moved_tau_);
   // A joint's passive torque reads its own q and q̇ only: the others' are the point's.
   for (int i = 0; i < kNumCoordinates; ++i) {
-    tau[i] += i == coordinate ? PassiveJointTorque(params_.coordinates[i].passive, q[i], qd[i])
-                              : passive_[i];
+    moved_tau_[i] += i == coordinate
+                         ? PassiveJointTorque(params_.coordinates[i].passive, q[i], qd[i])
+                         : passive_[i];
   }
-  return tau;
+  // Back to the point for the next call.
+  (speed ? qd : q)[coordinate] = (speed ? qd_ : q_)[coordinate];
+  for (std::size_t j = 0; j < paths_.size(); ++j) {
+    const auto& crossings = paths_[j].crossings;
+    for (std::size_t i = 0; i < crossings.size(); ++i) {
+      if (crossings[i].joint != coordinate) continue;
+      moved_arms_[first_[j] + i] = arms_[first_[j] + i];
+      moved_forces_[j] = forces_[j];
+    }
+  }
+  return moved_tau_;
 }
 
 std::vector<double> TorquePerActivation(const ModelParams& params,

@@ -91,9 +91,13 @@ class TorquePoint {
   const std::vector<double>& torques() const { return tau_; }
   /// The same with q[coordinate] (speed: qd[coordinate]) set to `value`: the muscles that cross
   /// the coordinate are evaluated again, the others' forces (same lengths and velocities) kept.
-  std::vector<double> WithCoordinate(int coordinate, bool speed, double value) const;
+  /// The result lives in the point's scratch (no allocation: the forward sensitivities call it
+  /// for every free q and u at every step) and holds until the next call; a point is therefore
+  /// used by one thread.
+  const std::vector<double>& WithCoordinate(int coordinate, bool speed, double value) const;
   /// MuscleAndPassiveTorques(other, paths, q, qd, a) for `other` with the same muscles as
-  /// `params` (only passive joint parameters may differ): the muscles' torques kept.
+  /// `params` (only passive joint parameters may differ): the muscles' torques kept, and the
+  /// passive torque of a coordinate whose parameters are bytewise those of `params` too.
   std::vector<double> WithPassiveOf(const ModelParams& other) const;
   /// TorquePerActivation (`gain` false) or TorquePerActiveGain (true) at the point, from its
   /// moment arms, lengths, velocities and forces: one Hill force per muscle, no moment arm
@@ -115,6 +119,8 @@ class TorquePoint {
   std::vector<double> muscle_tau_;  // R f, N·m
   std::vector<double> passive_;     // PassiveJointTorque of each coordinate, N·m
   std::vector<double> tau_;         // R f + passive
+  // WithCoordinate's scratch: q_, qd_, arms_, forces_ (restored after each call) and its result.
+  mutable std::vector<double> moved_q_, moved_qd_, moved_arms_, moved_forces_, moved_tau_;
 };
 
 struct CoordinateSlots;  // where each coordinate's q and u sit in the state (upper_limb_model.cc)

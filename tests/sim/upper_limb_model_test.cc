@@ -442,7 +442,7 @@ TEST(UpperLimbModel, TorquePointGivesMuscleAndPassiveTorquesBits) {
       std::vector<double> q1 = q, qd1 = qd;
       const double value = (speed ? qd : q)[c] + 1e-3;
       (speed ? qd1 : q1)[c] = value;
-      const std::vector<double> moved = point.WithCoordinate(c, speed, value);
+      const std::vector<double> moved = point.WithCoordinate(c, speed, value);  // a copy
       EXPECT_TRUE(same(moved, MuscleAndPassiveTorques(p, paths, q1, qd1, a)))
           << "coordinate " << c << (speed ? " speed" : " angle");
       EXPECT_FALSE(same(moved, point.torques())) << "coordinate " << c;
@@ -456,6 +456,14 @@ TEST(UpperLimbModel, TorquePointGivesMuscleAndPassiveTorquesBits) {
   const std::vector<double> passive = point.WithPassiveOf(stiffer);
   EXPECT_TRUE(same(passive, MuscleAndPassiveTorques(stiffer, paths, q, qd, a)));
   EXPECT_FALSE(same(passive, point.torques()));
+  // One joint's stiffness moved (as a fit's k of one joint): the others' passive torques kept.
+  ModelParams one = p;
+  one.coordinates[kElbowFlexion].passive.stiffness_nm_per_rad *= 1.3;
+  const std::vector<double> one_moved = point.WithPassiveOf(one);
+  EXPECT_TRUE(same(one_moved, MuscleAndPassiveTorques(one, paths, q, qd, a)));
+  for (int c = 0; c < kNumCoordinates; ++c) {
+    EXPECT_EQ(one_moved[c] != point.torques()[c], c == kElbowFlexion) << "coordinate " << c;
+  }
 }
 
 TEST(UpperLimbModel, TorquePerActivationAndGainAreTheirForwardDifferencesAndDerivatives) {
