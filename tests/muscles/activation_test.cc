@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstring>
+
 namespace fesim::muscles {
 namespace {
 
@@ -55,6 +58,35 @@ TEST(Activation, FreeResponseSolvesTheOdeFromAnyState) {
   const auto free = ActivationFreeResponse(omega, w, {}, 0.4);
   EXPECT_NEAR(step.a, free.a, 1e-15);
   EXPECT_NEAR(step.a_dot, free.a_dot, 1e-14);
+}
+
+TEST(Activation, FreeResponseAtRestIsRestBits) {
+  // ActivationFreeResponse's shortcut at rest (w, a, ȧ all +0, Ωt ≥ 0) returns what eq. (6)'s
+  // closed form gives there, bit for bit; a −0 or a non-zero input takes the formula.
+  const auto formula = [](double om, double w, ActivationState s0, double t) {
+    const double e0 = s0.a - w;
+    const double c = s0.a_dot + om * e0;
+    const double decay = std::exp(-om * t);
+    return ActivationState{w + (e0 + c * t) * decay, (s0.a_dot - om * c * t) * decay};
+  };
+  const auto same = [](const ActivationState& x, const ActivationState& y) {
+    return std::memcmp(&x.a, &y.a, sizeof(double)) == 0 &&
+           std::memcmp(&x.a_dot, &y.a_dot, sizeof(double)) == 0;
+  };
+  for (double om : {0.0, 3.0, 25.0, -2.0}) {
+    for (double t : {0.0, 0.01, 2.0, 700.0, -0.5}) {
+      for (const ActivationState s0 : {ActivationState{0.0, 0.0}, ActivationState{-0.0, 0.0},
+                                       ActivationState{0.0, -0.0}, ActivationState{0.0, 1e-300}}) {
+        for (double w : {0.0, -0.0, 0.2}) {
+          EXPECT_TRUE(same(ActivationFreeResponse(om, w, s0, t), formula(om, w, s0, t)))
+              << "om " << om << " t " << t << " a " << s0.a << " a_dot " << s0.a_dot << " w " << w;
+        }
+      }
+    }
+  }
+  const auto rest = ActivationFreeResponse(25.0, 0.0, {}, 0.3);
+  EXPECT_EQ(rest.a, 0.0);
+  EXPECT_FALSE(std::signbit(rest.a) || std::signbit(rest.a_dot));
 }
 
 TEST(Activation, CriticallyDampedNoOvershootUnitGain) {
