@@ -23,6 +23,7 @@
 #include "sim/sensitivity_taylor.h"
 #include "sim/serial_vector.h"
 #include "sim/upper_limb_model.h"
+#include "tendons/tendon_network.h"
 
 namespace fesim::sim {
 
@@ -364,18 +365,7 @@ bool MuscleParametersMayDiffer(const ModelParams& a, const ModelParams& b) {
     // representations (±0, NaN payloads) can only report a difference (one more evaluation).
     // NOLINTNEXTLINE(bugprone-suspicious-memory-comparison): see above.
     if (std::memcmp(&ma.hill, &mb.hill, sizeof(ma.hill)) != 0) return true;
-    if (ma.path.length_at_ref_m != mb.path.length_at_ref_m ||
-        ma.path.crossings.size() != mb.path.crossings.size()) {
-      return true;
-    }
-    for (std::size_t i = 0; i < ma.path.crossings.size(); ++i) {
-      const auto& ca = ma.path.crossings[i];
-      const auto& cb = mb.path.crossings[i];
-      if (ca.joint != cb.joint || ca.q_ref_rad != cb.q_ref_rad || ca.arm.model != cb.arm.model ||
-          ca.arm.d_m != cb.arm.d_m || ca.arm.d_tilde_m != cb.arm.d_tilde_m) {
-        return true;
-      }
-    }
+    if (!tendons::SameGeometry(ma.path, mb.path)) return true;
   }
   return false;
 }
@@ -523,18 +513,18 @@ void FormMassInverse(SensitivityData* d, const SimTK::State& s) {
 }
 
 /// The torques of the model with θ_k moved (pk) at (t, q, q̇, a) = `point`, where they may differ
-/// from the model's: MuscleAndPassiveTorques re-evaluated when pk moves them (only the passive
-/// part when pk leaves the muscles and their active-force gains as they are; `gains` are pk's at
-/// the point's fatigue and potentiation states), plus the change of the tremor torque (a known
+/// from the model's: MuscleAndPassiveTorques of pk's model when pk moves them, the muscles pk
+/// leaves as they are kept (TorquePoint::WithMusclesOf; only the passive part when pk leaves
+/// every muscle and active-force gain as it is; `gains` are pk's at the point's fatigue and
+/// potentiation states), plus the change of the tremor torque (a known
 /// function of t, TremorTorque) when pk moves the tremor.
 std::vector<double> PerturbedTorques(const SensitivityData::Parameter& pk, const ModelParams& base,
-                                     double t, const std::vector<double>& q,
-                                     const std::vector<double>& qd, const std::vector<double>& a,
-                                     const std::vector<double>& gains, const TorquePoint& point) {
+                                     double t, const std::vector<double>& gains,
+                                     const TorquePoint& point) {
   std::vector<double> tau = !pk.moves_torques && !pk.moves_gain ? point.torques()
                             : !pk.moves_muscles && !pk.moves_gain
                                 ? point.WithPassiveOf(*pk.params)
-                                : MuscleAndPassiveTorques(*pk.params, pk.paths, q, qd, a, gains);
+                                : point.WithMusclesOf(*pk.params, pk.paths, gains);
   if (pk.moves_tremor) {
     const TremorParams& tk = pk.params->mechanisms.tremor;
     const TremorParams& tb = base.mechanisms.tremor;
@@ -766,8 +756,8 @@ int FormParameterColumns(SensitivityData* d, double t, const double* ydot, const
       for (std::size_t j = 0; j < gains_k.size() && pk.moves_gain; ++j) {
         gains_k[j] = ActiveForceGain(mk, in.fitness[j], in.potentiation[j]);
       }
-      MassSolveDifference(*d, PerturbedTorques(pk, base, t, in.q, in.qd, in.a, gains_k, point),
-                          point.torques(), pk.step, &udot);
+      MassSolveDifference(*d, PerturbedTorques(pk, base, t, gains_k, point), point.torques(),
+                          pk.step, &udot);
     }
     for (const std::size_t j : d->reached[k]) {
       // ∂a_j/∂θ_k at t (±0 for the muscles θ_k does not reach, which the list leaves out).

@@ -600,17 +600,57 @@ TorquePoint::TorquePoint(const ModelParams& params, const std::vector<tendons::M
 }
 
 std::vector<double> TorquePoint::WithPassiveOf(const ModelParams& other) const {
-  static_assert(std::is_trivially_copyable_v<PassiveJointParams>, "compared bytewise");
   std::vector<double> tau = muscle_tau_;
+  AddPassiveOf(other, &tau);
+  return tau;
+}
+
+void TorquePoint::AddPassiveOf(const ModelParams& other, std::vector<double>* tau) const {
+  static_assert(std::is_trivially_copyable_v<PassiveJointParams>, "compared bytewise");
   for (int i = 0; i < kNumCoordinates; ++i) {
     const PassiveJointParams& mine = params_.coordinates[i].passive;
     const PassiveJointParams& theirs = other.coordinates[i].passive;
     // The same parameters give the same bits (a pure function of them, q and q̇).
     // NOLINTNEXTLINE(bugprone-suspicious-memory-comparison): bytewise on purpose (±0 differ).
-    tau[i] += std::memcmp(&mine, &theirs, sizeof mine) == 0
-                  ? passive_[i]
-                  : PassiveJointTorque(theirs, q_[i], qd_[i]);
+    (*tau)[i] += std::memcmp(&mine, &theirs, sizeof mine) == 0
+                     ? passive_[i]
+                     : PassiveJointTorque(theirs, q_[i], qd_[i]);
   }
+}
+
+std::vector<double> TorquePoint::WithMusclesOf(const ModelParams& other,
+                                               const std::vector<tendons::MusclePath>& other_paths,
+                                               const std::vector<double>& other_gains) const {
+  static_assert(std::is_trivially_copyable_v<muscles::HillParams>, "compared bytewise");
+  const std::size_t nm = paths_.size();
+  if (other_paths.size() != nm || other.muscles.size() != nm) {
+    return MuscleAndPassiveTorques(other, other_paths, q_, qd_, a_, other_gains);
+  }
+  std::vector<double> arms = arms_, forces = forces_;
+  for (std::size_t j = 0; j < nm; ++j) {
+    const tendons::MusclePath& path = other_paths[j];
+    if (path.crossings.size() != paths_[j].crossings.size()) {  // other crossing offsets
+      return MuscleAndPassiveTorques(other, other_paths, q_, qd_, a_, other_gains);
+    }
+    const double gain = GainOf(other_gains, j), my_gain = GainOf(gains_, j);
+    // NOLINTNEXTLINE(bugprone-suspicious-memory-comparison): bytewise on purpose (±0 differ).
+    if (std::memcmp(&other.muscles[j].hill, &params_.muscles[j].hill,
+                    sizeof(muscles::HillParams)) == 0 &&
+        tendons::SameGeometry(path, paths_[j]) && std::memcmp(&gain, &my_gain, sizeof gain) == 0) {
+      continue;
+    }
+    for (std::size_t i = 0; i < path.crossings.size(); ++i) {
+      const auto& c = path.crossings[i];
+      arms[first_[j] + i] = tendons::MomentArm(c.arm, q_[c.joint] - c.q_ref_rad);
+    }
+    forces[j] = MuscleTendonForceAt(other.muscles[j], tendons::MusculotendonLength(path, q_),
+                                    tendons::MusculotendonVelocity(path, &arms[first_[j]], qd_),
+                                    a_[j], gain)
+                    .force_n;
+  }
+  std::vector<double> tau;
+  tendons::JointTorques(other_paths, arms, forces, kNumCoordinates, &tau);
+  AddPassiveOf(other, &tau);
   return tau;
 }
 

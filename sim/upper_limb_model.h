@@ -99,6 +99,13 @@ class TorquePoint {
   /// `params` (only passive joint parameters may differ): the muscles' torques kept, and the
   /// passive torque of a coordinate whose parameters are bytewise those of `params` too.
   std::vector<double> WithPassiveOf(const ModelParams& other) const;
+  /// MuscleAndPassiveTorques(other, other_paths, q, qd, a, other_gains): a muscle whose Hill
+  /// parameters (bytewise), path (tendons::SameGeometry) and gain (bitwise) are the point's keeps
+  /// its moment arms and force, the others are evaluated again; the passive torques as
+  /// WithPassiveOf. The same bits as MuscleAndPassiveTorques.
+  std::vector<double> WithMusclesOf(const ModelParams& other,
+                                    const std::vector<tendons::MusclePath>& other_paths,
+                                    const std::vector<double>& other_gains) const;
   /// TorquePerActivation (`gain` false) or TorquePerActiveGain (true) at the point, from its
   /// moment arms, lengths, velocities and forces: one Hill force per muscle, no moment arm
   /// evaluated again (the forward sensitivities form it at every step).
@@ -119,6 +126,10 @@ class TorquePoint {
   std::vector<double> muscle_tau_;  // R f, N·m
   std::vector<double> passive_;     // PassiveJointTorque of each coordinate, N·m
   std::vector<double> tau_;         // R f + passive
+  /// Adds each coordinate's passive torque of `other` to *tau (the point's where its parameters
+  /// are bytewise the same).
+  void AddPassiveOf(const ModelParams& other, std::vector<double>* tau) const;
+
   // WithCoordinate's scratch: q_, qd_, arms_, forces_ (restored after each call) and its result.
   mutable std::vector<double> moved_q_, moved_qd_, moved_arms_, moved_forces_, moved_tau_;
 };

@@ -19,6 +19,21 @@ inline void CheckJoint(const MusclePath& path, const Crossing& c, std::size_t n)
 
 }  // namespace
 
+bool SameGeometry(const MusclePath& a, const MusclePath& b) {
+  if (a.length_at_ref_m != b.length_at_ref_m || a.crossings.size() != b.crossings.size()) {
+    return false;
+  }
+  for (std::size_t i = 0; i < a.crossings.size(); ++i) {
+    const Crossing& ca = a.crossings[i];
+    const Crossing& cb = b.crossings[i];
+    if (ca.joint != cb.joint || ca.q_ref_rad != cb.q_ref_rad || ca.arm.model != cb.arm.model ||
+        ca.arm.d_m != cb.arm.d_m || ca.arm.d_tilde_m != cb.arm.d_tilde_m) {
+      return false;
+    }
+  }
+  return true;
+}
+
 double MusculotendonLength(const MusclePath& path, const std::vector<double>& q) {
   double l = path.length_at_ref_m;
   for (const auto& c : path.crossings) {

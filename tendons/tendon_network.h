@@ -29,6 +29,11 @@ struct MusclePath {
   std::vector<Crossing> crossings;
 };
 
+/// Whether `a` and `b` give the same l_MT(q), its velocity and moment arms for every q: the same
+/// l_ref and crossings (joint, q_ref, r(q) model and d, d̃), compared with == (the name is not
+/// geometry).
+bool SameGeometry(const MusclePath& a, const MusclePath& b);
+
 /// l_MT(q), m. `q` holds every joint coordinate (rad).
 double MusculotendonLength(const MusclePath& path, const std::vector<double>& q);
 

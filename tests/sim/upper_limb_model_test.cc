@@ -464,6 +464,26 @@ TEST(UpperLimbModel, TorquePointGivesMuscleAndPassiveTorquesBits) {
   for (int c = 0; c < kNumCoordinates; ++c) {
     EXPECT_EQ(one_moved[c] != point.torques()[c], c == kElbowFlexion) << "coordinate " << c;
   }
+  // Muscles moved (as a fit's wrist moment-arm scale, one muscle's Hill parameters, the
+  // active-force gains of fatigue): the moved ones evaluated again, the others kept.
+  ModelParams arms = p;
+  std::vector<tendons::MusclePath> arm_paths = paths;
+  for (auto& path : arm_paths) {
+    for (auto& crossing : path.crossings) {
+      if (crossing.joint == kWristFlexion) crossing.arm.d_m *= 1.2;
+    }
+  }
+  for (std::size_t j = 0; j < arms.muscles.size(); ++j) arms.muscles[j].path = arm_paths[j];
+  arms.muscles[3].hill.max_isometric_force_n *= 0.8;
+  arms.coordinates[kWristFlexion].passive.stiffness_nm_per_rad *= 1.1;
+  const std::vector<double> with_arms = point.WithMusclesOf(arms, arm_paths, {});
+  EXPECT_TRUE(same(with_arms, MuscleAndPassiveTorques(arms, arm_paths, q, qd, a)));
+  EXPECT_FALSE(same(with_arms, point.torques()));
+  EXPECT_TRUE(same(point.WithMusclesOf(p, paths, {}), point.torques()));
+  std::vector<double> gains(a.size(), 1.0);
+  gains[5] = 0.7;
+  EXPECT_TRUE(same(point.WithMusclesOf(p, paths, gains),
+                   MuscleAndPassiveTorques(p, paths, q, qd, a, gains)));
 }
 
 TEST(UpperLimbModel, TorquePerActivationAndGainAreTheirForwardDifferencesAndDerivatives) {
