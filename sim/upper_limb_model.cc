@@ -267,7 +267,9 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
     for (const auto& m : params_->muscles) {
       paths_.push_back(m.path);
       asymmetric_ |= m.deactivation_ratio != 1.0;
+      num_crossings_ += m.path.crossings.size();
     }
+    inert_.assign(paths_.size(), 0);  // FindInertMuscles, once the slots are known
     reflex_slot_.assign(params_->muscles.size(), -1);
     const StretchReflexParams& reflex = params_->mechanisms.stretch_reflex;
     if (!reflex.enabled()) return;
@@ -280,6 +282,20 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
       }
       int& slot = reflex_slot_[it - params_->muscles.begin()];
       if (slot < 0) slot = num_reflex_++;
+    }
+  }
+
+  /// Marks the muscles whose every crossing is welded (ModelBuildOptions::weld_locked): their
+  /// torques act on welds only, and a right-hand side skips them (RightHandSideForces). Called
+  /// once the coordinate slots are filled (after realizeTopology).
+  void FindInertMuscles() {
+    for (std::size_t j = 0; j < paths_.size(); ++j) {
+      bool inert = true;
+      for (const auto& c : paths_[j].crossings) {
+        inert = inert && c.joint >= 0 && c.joint < static_cast<int>(slots_->u.size()) &&
+                slots_->u[c.joint] < 0;
+      }
+      inert_[j] = inert;
     }
   }
 
@@ -423,24 +439,46 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   }
 
   /// What depends on the positions alone, into ws: every coordinate's q, each crossing's moment
-  /// arm and each muscle's musculotendon length.
-  void Geometry(const double* q_state, RhsWorkspace* ws) const {
+  /// arm and each muscle's musculotendon length — with `skip_inert`, not those of the muscles
+  /// that cross welds only (their entries keep whatever they held).
+  void Geometry(const double* q_state, RhsWorkspace* ws, bool skip_inert = false) const {
     std::vector<double>& q = ws->q;
     q.resize(slots_->q.size());
     for (std::size_t i = 0; i < q.size(); ++i) {
       q[i] = slots_->q[i] >= 0 ? q_state[slots_->q[i]] : slots_->welded_q[i];
     }
     // Each crossing's moment arm once, for the velocity and τ = R f (same bits as per use).
-    tendons::CrossingMomentArms(paths_, q, &ws->arms);
+    if (!skip_inert) {
+      tendons::CrossingMomentArms(paths_, q, &ws->arms);
+    } else {
+      ws->arms.resize(num_crossings_);
+      std::size_t k = 0;
+      for (std::size_t j = 0; j < paths_.size(); ++j) {
+        for (const auto& c : paths_[j].crossings) {
+          if (!inert_[j]) ws->arms[k] = tendons::MomentArm(c.arm, q[c.joint] - c.q_ref_rad);
+          ++k;
+        }
+      }
+    }
     ws->lengths.resize(paths_.size());
     for (std::size_t j = 0; j < paths_.size(); ++j) {
+      if (skip_inert && inert_[j]) continue;
       ws->lengths[j] = tendons::MusculotendonLength(paths_[j], q);
     }
   }
 
+  /// Forces for a right-hand side (UpperLimbModel::CalcYDot): a muscle that crosses welds only
+  /// gets force 0 and velocity 0 (its velocity at welds; its Geometry was skipped), so the joint
+  /// torques of every coordinate with a mobility — sums over the muscles that cross it, in the
+  /// same order — have the bits Forces gives; the welds' torques are not applied.
+  void RightHandSideForces(const double* u_state, const double* z, RhsWorkspace* ws) const {
+    Forces(u_state, z, ws, true);
+  }
+
   /// The muscles' forces and joint torques at Simbody's U `u_state` and z block `z` into
-  /// ws->muscles, on the Geometry in ws.
-  void Forces(const double* u_state, const double* z, RhsWorkspace* ws) const {
+  /// ws->muscles, on the Geometry in ws (`skip_inert`: RightHandSideForces).
+  void Forces(const double* u_state, const double* z, RhsWorkspace* ws,
+              bool skip_inert = false) const {
     std::vector<double>& qd = ws->qdot;
     qd.resize(slots_->u.size());
     for (std::size_t i = 0; i < qd.size(); ++i) {
@@ -456,6 +494,13 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
     const double* arms_j = ws->arms.data();
     for (int j = 0; j < nm; ++j) {
       out.activation[j] = Activation(z, j);
+      if (skip_inert && inert_[j]) {
+        arms_j += paths_[j].crossings.size();
+        out.force_n[j] = 0.0;
+        out.length_m[j] = 0.0;
+        out.velocity_m_s[j] = 0.0;
+        continue;
+      }
       const double gain =
           ActiveForceGain(params_->mechanisms, fitness_offset_ >= 0 ? z[fitness_offset_ + j] : 1.0,
                           potentiation_offset_ >= 0 ? z[potentiation_offset_ + j] : 0.0);
@@ -524,6 +569,8 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   mutable int fitness_offset_ = -1;       // from z_start_, −1 when fatigue is off
   mutable int potentiation_offset_ = -1;  // from z_start_, −1 when potentiation is off
   mutable int reflex_offset_ = -1;        // from z_start_, −1 when the stretch reflex is off
+  std::vector<char> inert_;               // [muscle] crosses welded coordinates only
+  std::size_t num_crossings_ = 0;         // of all paths
   std::vector<int> reflex_slot_;          // [muscle] its reflex block (0, 1, …) or −1
   int num_reflex_ = 0;                    // muscles with the stretch reflex
   bool asymmetric_ = false;               // some muscle's deactivation_ratio ≠ 1
@@ -850,6 +897,7 @@ UpperLimbModel::UpperLimbModel(ModelParams params, ModelBuildOptions options)
     slots->welded_q.push_back(welded ? p.coordinates[i].initial_rad : 0.0);
   }
   slots_ = slots;
+  muscle->FindInertMuscles();
   up_ = UpDirection(p);
   if (std::none_of(p.coordinates.begin(), p.coordinates.end(), [](const CoordinateParams& c) {
         return c.mode == CoordinateMode::kPrescribed;
@@ -921,7 +969,7 @@ void UpperLimbModel::CalcYDot(const State& s, double t, const double* y, RhsWork
           chain_->ApplyForceAtStation(chain, segment_chain_[segment], p_B, f_G);
         });
     chain_->ArticulatedInertias(chain);
-    muscle_force_->Geometry(q, ws);
+    muscle_force_->Geometry(q, ws, true);
     ws->positions_of = this;
     ws->positions_q.assign(q, q + nq);
   }
@@ -931,7 +979,7 @@ void UpperLimbModel::CalcYDot(const State& s, double t, const double* y, RhsWork
   // This element's z block in y and in ẏ.
   const int z_block =
       nq + nu + s.getZStart(forces_->getMySubsystemIndex()) + muscle_force_->ZStart();
-  muscle_force_->Forces(u, y + z_block, ws);
+  muscle_force_->RightHandSideForces(u, y + z_block, ws);
   for (int i = 0; i < kNumCoordinates; ++i) {
     if (slots_->u[i] >= 0) tau[slots_->u[i]] += ws->muscles.joint_torque_nm[i];
   }

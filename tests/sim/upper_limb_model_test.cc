@@ -364,6 +364,49 @@ TEST(UpperLimbModel, FastDerivativesMatchSimbody) {
                std::logic_error);
 }
 
+TEST(UpperLimbModel, RightHandSideSkipsOnlyTheMusclesOnWelds) {
+  // On the welded hand rig the right-hand side skips the muscles that cross welds only (BIC, BRA,
+  // BRD, TRI, DELT1, DELT3: their force 0 in its scratch): every coordinate with a mobility gets
+  // the muscle torque of the full evaluation (ComputeMuscles) bit for bit, and every muscle that
+  // crosses one the same force.
+  ModelParams p = DefaultModelParams();
+  LockHandRigAndDipWithABandOnTheForearm(&p);
+  const UpperLimbModel model(p, ModelBuildOptions{true});
+  SimTK::State s = model.MakeInitialState();
+  model.SetStimulation(s, {150, 90, 60, 200, 120, 30});
+  model.SetActivationsInClosedForm(s, true);
+  std::vector<double> y(s.getY().getContiguousScalarData(),
+                        s.getY().getContiguousScalarData() + s.getNY());
+  for (int k = 0; k < s.getNQ() + s.getNU(); ++k) y[k] += 0.1 * std::sin(1.7 * k + 0.3);
+  const int a0 = model.ActivationYIndex(s);
+  for (int j = 0; j < model.num_muscles(); ++j) y[a0 + 2 * j] = 0.3 + 0.03 * j;
+  RhsWorkspace ws;
+  std::vector<double> ydot(y.size());
+  model.CalcYDot(s, 0.2, y.data(), &ws, ydot.data());
+  const MuscleSnapshot full = model.ComputeMuscles(s, y.data());
+  int mobile = 0;
+  for (int c = 0; c < kNumCoordinates; ++c) {
+    if (model.UIndex(c) < 0) continue;
+    ++mobile;
+    EXPECT_EQ(ws.muscles.joint_torque_nm[c], full.joint_torque_nm[c]) << "coordinate " << c;
+  }
+  EXPECT_EQ(mobile, 4);  // wrist flexion and deviation, MCP, PIP
+  int skipped = 0;
+  for (int j = 0; j < model.num_muscles(); ++j) {
+    bool crosses_mobile = false;
+    for (const auto& c : p.muscles[j].path.crossings) {
+      crosses_mobile = crosses_mobile || model.UIndex(c.joint) >= 0;
+    }
+    if (crosses_mobile) {
+      EXPECT_EQ(ws.muscles.force_n[j], full.force_n[j]) << p.muscles[j].name;
+    } else {
+      EXPECT_EQ(ws.muscles.force_n[j], 0.0) << p.muscles[j].name;
+      skipped += full.force_n[j] != 0.0;
+    }
+  }
+  EXPECT_EQ(skipped, 6);
+}
+
 TEST(UpperLimbModel, RightHandSideAtTheSamePositionsReusesThemBitwise) {
   // The speed columns of a difference-quotient Jacobian: the same Q, other U. The scratch keeps
   // the position terms of the last Q (RhsWorkspace); a call that reuses them gives the same bits
