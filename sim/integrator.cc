@@ -314,6 +314,7 @@ struct SensitivityData {
   int n = 0;                               // CVODES components
   std::vector<int> u_component;            // [free coordinate] component of its u
   std::vector<int> free_coordinates;       // kFree coordinates, in order
+  std::vector<char> read_coordinates;      // [coordinate] free: the torques the matrices read
   std::vector<int> free_u_slot;            // [free coordinate] index in the Simbody u vector
   std::vector<int> q_component;            // [coordinate] component of its q, −1 if none
   // [muscle] component of its fitness φ / potentiation state p (fatigue, potentiation), −1 if
@@ -825,7 +826,9 @@ int FormSensitivityMatrices(SensitivityData* d, double t, const double* y, const
   const SimTK::State& s = *c->state;
   const double* Y = load_state ? s.getY().getContiguousScalarData() : c->y_all.data();
   const TorqueInputs in = GatherTorqueInputs(*d, s, Y, y);
-  const TorquePoint point(c->model->params(), d->paths, in.q, in.qd, in.a, in.gains);
+  // Torques at the free coordinates only: the muscles that cross none are not evaluated.
+  const TorquePoint point(c->model->params(), d->paths, in.q, in.qd, in.a, in.gains,
+                          d->read_coordinates);
   if (refresh) FormMassInverse(d, s);
   FormMuscleColumns(d, y, in, point, refresh);
   if (FormParameterColumns(d, t, ydot, in, point) != 0) return 1;
@@ -1277,6 +1280,7 @@ void MapComponents(const UpperLimbModel& model, const SimTK::State& state, Sensi
       if (is_fitness || is_potentiation) d->state_muscle[i] = m;
     }
   }
+  d->read_coordinates.assign(kNumCoordinates, 0);
   for (int c = 0; c < kNumCoordinates; ++c) {
     if (base.coordinates[c].mode != CoordinateMode::kFree) continue;
     if (d->q_component[c] < 0 || u_component_of[c] < 0) {
@@ -1284,6 +1288,7 @@ void MapComponents(const UpperLimbModel& model, const SimTK::State& state, Sensi
                                   " is not integrated");
     }
     d->free_coordinates.push_back(c);
+    d->read_coordinates[c] = 1;
     d->free_u_slot.push_back(model.UIndex(c));
     d->u_component.push_back(u_component_of[c]);
   }

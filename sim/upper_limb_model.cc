@@ -267,7 +267,6 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
     for (const auto& m : params_->muscles) {
       paths_.push_back(m.path);
       asymmetric_ |= m.deactivation_ratio != 1.0;
-      num_crossings_ += m.path.crossings.size();
     }
     inert_.assign(paths_.size(), 0);  // FindInertMuscles, once the slots are known
     reflex_slot_.assign(params_->muscles.size(), -1);
@@ -448,17 +447,10 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
       q[i] = slots_->q[i] >= 0 ? q_state[slots_->q[i]] : slots_->welded_q[i];
     }
     // Each crossing's moment arm once, for the velocity and τ = R f (same bits as per use).
-    if (!skip_inert) {
-      tendons::CrossingMomentArms(paths_, q, &ws->arms);
+    if (skip_inert) {
+      tendons::CrossingMomentArms(paths_, q, &ws->arms, inert_);
     } else {
-      ws->arms.resize(num_crossings_);
-      std::size_t k = 0;
-      for (std::size_t j = 0; j < paths_.size(); ++j) {
-        for (const auto& c : paths_[j].crossings) {
-          if (!inert_[j]) ws->arms[k] = tendons::MomentArm(c.arm, q[c.joint] - c.q_ref_rad);
-          ++k;
-        }
-      }
+      tendons::CrossingMomentArms(paths_, q, &ws->arms);
     }
     ws->lengths.resize(paths_.size());
     for (std::size_t j = 0; j < paths_.size(); ++j) {
@@ -570,7 +562,6 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   mutable int potentiation_offset_ = -1;  // from z_start_, −1 when potentiation is off
   mutable int reflex_offset_ = -1;        // from z_start_, −1 when the stretch reflex is off
   std::vector<char> inert_;               // [muscle] crosses welded coordinates only
-  std::size_t num_crossings_ = 0;         // of all paths
   std::vector<int> reflex_slot_;          // [muscle] its reflex block (0, 1, …) or −1
   int num_reflex_ = 0;                    // muscles with the stretch reflex
   bool asymmetric_ = false;               // some muscle's deactivation_ratio ≠ 1
@@ -614,19 +605,38 @@ std::vector<double> MuscleAndPassiveTorques(const ModelParams& params,
 
 TorquePoint::TorquePoint(const ModelParams& params, const std::vector<tendons::MusclePath>& paths,
                          const std::vector<double>& q, const std::vector<double>& qd,
-                         const std::vector<double>& a, std::vector<double> gains)
-    : params_(params), paths_(paths), q_(q), qd_(qd), a_(a), gains_(std::move(gains)) {
-  // MuscleAndPassiveTorques' steps, through the arm-based overloads (the same bits).
-  tendons::CrossingMomentArms(paths, q, &arms_);
+                         const std::vector<double>& a, std::vector<double> gains,
+                         std::vector<char> read)
+    : params_(params),
+      paths_(paths),
+      q_(q),
+      qd_(qd),
+      a_(a),
+      gains_(std::move(gains)),
+      read_(std::move(read)) {
   const std::size_t nm = params.muscles.size();
+  if (!read_.empty()) {
+    if (read_.size() != q.size()) throw std::invalid_argument("TorquePoint: read mask size");
+    skip_.assign(nm, 1);
+    for (std::size_t j = 0; j < nm; ++j) {
+      for (const auto& c : paths[j].crossings) {
+        if (c.joint >= 0 && c.joint < static_cast<int>(read_.size()) && read_[c.joint]) {
+          skip_[j] = 0;
+        }
+      }
+    }
+  }
+  // MuscleAndPassiveTorques' steps, through the arm-based overloads (the same bits).
+  tendons::CrossingMomentArms(paths, q, &arms_, skip_);
   first_.resize(nm);
-  lengths_.resize(nm);
-  velocities_.resize(nm);
-  forces_.resize(nm);
+  lengths_.assign(nm, 0.0);
+  velocities_.assign(nm, 0.0);
+  forces_.assign(nm, 0.0);
   std::size_t k = 0;
   for (std::size_t j = 0; j < nm; ++j) {
     first_[j] = k;
     k += paths[j].crossings.size();
+    if (!skip_.empty() && skip_[j]) continue;
     lengths_[j] = tendons::MusculotendonLength(paths[j], q);
     velocities_[j] = tendons::MusculotendonVelocity(paths[j], &arms_[first_[j]], qd);
     forces_[j] =
@@ -634,9 +644,10 @@ TorquePoint::TorquePoint(const ModelParams& params, const std::vector<tendons::M
             .force_n;
   }
   tendons::JointTorques(paths, arms_, forces_, kNumCoordinates, &muscle_tau_);
-  passive_.resize(kNumCoordinates);
+  passive_.assign(kNumCoordinates, 0.0);
   tau_ = muscle_tau_;
   for (int i = 0; i < kNumCoordinates; ++i) {
+    if (!Read(i)) continue;
     passive_[i] = PassiveJointTorque(params.coordinates[i].passive, q[i], qd[i]);
     tau_[i] += passive_[i];
   }
@@ -655,6 +666,7 @@ std::vector<double> TorquePoint::WithPassiveOf(const ModelParams& other) const {
 void TorquePoint::AddPassiveOf(const ModelParams& other, std::vector<double>* tau) const {
   static_assert(std::is_trivially_copyable_v<PassiveJointParams>, "compared bytewise");
   for (int i = 0; i < kNumCoordinates; ++i) {
+    if (!Read(i)) continue;
     const PassiveJointParams& mine = params_.coordinates[i].passive;
     const PassiveJointParams& theirs = other.coordinates[i].passive;
     // The same parameters give the same bits (a pure function of them, q and q̇).
@@ -679,6 +691,7 @@ std::vector<double> TorquePoint::WithMusclesOf(const ModelParams& other,
     if (path.crossings.size() != paths_[j].crossings.size()) {  // other crossing offsets
       return MuscleAndPassiveTorques(other, other_paths, q_, qd_, a_, other_gains);
     }
+    if (!skip_.empty() && skip_[j]) continue;
     const double gain = GainOf(other_gains, j), my_gain = GainOf(gains_, j);
     // NOLINTNEXTLINE(bugprone-suspicious-memory-comparison): bytewise on purpose (±0 differ).
     if (std::memcmp(&other.muscles[j].hill, &params_.muscles[j].hill,
@@ -720,6 +733,7 @@ std::vector<double> TorquePoint::PerMuscleInput(bool gain) const {
     }
   }
   for (std::size_t j = 0; j < nm; ++j) {
+    if (!skip_.empty() && skip_[j]) continue;  // its entries are at unread coordinates
     const double g = GainOf(gains_, j);
     const double moved = MuscleTendonForceAt(params_.muscles[j], lengths_[j], velocities_[j],
                                              a_[j] + (gain ? 0.0 : kMuscleInputStep),

@@ -83,10 +83,15 @@ std::vector<double> TorquePerActiveGain(const ModelParams& params,
 class TorquePoint {
  public:
   /// `params`, `paths`, `q`, `qd`, `a` and `gains` as for MuscleAndPassiveTorques; all but the
-  /// gains are referenced, not copied, and must outlive the point.
+  /// gains and `read` are referenced, not copied, and must outlive the point. `read`
+  /// ([coordinate], empty: all) are the coordinates whose torques the caller reads: a muscle that
+  /// crosses none of them is not evaluated (force 0), nor an unread coordinate's passive torque,
+  /// so that every result below is MuscleAndPassiveTorques' at the read coordinates only (the
+  /// forward sensitivities read the free ones); WithCoordinate then moves read coordinates only.
   TorquePoint(const ModelParams& params, const std::vector<tendons::MusclePath>& paths,
               const std::vector<double>& q, const std::vector<double>& qd,
-              const std::vector<double>& a, std::vector<double> gains = {});
+              const std::vector<double>& a, std::vector<double> gains = {},
+              std::vector<char> read = {});
   /// MuscleAndPassiveTorques(params, paths, q, qd, a, gains).
   const std::vector<double>& torques() const { return tau_; }
   /// The same with q[coordinate] (speed: qd[coordinate]) set to `value`: the muscles that cross
@@ -117,7 +122,12 @@ class TorquePoint {
   const std::vector<double>& q_;
   const std::vector<double>& qd_;
   const std::vector<double>& a_;
+  /// Whether the caller reads coordinate i's torque.
+  bool Read(int i) const { return read_.empty() || read_[i] != 0; }
+
   std::vector<double> gains_;       // active-force gain of each muscle (empty: 1)
+  std::vector<char> read_;          // [coordinate] read by the caller (empty: all)
+  std::vector<char> skip_;          // [muscle] crosses no read coordinate (empty: none)
   std::vector<double> arms_;        // CrossingMomentArms(paths, q)
   std::vector<std::size_t> first_;  // index in arms_ of each path's first crossing
   std::vector<double> lengths_;     // l_MT of each muscle, m

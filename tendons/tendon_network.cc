@@ -87,15 +87,20 @@ std::vector<double> CrossingMomentArms(const std::vector<MusclePath>& paths,
 }
 
 void CrossingMomentArms(const std::vector<MusclePath>& paths, const std::vector<double>& q,
-                        std::vector<double>* arms) {
+                        std::vector<double>* arms, const std::vector<char>& skip) {
+  if (!skip.empty() && skip.size() != paths.size()) {
+    throw std::invalid_argument("CrossingMomentArms: skip mask size mismatch");
+  }
   std::size_t crossings = 0;
   for (const auto& path : paths) crossings += path.crossings.size();
-  arms->clear();
-  arms->reserve(crossings);
-  for (const auto& path : paths) {
+  arms->resize(crossings);
+  std::size_t k = 0;
+  for (std::size_t m = 0; m < paths.size(); ++m) {
+    const MusclePath& path = paths[m];
     for (const auto& c : path.crossings) {
       CheckJoint(path, c, q.size());
-      arms->push_back(MomentArm(c.arm, q[c.joint] - c.q_ref_rad));
+      if (skip.empty() || !skip[m]) (*arms)[k] = MomentArm(c.arm, q[c.joint] - c.q_ref_rad);
+      ++k;
     }
   }
 }

@@ -54,9 +54,11 @@ std::vector<double> JointTorques(const std::vector<MusclePath>& paths, const std
 /// (the force element evaluates each arm once per right-hand side, not once per use).
 std::vector<double> CrossingMomentArms(const std::vector<MusclePath>& paths,
                                        const std::vector<double>& q);
-/// The same into `arms` (resized; its capacity is reused between calls).
+/// The same into `arms` (resized; its capacity is reused between calls). With `skip` ([path],
+/// non-empty), the crossings of a skipped path are not evaluated: their entries keep what they
+/// held (0 when `arms` grows).
 void CrossingMomentArms(const std::vector<MusclePath>& paths, const std::vector<double>& q,
-                        std::vector<double>* arms);
+                        std::vector<double>* arms, const std::vector<char>& skip = {});
 
 /// dl_MT/dt = −Σ_i r_i q̇_i, m/s, with `arms` the path's crossings' r (from CrossingMomentArms,
 /// pointing at the path's first crossing). Joint indices as checked by CrossingMomentArms.

@@ -527,6 +527,34 @@ TEST(UpperLimbModel, TorquePointGivesMuscleAndPassiveTorquesBits) {
   gains[5] = 0.7;
   EXPECT_TRUE(same(point.WithMusclesOf(p, paths, gains),
                    MuscleAndPassiveTorques(p, paths, q, qd, a, gains)));
+  // Read at the hand rig's free coordinates only: the same bits there, the shoulder and elbow
+  // muscles (crossing none of them) not evaluated.
+  std::vector<char> read(kNumCoordinates, 0);
+  for (int c : {kWristFlexion, kWristDeviation, kMcpFlexion, kPipFlexion}) read[c] = 1;
+  const TorquePoint hand(p, paths, q, qd, a, gains, read);
+  const TorquePoint all(p, paths, q, qd, a, gains);
+  const auto same_where_read = [&](const std::vector<double>& x, const std::vector<double>& y,
+                                   std::size_t stride) {
+    bool ok = true;
+    for (int c = 0; c < kNumCoordinates; ++c) {
+      if (!read[c]) continue;
+      ok = ok && std::memcmp(&x[c * stride], &y[c * stride], stride * sizeof(double)) == 0;
+    }
+    return ok;
+  };
+  EXPECT_TRUE(same_where_read(hand.torques(), all.torques(), 1));
+  EXPECT_FALSE(same(hand.torques(), all.torques()));  // the elbow's muscles left out
+  EXPECT_TRUE(same_where_read(hand.WithCoordinate(kMcpFlexion, false, q[kMcpFlexion] + 1e-3),
+                              all.WithCoordinate(kMcpFlexion, false, q[kMcpFlexion] + 1e-3), 1));
+  EXPECT_TRUE(same_where_read(hand.WithCoordinate(kWristFlexion, true, 0.3),
+                              all.WithCoordinate(kWristFlexion, true, 0.3), 1));
+  EXPECT_TRUE(same_where_read(hand.WithMusclesOf(arms, arm_paths, gains),
+                              all.WithMusclesOf(arms, arm_paths, gains), 1));
+  EXPECT_TRUE(same_where_read(hand.WithPassiveOf(stiffer), all.WithPassiveOf(stiffer), 1));
+  for (bool gain : {false, true}) {
+    EXPECT_TRUE(same_where_read(hand.PerMuscleInput(gain), all.PerMuscleInput(gain), a.size()));
+  }
+  EXPECT_THROW(TorquePoint(p, paths, q, qd, a, {}, {1, 0}), std::invalid_argument);
 }
 
 TEST(UpperLimbModel, TorquePerActivationAndGainAreTheirForwardDifferencesAndDerivatives) {

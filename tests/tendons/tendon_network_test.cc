@@ -69,6 +69,14 @@ TEST(TendonNetwork, OverloadsOnPrecomputedArmsGiveTheSameBits) {
   EXPECT_EQ(tau, JointTorques(paths, q, f));
   EXPECT_THROW(JointTorques(paths, std::vector<double>(3), f, q.size()), std::invalid_argument);
   EXPECT_THROW(CrossingMomentArms(paths, {0.1}), std::invalid_argument);
+  // A skipped path's crossings keep what they held; the others are evaluated.
+  std::vector<double> partial(4, -7.0);
+  CrossingMomentArms(paths, q, &partial, {1, 0});
+  EXPECT_EQ(partial[0], -7.0);
+  EXPECT_EQ(partial[1], -7.0);
+  EXPECT_EQ(partial[2], arms[2]);
+  EXPECT_EQ(partial[3], arms[3]);
+  EXPECT_THROW(CrossingMomentArms(paths, q, &partial, {1}), std::invalid_argument);
 }
 
 }  // namespace
