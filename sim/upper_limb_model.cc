@@ -287,13 +287,15 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   /// Marks the muscles whose every crossing is welded (ModelBuildOptions::weld_locked): their
   /// torques act on welds only, and a right-hand side skips them (RightHandSideForces). Called
   /// once the coordinate slots are filled (after realizeTopology).
+  /// Also checks every crossing's joint (as tendons::CrossingMomentArms does), once: a
+  /// right-hand side's Geometry does not.
   void FindInertMuscles() {
+    std::vector<double> arms;
+    tendons::CrossingMomentArms(paths_, std::vector<double>(slots_->u.size(), 0.0), &arms);
+    num_crossings_ = arms.size();
     for (std::size_t j = 0; j < paths_.size(); ++j) {
       bool inert = true;
-      for (const auto& c : paths_[j].crossings) {
-        inert = inert && c.joint >= 0 && c.joint < static_cast<int>(slots_->u.size()) &&
-                slots_->u[c.joint] < 0;
-      }
+      for (const auto& c : paths_[j].crossings) inert = inert && slots_->u[c.joint] < 0;
       inert_[j] = inert;
     }
   }
@@ -447,10 +449,17 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
       q[i] = slots_->q[i] >= 0 ? q_state[slots_->q[i]] : slots_->welded_q[i];
     }
     // Each crossing's moment arm once, for the velocity and τ = R f (same bits as per use).
-    if (skip_inert) {
-      tendons::CrossingMomentArms(paths_, q, &ws->arms, inert_);
-    } else {
-      tendons::CrossingMomentArms(paths_, q, &ws->arms);
+    if (!skip_inert) {
+      tendons::CrossingMomentArms(paths_, q, &ws->arms);  // checks every crossing's joint
+    } else {  // a right-hand side: the joints were checked once (FindInertMuscles)
+      ws->arms.resize(num_crossings_);
+      double* arm = ws->arms.data();
+      for (std::size_t j = 0; j < paths_.size(); ++j) {
+        for (const auto& c : paths_[j].crossings) {
+          if (!inert_[j]) *arm = tendons::MomentArm(c.arm, q[c.joint] - c.q_ref_rad);
+          ++arm;
+        }
+      }
     }
     ws->lengths.resize(paths_.size());
     for (std::size_t j = 0; j < paths_.size(); ++j) {
@@ -562,6 +571,7 @@ class UpperLimbModel::MuscleForce : public SimTK::Force::Custom::Implementation 
   mutable int potentiation_offset_ = -1;  // from z_start_, −1 when potentiation is off
   mutable int reflex_offset_ = -1;        // from z_start_, −1 when the stretch reflex is off
   std::vector<char> inert_;               // [muscle] crosses welded coordinates only
+  std::size_t num_crossings_ = 0;         // of all paths (FindInertMuscles)
   std::vector<int> reflex_slot_;          // [muscle] its reflex block (0, 1, …) or −1
   int num_reflex_ = 0;                    // muscles with the stretch reflex
   bool asymmetric_ = false;               // some muscle's deactivation_ratio ≠ 1
