@@ -364,6 +364,19 @@ TEST(UpperLimbModel, FastDerivativesMatchSimbody) {
                std::logic_error);
 }
 
+/// `*s` stimulated on all six channels with closed-form activations, and a Y of it with every q
+/// and u moved from the initial state and muscle j's activation 0.3 + 0.03 j.
+std::vector<double> StimulatedStateAwayFromRest(const UpperLimbModel& model, SimTK::State* s) {
+  model.SetStimulation(*s, {150, 90, 60, 200, 120, 30});
+  model.SetActivationsInClosedForm(*s, true);
+  std::vector<double> y(s->getY().getContiguousScalarData(),
+                        s->getY().getContiguousScalarData() + s->getNY());
+  for (int k = 0; k < s->getNQ() + s->getNU(); ++k) y[k] += 0.1 * std::sin(1.7 * k + 0.3);
+  const int a0 = model.ActivationYIndex(*s);
+  for (int j = 0; j < model.num_muscles(); ++j) y[a0 + 2 * j] = 0.3 + 0.03 * j;
+  return y;
+}
+
 TEST(UpperLimbModel, RightHandSideSkipsOnlyTheMusclesOnWelds) {
   // On the welded hand rig the right-hand side skips the muscles that cross welds only (BIC, BRA,
   // BRD, TRI, DELT1, DELT3: their force 0 in its scratch): every coordinate with a mobility gets
@@ -373,13 +386,7 @@ TEST(UpperLimbModel, RightHandSideSkipsOnlyTheMusclesOnWelds) {
   LockHandRigAndDipWithABandOnTheForearm(&p);
   const UpperLimbModel model(p, ModelBuildOptions{true});
   SimTK::State s = model.MakeInitialState();
-  model.SetStimulation(s, {150, 90, 60, 200, 120, 30});
-  model.SetActivationsInClosedForm(s, true);
-  std::vector<double> y(s.getY().getContiguousScalarData(),
-                        s.getY().getContiguousScalarData() + s.getNY());
-  for (int k = 0; k < s.getNQ() + s.getNU(); ++k) y[k] += 0.1 * std::sin(1.7 * k + 0.3);
-  const int a0 = model.ActivationYIndex(s);
-  for (int j = 0; j < model.num_muscles(); ++j) y[a0 + 2 * j] = 0.3 + 0.03 * j;
+  const std::vector<double> y = StimulatedStateAwayFromRest(model, &s);
   RhsWorkspace ws;
   std::vector<double> ydot(y.size());
   model.CalcYDot(s, 0.2, y.data(), &ws, ydot.data());
@@ -416,13 +423,8 @@ TEST(UpperLimbModel, RightHandSideAtTheSamePositionsReusesThemBitwise) {
   p.segments[kHand].mass_kg *= 1.5;
   const UpperLimbModel heavier(p);
   SimTK::State s = model.MakeInitialState();
-  model.SetStimulation(s, {150, 90, 60, 200, 120, 30});
-  model.SetActivationsInClosedForm(s, true);
-  std::vector<double> y(s.getY().getContiguousScalarData(),
-                        s.getY().getContiguousScalarData() + s.getNY());
-  for (int k = 0; k < s.getNQ() + s.getNU(); ++k) y[k] += 0.1 * std::sin(1.7 * k + 0.3);
+  const std::vector<double> y = StimulatedStateAwayFromRest(model, &s);
   const int a0 = model.ActivationYIndex(s);
-  for (int j = 0; j < model.num_muscles(); ++j) y[a0 + 2 * j] = 0.3 + 0.03 * j;
   const auto fresh = [&](const UpperLimbModel& m, const std::vector<double>& at) {
     RhsWorkspace ws;
     std::vector<double> out(at.size(), NAN);
