@@ -418,16 +418,23 @@ bool TremorParametersDiffer(const TremorParams& a, const TremorParams& b) {
          a.frequency_drift_hz_per_s != b.frequency_drift_hz_per_s || a.phase_rad != b.phase_rad;
 }
 
+/// Whether θ_k moves muscle j's Ω of the current interval (the interval's branch of
+/// IntervalOmega is the model's: a discrete choice, not differentiated); `*omega` its Ω.
+bool MovesIntervalOmega(const CvodesContext& c, const SensitivityData::Parameter& pk, std::size_t j,
+                        double* omega) {
+  if (!pk.moves_omega) return false;
+  *omega = c.falling[j] ? pk.omega[j] * pk.deactivation_ratio[j] : pk.omega[j];
+  return *omega != c.omega[j];
+}
+
 /// The direct part of ∂(a, ȧ)_j/∂θ_k after dt in an interval of input w_j from (a, ȧ)_j(t₀) (the
 /// interval's, CvodesContext::w and a0): the difference quotient of eq. (6)'s free response in
 /// Ω_j (zero unless θ_k moves Ω_j). The rest — through ∂w/∂θ and ∂(a, ȧ)(t₀)/∂θ — is linear.
 muscles::ActivationState DirectOmegaSensitivity(const CvodesContext& c,
                                                 const SensitivityData::Parameter& pk, std::size_t j,
                                                 double dt) {
-  if (!pk.moves_omega) return {};
-  // The interval's branch of IntervalOmega is the model's (a discrete choice, not differentiated).
-  const double omega = c.falling[j] ? pk.omega[j] * pk.deactivation_ratio[j] : pk.omega[j];
-  if (omega == c.omega[j]) return {};
+  double omega = 0.0;
+  if (!MovesIntervalOmega(c, pk, j, &omega)) return {};
   const auto moved = muscles::ActivationFreeResponse(omega, c.w[j], c.a0[j], dt);
   const auto base = muscles::ActivationFreeResponse(c.omega[j], c.w[j], c.a0[j], dt);
   return {(moved.a - base.a) / pk.step, (moved.a_dot - base.a_dot) / pk.step};
@@ -446,9 +453,9 @@ void ReachedMuscles(SensitivityData* d) {
     const auto& pk = d->p[k];
     d->reached[k].clear();
     for (std::size_t j = 0; j < nm; ++j) {
-      const double omega_k = c.falling[j] ? pk.omega[j] * pk.deactivation_ratio[j] : pk.omega[j];
+      double omega_k = 0.0;
       const bool reached = d->dw[k][j] != 0.0 || d->da0[k][j].a != 0.0 ||
-                           d->da0[k][j].a_dot != 0.0 || (pk.moves_omega && omega_k != c.omega[j]) ||
+                           d->da0[k][j].a_dot != 0.0 || MovesIntervalOmega(c, pk, j, &omega_k) ||
                            d->fitness_component[j] >= 0 || d->potentiation_component[j] >= 0;
       if (!reached) continue;
       d->reached[k].push_back(j);
